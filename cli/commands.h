@@ -1,0 +1,29 @@
+// The subcommands of the rigfit executable. Each lives in its own <name>_command.cc and
+// registers itself here; main.cc only parses and maps errors to exit codes.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+#include <vector>
+
+namespace rigfit::cli {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitInternal = 1;
+inline constexpr int kExitBadInput = 2;
+inline constexpr int kExitNotApplied = 3;
+
+/// A registered subcommand: its CLI11 app and what runs when it is chosen.
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<int()> run;
+};
+
+Command AddSimulateCommand(CLI::App& app);
+
+/// Adds every subcommand to app.
+void RegisterCommands(CLI::App& app);
+/// Runs the subcommand that was parsed; returns its exit code.
+int RunSelected(const CLI::App& app);
+
+}  // namespace rigfit::cli

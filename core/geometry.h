@@ -1,0 +1,45 @@
+// Geometry basics: depth to camera-frame points, moving clouds between frames, and the
+// gauge-free pose errors used by tests, benchmarks and `rigfit evaluate`.
+#pragma once
+
+#include "core/types.h"
+
+namespace rigfit {
+
+/// World up direction (+Y): the floor is y = 0 after ground leveling.
+inline const Vec3 kWorldUp = Vec3::UnitY();
+
+/// Which pixels of a depth image become points.
+struct UnprojectOptions {
+  int pixel_stride = 1;       ///< use every n-th pixel in u and v
+  double min_depth_m = 0.1;   ///< closer samples are dropped
+  double max_depth_m = 10.0;  ///< farther samples are dropped
+};
+
+/// Camera-frame points of the valid depth pixels: p = z * ((u - cx) / fx, (v - cy) / fy, 1),
+/// with (u, v) the pixel centre coordinates (integer indices, OpenCV convention).
+PointCloud UnprojectDepth(const CameraCapture& camera, const UnprojectOptions& options);
+
+/// The camera's points in its own frame: unprojected depth, or its `points` as given
+/// (filtered by the same range limits, measured as distance along z).
+PointCloud CameraPoints(const CameraCapture& camera, const UnprojectOptions& options);
+
+/// T * p for every point.
+PointCloud Transform(const Pose& T, const PointCloud& points);
+
+/// Error of the relative pose T_i^-1 T_j of an estimate against ground truth.
+struct RelativePoseError {
+  double rotation_rad = 0.0;
+  double translation_m = 0.0;
+};
+RelativePoseError RelativeError(const Pose& est_i, const Pose& est_j, const Pose& gt_i,
+                                const Pose& gt_j);
+
+/// Angle between world up as seen by the estimated and by the true camera: the tilt
+/// (pitch/roll) error, blind to yaw and translation.
+double TiltErrorRad(const Pose& est, const Pose& gt);
+
+/// Rotation angle of R (radians, [0, pi]).
+double RotationAngle(const Mat3& R);
+
+}  // namespace rigfit

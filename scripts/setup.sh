@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Installs rigfit's build dependencies from Debian's packages. Idempotent: when every
+# package is already installed it only checks and returns.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config
+  libceres-dev libeigen3-dev libsuitesparse-dev
+  libhdf5-dev hdf5-tools
+  libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
+  libnanoflann-dev libflann-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libpng-dev clang-format
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+
+echo "setup: installing ${missing[*]}" >&2
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null

@@ -1,0 +1,87 @@
+// Options of every refine stage: plain structs whose in-class defaults are the single
+// source of truth (configs/default.yaml and docs/config.md list the same values).
+// Sections map one to one to the YAML config: ground:, region:, icp:.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace rigfit {
+
+enum class RefineMode { kJoint, kPairwise };
+enum class RegistrationMethod { kPointToPlane, kGicp };
+enum class RobustLoss { kHuber, kCauchy, kTukey, kNone };
+
+/// Ground leveling: RANSAC floor per camera, pose corrected so the floor is y = 0, +Y up.
+struct GroundOptions {
+  bool enabled = true;
+  /// Only planes whose normal is within this angle of world +Y (at the initial pose) count.
+  double max_normal_angle_deg = 20.0;
+  /// RANSAC inlier distance to the plane.
+  double ransac_distance_m = 0.02;
+  int ransac_iterations = 500;
+  /// The floor is searched among the points at most this far above the lowest ones.
+  double search_height_m = 0.5;
+  /// A floor needs at least this many inlier points.
+  int min_inliers = 500;
+  /// Corrections beyond these are rejected for that camera (pose kept, warning).
+  double max_rotation_deg = 10.0;
+  double max_translation_m = 0.5;
+  std::uint64_t seed = 0;
+};
+
+/// Which points take part in registration.
+struct RegionOptions {
+  /// The near-floor band: from band_below under the floor to band_height above it.
+  /// band_height 0 means the whole cloud (scenes without a floor).
+  double band_below = 0.05;
+  double band_height = 0.3;
+  /// Depth pixels used: every pixel_stride-th in u and v, within [min_depth_m, max_depth_m].
+  int pixel_stride = 2;
+  double min_depth_m = 0.2;
+  double max_depth_m = 10.0;
+};
+
+/// Registration refinement (joint or pairwise).
+struct IcpOptions {
+  RefineMode mode = RefineMode::kJoint;
+  RegistrationMethod method = RegistrationMethod::kPointToPlane;
+  /// Finest voxel size; the scales multiply it, coarse to fine.
+  double voxel_size = 0.02;
+  std::vector<double> scales = {4.0, 2.0, 1.0};
+  /// Iteration cap per scale (same length as scales).
+  std::vector<int> max_iterations = {50, 30, 14};
+  /// Correspondences farther than factor x voxel size (at the current scale) are dropped.
+  double max_correspondence_distance_factor = 1.4;
+  /// Neighbours used for normals and covariances.
+  int normal_neighbors = 20;
+  /// Weight of the pitch/roll gravity prior (see docs/residuals.md); 0 disables it.
+  double gravity_weight = 1.0;
+  RobustLoss robust_loss = RobustLoss::kHuber;
+  /// Scale of the robust loss in metres; 0 ties it to the voxel size of each scale.
+  double robust_loss_scale = 0.0;
+  /// Pairwise mode: a pair needs this fraction of source points with a correspondence.
+  double min_fitness = 0.3;
+  /// Candidate pairs: world XZ boxes inflated by overlap_margin must intersect by at least
+  /// min_overlap_area.
+  double overlap_margin = 0.5;
+  double min_overlap_area = 1.0;
+  /// Camera held constant (gauge); empty means the first serial.
+  std::string reference;
+  /// A camera whose total change exceeds these keeps its leveled pose (warning).
+  double max_rotation_deg = 5.0;
+  double max_translation_m = 0.1;
+};
+
+struct RefineOptions {
+  GroundOptions ground;
+  RegionOptions region;
+  IcpOptions icp;
+};
+
+/// Every out-of-range or inconsistent value, one human-readable line each naming the key
+/// as in the config file (e.g. "icp.voxel_size must be > 0, got -1"). Empty when valid.
+std::vector<std::string> OptionProblems(const RefineOptions& options);
+
+}  // namespace rigfit
