@@ -1,0 +1,74 @@
+#include "sim/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace rigfit {
+
+std::optional<RayHit> RaycastBox(const OrientedBox& box, const Vec3& origin, const Vec3& direction,
+                                 double min_t) {
+  // Slab method (Kay & Kajiya 1986) in box coordinates: on axis k the ray is inside the slab
+  // |o_k + t d_k| <= h_k for t between (-h_k - o_k) / d_k and (h_k - o_k) / d_k; the box
+  // is the intersection of the three intervals [t_near, t_far].
+  const Vec3 o = box.R_world_box.transpose() * (origin - box.center);
+  const Vec3 d = box.R_world_box.transpose() * direction;
+  double t_near = -std::numeric_limits<double>::infinity();
+  double t_far = std::numeric_limits<double>::infinity();
+  int near_axis = -1;
+  double near_sign = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    const double h = box.half_extents[k];
+    if (d[k] == 0.0) {
+      if (std::abs(o[k]) > h) return std::nullopt;  // parallel to the slab, outside it
+      continue;
+    }
+    const double inv = 1.0 / d[k];
+    double t0 = (-h - o[k]) * inv;
+    double t1 = (h - o[k]) * inv;
+    // Entering through the -h face when d_k > 0, through the +h face otherwise.
+    const double sign = d[k] > 0.0 ? -1.0 : 1.0;
+    if (t0 > t1) std::swap(t0, t1);
+    if (t0 > t_near) {
+      t_near = t0;
+      near_axis = k;
+      near_sign = sign;
+    }
+    t_far = std::min(t_far, t1);
+    if (t_near > t_far) return std::nullopt;
+  }
+  if (near_axis < 0 || t_near <= min_t) return std::nullopt;  // behind, or starts inside
+  RayHit hit;
+  hit.t = t_near;
+  hit.normal_world = near_sign * box.R_world_box.col(near_axis);
+  return hit;
+}
+
+double SignedDistance(const OrientedBox& box, const Vec3& p_world) {
+  // Box SDF: with q = |p_box| - h per axis, |max(q, 0)| outside, max_k q_k (<= 0) inside.
+  const Vec3 q =
+      (box.R_world_box.transpose() * (p_world - box.center)).cwiseAbs() - box.half_extents;
+  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+}
+
+std::optional<RayHit> Scene::Raycast(const Vec3& origin, const Vec3& direction) const {
+  std::optional<RayHit> best;
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    std::optional<RayHit> hit = RaycastBox(boxes[i], origin, direction, 0.0);
+    if (hit && (!best || hit->t < best->t)) {
+      hit->box_index = static_cast<int>(i);
+      best = hit;
+    }
+  }
+  return best;
+}
+
+double Scene::DistanceToSurface(const Vec3& p_world) const {
+  double distance = std::numeric_limits<double>::infinity();
+  for (const OrientedBox& box : boxes) {
+    distance = std::min(distance, std::abs(SignedDistance(box, p_world)));
+  }
+  return distance;
+}
+
+}  // namespace rigfit
