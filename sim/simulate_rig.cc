@@ -262,8 +262,9 @@ Rgb Shade(const Scene& scene, const RayHit& hit, const Vec3& p_world) {
     shade *= 0.85;
   }
   Rgb rgb;
-  for (int c = 0; c < 3; ++c)
+  for (int c = 0; c < 3; ++c) {
     rgb[c] = static_cast<std::uint8_t>(std::lround(shade * box.albedo_rgb[c]));
+  }
   return rgb;
 }
 
