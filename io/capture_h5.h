@@ -1,0 +1,43 @@
+// Rig captures (HDF5), the layout of ../shared/docs/formats.md; rigfit's reading rules are in
+// docs/formats.md.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "core/types.h"
+
+namespace rigfit {
+
+/// Reads a rig capture. Depth becomes float metres with NaN for every invalid sample (NaN,
+/// +-inf, <= 0, 0 for uint16); a burst [F, H, W] becomes the per-pixel median of its valid
+/// samples (NaN if none). Cameras are sorted by serial. Throws InputError naming the file,
+/// the camera and the dataset (e.g. "capture.h5: camera 31002234: depth: expected rank 2 or 3,
+/// got 1") for anything off the contract: not HDF5, wrong or missing root attributes,
+/// missing or empty /cameras, a camera with neither or both of depth and points, wrong rank,
+/// shape, dtype or size, depth_scale missing or not > 0, intrinsics invalid or not matching
+/// the image size, non-finite points/normals/confidence.
+RigCapture ReadCapture(const std::string& path);
+
+/// ReadCapture from an in-memory image of an HDF5 file (HDF5 core driver, nothing touches the
+/// disk); name stands for the file name in messages.
+RigCapture ReadCaptureFromMemory(const void* data, std::size_t size, const std::string& name);
+
+struct CaptureWriteOptions {
+  /// Store depth as uint16 with a depth_scale attribute instead of float32 metres. Invalid
+  /// (NaN) depth becomes 0; depths that round to 0 become invalid.
+  bool depth_as_uint16 = false;
+  /// Metres per uint16 unit (> 0).
+  double depth_scale = 0.001;
+};
+
+/// Writes exactly the contract: root attributes format = "rig-capture", version = 1; per camera
+/// depth [H, W] (float32, or uint16 + depth_scale) and intrinsics float64 [3, 3], or points
+/// (+ normals) float32 [N, 3]; confidence float32 and color uint8 [H, W, 3] when present.
+/// Datasets are chunked and compressed (shuffle + deflate level 1) when the library supports
+/// it. Atomic (temporary file + rename). Throws InputError naming the file and camera if the
+/// capture is not writable as the contract (sizes, serials, depth beyond the uint16 range).
+void WriteCapture(const std::string& path, const RigCapture& capture,
+                  const CaptureWriteOptions& options = {});
+
+}  // namespace rigfit

@@ -1,0 +1,157 @@
+#include "io/extrinsics_json.h"
+
+#include <Eigen/SVD>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/errors.h"
+#include "io/atomic_file.h"
+#include "io/read_file.h"
+
+namespace rigfit {
+namespace {
+
+using Json = nlohmann::json;
+
+/// Rotation blocks with ||R^T R - I||_F above this are not rotations (formats.md).
+constexpr double kMaxRotationDeviation = 1e-6;
+/// Up to this deviation R is a rotation to double round-off and is taken as it is;
+/// between the two it is projected onto SO(3) and a warning is reported.
+constexpr double kSilentRotationDeviation = 1e-12;
+/// Tolerance on the last row [0, 0, 0, 1].
+constexpr double kLastRowTolerance = 1e-9;
+
+const char* kPoseKey = "T_world_camera";
+
+std::string FormatDouble(double x) {
+  std::ostringstream s;
+  s.precision(3);
+  s << x;
+  return s.str();
+}
+
+Pose ParsePose(const Json& matrix, const std::string& where, std::vector<std::string>* warnings) {
+  const std::string field = where + ": " + kPoseKey;
+  if (!matrix.is_array() || matrix.size() != 4) {
+    throw InputError(field + ": expected a 4x4 array of numbers (4 rows)");
+  }
+  Eigen::Matrix4d M;
+  for (int r = 0; r < 4; ++r) {
+    const Json& row = matrix[r];
+    if (!row.is_array() || row.size() != 4) {
+      throw InputError(field + ": row " + std::to_string(r) + " is not an array of 4 numbers");
+    }
+    for (int c = 0; c < 4; ++c) {
+      if (!row[c].is_number()) {
+        throw InputError(field + ": entry [" + std::to_string(r) + "][" + std::to_string(c) +
+                         "] is not a number");
+      }
+      M(r, c) = row[c].get<double>();
+      if (!std::isfinite(M(r, c))) {
+        throw InputError(field + ": entry [" + std::to_string(r) + "][" + std::to_string(c) +
+                         "] is not finite");
+      }
+    }
+  }
+  if ((M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > kLastRowTolerance) {
+    throw InputError(field + ": last row must be [0, 0, 0, 1]");
+  }
+  Mat3 R = M.topLeftCorner<3, 3>();
+  const double deviation = (R.transpose() * R - Mat3::Identity()).norm();
+  const double det = R.determinant();
+  if (deviation > kMaxRotationDeviation || det <= 0.0) {
+    throw InputError(
+        field + ": rotation block is not a rotation (||R^T R - I|| = " + FormatDouble(deviation) +
+        ", det = " + FormatDouble(det) + "; tolerance 1e-6)");
+  }
+  if (deviation > kSilentRotationDeviation) {
+    // Nearest rotation in the Frobenius norm: R = U S V^T -> U V^T (det > 0 checked above).
+    const Eigen::JacobiSVD<Mat3> svd(R, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    R = svd.matrixU() * svd.matrixV().transpose();
+    warnings->push_back(
+        field + ": rotation re-orthonormalised (||R^T R - I|| = " + FormatDouble(deviation) + ")");
+  }
+  Pose T = Pose::Identity();
+  T.linear() = R;
+  T.translation() = M.topRightCorner<3, 1>();
+  return T;
+}
+
+std::string ParseErrorText(const Json::exception& e) {
+  // Drop nlohmann's "[json.exception.parse_error.101] " prefix; keep "parse error at line ..".
+  const std::string what = e.what();
+  const size_t end = what.find("] ");
+  return end == std::string::npos ? what : what.substr(end + 2);
+}
+
+}  // namespace
+
+Json PoseToJson(const Pose& T_world_camera) {
+  const Eigen::Matrix4d M = T_world_camera.matrix();
+  Json rows = Json::array();
+  for (int r = 0; r < 3; ++r) rows.push_back({M(r, 0), M(r, 1), M(r, 2), M(r, 3)});
+  rows.push_back({0.0, 0.0, 0.0, 1.0});
+  return rows;
+}
+
+ExtrinsicsDocument ReadExtrinsics(const std::string& path) {
+  ExtrinsicsDocument result;
+  try {
+    result.document = Json::parse(ReadWholeFile(path));
+  } catch (const Json::exception& e) {  // parse_error, or out_of_range for 1e999
+    throw InputError(path + ": malformed JSON: " + ParseErrorText(e));
+  }
+  if (!result.document.is_object()) {
+    throw InputError(path + ": expected a JSON object with one key per camera serial, got " +
+                     std::string(result.document.type_name()));
+  }
+  for (const auto& [serial, camera] : result.document.items()) {
+    if (serial == kExtrinsicsMetaKey) continue;
+    if (serial.empty()) throw InputError(path + ": empty camera serial \"\"");
+    const std::string where = path + ": camera " + serial;
+    if (!camera.is_object()) {
+      throw InputError(where + ": expected an object with " + kPoseKey + ", got " +
+                       camera.type_name());
+    }
+    const auto matrix = camera.find(kPoseKey);
+    if (matrix == camera.end()) throw InputError(where + ": missing " + kPoseKey);
+    result.poses[serial] = ParsePose(*matrix, where, &result.warnings);
+  }
+  return result;
+}
+
+void WriteExtrinsics(const std::string& path, const PoseMap& poses, const Json& base,
+                     const Json& meta, const std::vector<std::string>& inputs) {
+  RefuseToOverwriteInputs(path, inputs, "extrinsics");
+  if (!(base.is_object() || base.is_null()) || !meta.is_object()) {
+    throw std::invalid_argument("WriteExtrinsics: base and meta must be JSON objects");
+  }
+  Json document = base.is_null() ? Json::object() : base;
+  for (const auto& [serial, T] : poses) {
+    if (serial.empty() || serial == kExtrinsicsMetaKey) {
+      throw InputError(path + ": cannot write a camera named \"" + serial + "\"");
+    }
+    if (!T.matrix().allFinite()) {
+      throw InputError(path + ": camera " + serial + ": " + kPoseKey + " is not finite");
+    }
+    Json& camera = document[serial];
+    if (!camera.is_object()) camera = Json::object();
+    camera[kPoseKey] = PoseToJson(T);
+  }
+  if (!meta.empty()) {
+    Json& meta_out = document[kExtrinsicsMetaKey];
+    if (!meta_out.is_object()) meta_out = Json::object();
+    for (const auto& [key, value] : meta.items()) meta_out[key] = value;
+  }
+  const std::string text = document.dump(2) + "\n";
+  WriteFileAtomically(path, [&](const std::string& tmp_path) {
+    std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw InputError(path + ": write error");
+  });
+}
+
+}  // namespace rigfit
