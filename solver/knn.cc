@@ -9,9 +9,9 @@
 namespace rigfit {
 namespace {
 
-/// Points per leaf for both backends (their own default). A leaf of 20 builds about 18%
-/// faster but its bounded nearest-neighbour queries on 5k-40k point band clouds, the hot
-/// loop, were 2-8% slower or equal (bench/knn_bench.cc, docs/benchmarks.md).
+/// Points per leaf for both backends (their own default). A leaf of 20 builds 15-20% faster
+/// and answers k = 20 queries 0-4% faster, but its bounded nearest-neighbour queries, the
+/// solvers' hot loop, were 8% slower at 5k points and equal (within 2%) at 20k-40k.
 constexpr int kLeafMaxSize = 10;
 
 /// The k smallest (squared distance, index) pairs strictly below a bound, kept sorted by

@@ -6,9 +6,10 @@
 // KDTreeIndex is approximate unless its check count is unlimited). Both are exact and
 // return the same neighbours (ties aside). nanoflann is the default: on voxel-ordered
 // near-floor band clouds of 5k-100k points its bounded nearest-neighbour queries (the
-// solvers' inner loop) are 7-23% faster, builds and k = 20 queries are within a few percent;
-// FLANN is 6-12% faster on the raw, unordered 69k-point LiDAR scans of shared/data.
-// docs/benchmarks.md ("Nearest-neighbour backend and preprocessing") has the numbers.
+// solvers' inner loop) took 8-14% less time; tree builds were within 8% either way and
+// k = 20 queries level with FLANN's or faster. On the raw 69k-point LiDAR scans of shared/data,
+// FLANN's k = 20 queries were 6-17% faster and neither backend won the bounded queries
+// consistently. docs/benchmarks.md ("Nearest-neighbour backend and preprocessing") has the numbers.
 #pragma once
 
 #include <memory>

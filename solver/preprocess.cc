@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <tuple>
 
 namespace rigfit {
@@ -13,6 +14,9 @@ namespace {
 /// A neighbourhood is degenerate (coincident or collinear points) when its middle
 /// eigenvalue is at most this fraction of the largest.
 constexpr double kDegenerateEigenvalueRatio = 1e-9;
+
+/// Below this many points per thread, extra threads cost more than they save.
+constexpr int kMinPointsPerThread = 1000;
 
 /// A point's voxel coordinates floor(p / voxel_size), kept as doubles (exact integers) so
 /// that no coordinate range can overflow, and the point's index as tie-break.
@@ -123,20 +127,28 @@ LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree
   geometry.normals.resize(n);
   geometry.covariances.resize(n);
   geometry.planarity.resize(n);
-
-#pragma omp parallel num_threads(num_threads)
-  {
+  const auto estimate = [&](int begin, int end) {
     std::vector<int> neighbours;
     std::vector<double> squared_distances;
-#pragma omp for schedule(static)
-    for (int i = 0; i < n; ++i) {
+    for (int i = begin; i < end; ++i) {
       tree.KNearest(points[i], k, &neighbours, &squared_distances);
       const PointGeometry g = NeighbourhoodGeometry(points, neighbours, points[i], viewpoint);
       geometry.normals[i] = g.normal;
       geometry.covariances[i] = g.covariance;
       geometry.planarity[i] = g.planarity;
     }
+  };
+  // Contiguous chunks, one per thread, the calling thread taking the first. Plain threads
+  // rather than OpenMP: a join blocks, where libgomp's default barrier spins, which on
+  // shared cores doubled the CPU time of this step (docs/benchmarks.md).
+  const int chunks = std::max(1, std::min(num_threads, n / kMinPointsPerThread));
+  std::vector<std::thread> workers;
+  for (int c = 1; c < chunks; ++c) {
+    workers.emplace_back(estimate, static_cast<int>(static_cast<long>(n) * c / chunks),
+                         static_cast<int>(static_cast<long>(n) * (c + 1) / chunks));
   }
+  estimate(0, n / chunks);
+  for (std::thread& worker : workers) worker.join();
   return geometry;
 }
 

@@ -51,9 +51,9 @@ struct LocalGeometry {
 /// Normals, covariances and planarity of every point from its k nearest neighbours (the
 /// point itself included) found with `tree`, which must be built on `points`. Normals are
 /// oriented toward `viewpoint` (the camera centre in the cloud's frame: the origin for
-/// camera-frame points). Runs on num_threads threads (OpenMP); the result does not depend
-/// on it. Throws std::invalid_argument when k < 5, num_threads < 1 or the tree size differs
-/// from the cloud's.
+/// camera-frame points). Splits the points over up to num_threads threads (std::thread); the
+/// result does not depend on it. Throws std::invalid_argument when k < 5, num_threads < 1 or the
+/// tree size differs from the cloud's.
 LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree, int k,
                                     const Vec3& viewpoint, int num_threads = 1);
 
