@@ -1,0 +1,100 @@
+// Generalised-ICP (plane-to-plane, Mahalanobis) residual between two cameras
+// (derivation: docs/residuals.md).
+//
+// A point p of camera a with covariance C_p (camera-a frame) corresponds to a point q of
+// camera b with covariance C_q (camera-b frame). With the poses T_world_a = (R_a, t_a) and
+// T_world_b = (R_b, t_b) as parameter blocks [qx, qy, qz, qw, tx, ty, tz] (core/pose.h):
+//
+//   d = (R_a p + t_a) - (R_b q + t_b)                          world frame, metres
+//   S = R_a0 C_p R_a0^T + R_b0 C_q R_b0^T + eps I              world-frame covariance of d
+//   L L^T = S^-1 (Cholesky),   r = L^T d                       3 whitened residuals
+//
+// so that |r|^2 = d^T S^-1 d. As in the usual GICP practice, S uses the rotations R_a0,
+// R_b0 of the poses when the correspondences were made and stays fixed until they are
+// remade: r is then linear in the point positions and its Jacobian does not differentiate
+// the weight. eps (SqrtInformation) keeps S invertible when both covariances are flat
+// in the same direction (two planes with equal normals).
+//
+// Ambient Jacobians (J_R(q, v) = d(R(q) v)/dq from residuals/pose_jacobians.h):
+//   dr/dq_a =  L^T J_R(q_a, p)      dr/dt_a =  L^T
+//   dr/dq_b = -L^T J_R(q_b, q)      dr/dt_b = -L^T
+// In the PoseManifold tangent: dr/dw_a = -L^T [R_a p]_x, dr/dw_b = L^T [R_b q]_x,
+// dr/dd_a = L^T, dr/dd_b = -L^T.
+#pragma once
+
+#include <ceres/autodiff_cost_function.h>
+#include <ceres/sized_cost_function.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/pose.h"
+
+namespace rigfit {
+
+/// Default eps added to the summed GICP covariance: (1 mm)^2, in m^2.
+inline constexpr double kGicpCovarianceEpsilon = 1e-6;
+
+/// The GICP residual as a templated functor: the automatic-differentiation reference for
+/// GicpCost (same residuals, same parameter blocks).
+struct GicpFunctor {
+  Vec3 point_a;           ///< p, camera-a frame
+  Vec3 point_b;           ///< q, camera-b frame
+  Mat3 sqrt_information;  ///< L^T, world frame (GicpCost::SqrtInformation)
+
+  template <typename T>
+  bool operator()(const T* pose_a, const T* pose_b, T* residuals) const {
+    using Vec3T = Eigen::Matrix<T, 3, 1>;
+    const Eigen::Map<const Eigen::Quaternion<T>> q_a(pose_a);
+    const Eigen::Map<const Vec3T> t_a(pose_a + 4);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_b(pose_b);
+    const Eigen::Map<const Vec3T> t_b(pose_b + 4);
+    const Vec3T d = (q_a * point_a.cast<T>() + t_a) - (q_b * point_b.cast<T>() + t_b);
+    Eigen::Map<Vec3T> r(residuals);
+    r = sqrt_information.cast<T>() * d;
+    return true;
+  }
+
+  /// Autodiff cost function over the blocks (T_world_a, T_world_b).
+  static ceres::CostFunction* CreateAutoDiff(const Vec3& point_a, const Vec3& point_b,
+                                             const Mat3& sqrt_information) {
+    return new ceres::AutoDiffCostFunction<GicpFunctor, 3, kPoseAmbientSize, kPoseAmbientSize>(
+        new GicpFunctor{point_a, point_b, sqrt_information});
+  }
+};
+
+/// Analytic GICP cost: 3 whitened residuals, parameter blocks (T_world_a, T_world_b), each
+/// [qx, qy, qz, qw, tx, ty, tz] with rigfit::PoseManifold.
+class GicpCost final : public ceres::SizedCostFunction<3, kPoseAmbientSize, kPoseAmbientSize> {
+ public:
+  /// point_a in camera a, point_b in camera b, sqrt_information = L^T (world frame).
+  GicpCost(const Vec3& point_a, const Vec3& point_b, const Mat3& sqrt_information)
+      : point_a_(point_a), point_b_(point_b), sqrt_information_(sqrt_information) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  /// The whitening L^T (upper triangular, 1/m) with L L^T = S^-1,
+  /// S = R_world_a C_a R_world_a^T + R_world_b C_b R_world_b^T + epsilon_m2 I.
+  /// cov_a (camera-a frame) and cov_b (camera-b frame) are symmetric positive
+  /// semi-definite point covariances in m^2; epsilon_m2 > 0 makes S positive definite.
+  static Mat3 SqrtInformation(const Mat3& cov_a, const Mat3& cov_b, const Mat3& R_world_a,
+                              const Mat3& R_world_b, double epsilon_m2 = kGicpCovarianceEpsilon);
+
+  /// The cost function the solvers use (the caller, usually ceres::Problem, owns it):
+  /// the weight is fixed from the rotations R_world_a, R_world_b at correspondence time.
+  static ceres::CostFunction* Create(const Vec3& point_a, const Vec3& point_b, const Mat3& cov_a,
+                                     const Mat3& cov_b, const Mat3& R_world_a,
+                                     const Mat3& R_world_b,
+                                     double epsilon_m2 = kGicpCovarianceEpsilon) {
+    return new GicpCost(point_a, point_b,
+                        SqrtInformation(cov_a, cov_b, R_world_a, R_world_b, epsilon_m2));
+  }
+
+ private:
+  Vec3 point_a_;
+  Vec3 point_b_;
+  Mat3 sqrt_information_;
+};
+
+}  // namespace rigfit
