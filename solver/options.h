@@ -54,13 +54,22 @@ struct IcpOptions {
   std::vector<int> max_iterations = {50, 30, 14};
   /// Correspondences farther than factor x voxel size (at the current scale) are dropped.
   double max_correspondence_distance_factor = 1.4;
+  /// Correspondences whose two normals differ by more than this are dropped.
+  double max_normal_angle_deg = 30.0;
   /// Neighbours used for normals and covariances.
   int normal_neighbors = 20;
-  /// Weight of the pitch/roll gravity prior (see docs/residuals.md); 0 disables it.
-  double gravity_weight = 1.0;
+  /// Depth noise k of the stereo model sigma_z = k z^2 (1/m) used to weight every
+  /// correspondence; 0 measures it per camera on its floor (cameras without a floor then
+  /// use min_noise_m alone).
+  double depth_noise = 0.0;
+  /// Noise floor of every correspondence residual (m): model error of the local plane.
+  double min_noise_m = 0.001;
+  /// Weight of the pitch/roll gravity prior, 1 / sigma_tilt in 1/rad against residuals
+  /// whitened by the noise model (500: sigma_tilt = 0.11 deg); 0 disables it.
+  double gravity_weight = 500.0;
   RobustLoss robust_loss = RobustLoss::kHuber;
-  /// Scale of the robust loss in metres; 0 ties it to the voxel size of each scale.
-  double robust_loss_scale = 0.0;
+  /// Scale of the robust loss on whitened residuals, in standard deviations.
+  double robust_loss_scale = 2.0;
   /// Pairwise mode: a pair needs this fraction of source points with a correspondence.
   double min_fitness = 0.3;
   /// Candidate pairs: world XZ boxes inflated by overlap_margin must intersect by at least

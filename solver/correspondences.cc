@@ -1,0 +1,122 @@
+#include "solver/correspondences.h"
+
+#include <cmath>
+
+#include "residuals/gicp.h"
+#include "residuals/point_to_plane.h"
+
+namespace rigfit {
+
+std::vector<Correspondence> FindCorrespondences(const ScaleLevel& source,
+                                                const Pose& T_world_source,
+                                                const ScaleLevel& target,
+                                                const Pose& T_world_target, double max_distance,
+                                                double max_normal_angle_deg, int num_threads) {
+  const Pose T_target_source = T_world_target.inverse() * T_world_source;
+  const double cos_max_angle = std::cos(max_normal_angle_deg * M_PI / 180.0);
+  const int n = static_cast<int>(source.points.size());
+  std::vector<Correspondence> found(n);
+  std::vector<char> ok(n, 0);
+#pragma omp parallel for num_threads(num_threads) schedule(static)
+  for (int i = 0; i < n; ++i) {
+    int j = 0;
+    double d2 = 0.0;
+    // Both points valid, the match within max_distance, and the two normals (both facing
+    // their cameras, so a surface seen by both has them on the same side) compatible.
+    if (source.geometry.IsValid(i) &&
+        target.tree->Nearest(T_target_source * source.points[i], max_distance, &j, &d2) &&
+        target.geometry.IsValid(j) &&
+        (T_target_source.linear() * source.geometry.normals[i]).dot(target.geometry.normals[j]) >=
+            cos_max_angle) {
+      found[i] = {i, j, d2};
+      ok[i] = 1;
+    }
+  }
+  std::vector<Correspondence> out;
+  out.reserve(n);
+  for (int i = 0; i < n; ++i) {
+    if (ok[i]) out.push_back(found[i]);
+  }
+  return out;
+}
+
+ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options) {
+  const double scale = options.robust_loss_scale;
+  switch (options.robust_loss) {
+    case RobustLoss::kHuber:
+      return new ceres::HuberLoss(scale);
+    case RobustLoss::kCauchy:
+      return new ceres::CauchyLoss(scale);
+    case RobustLoss::kTukey:
+      return new ceres::TukeyLoss(scale);
+    case RobustLoss::kNone:
+      return nullptr;
+  }
+  return nullptr;
+}
+
+void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
+                            const CameraView& source, const CameraView& target,
+                            const std::vector<Correspondence>& correspondences,
+                            ceres::LossFunction* loss) {
+  const ScaleLevel& src = *source.level;
+  const ScaleLevel& tgt = *target.level;
+  const double k_s2 = source.depth_noise * source.depth_noise;
+  const double k_t2 = target.depth_noise * target.depth_noise;
+  const double floor2 = options.min_noise_m * options.min_noise_m;
+  // Target normals seen from the source frame: R_s^T R_t.
+  const Mat3 R_source_target =
+      source.T_world_camera.linear().transpose() * target.T_world_camera.linear();
+  // GICP shapes are plane-regularised, V diag(1, 1, eps) V^T (m^2): the in-plane freedom
+  // stays (1 m^2, as in small_gicp), the eps along the normal is replaced by the noise model.
+  const auto shape = [](const LocalGeometry& g, int i) {
+    return Mat3(g.covariances[i] - kGicpPlaneEpsilon * g.normals[i] * g.normals[i].transpose());
+  };
+  for (const Correspondence& c : correspondences) {
+    const Vec3& p = src.points[c.source];
+    const Vec3& q = tgt.points[c.target];
+    ceres::CostFunction* cost = nullptr;
+    if (options.method == RegistrationMethod::kGicp) {
+      // Covariance of a point: in-plane shape + k^2 z^2 p p^T (depth noise along the ray)
+      // + half of the residual floor on each side.
+      const Mat3 C_p = shape(src.geometry, c.source) + k_s2 * p.z() * p.z() * p * p.transpose() +
+                       0.5 * floor2 * Mat3::Identity();
+      const Mat3 C_q = shape(tgt.geometry, c.target) + k_t2 * q.z() * q.z() * q * q.transpose() +
+                       0.5 * floor2 * Mat3::Identity();
+      cost = GicpCost::Create(p, q, C_p, C_q, source.T_world_camera.linear(),
+                              target.T_world_camera.linear());
+    } else {
+      // Variance of r = n . (T_s p - T_t q): each point's depth noise projected on the
+      // normal, (k z (n . p))^2, plus the floor. r is linear in n, so a normal scaled by
+      // 1 / sigma whitens it.
+      const Vec3& n_t = tgt.geometry.normals[c.target];
+      const double np = (R_source_target * n_t).dot(p);
+      const double nq = n_t.dot(q);
+      const double variance =
+          k_s2 * p.z() * p.z() * np * np + k_t2 * q.z() * q.z() * nq * nq + floor2;
+      cost = PointToPlaneCost::Create(p, q, n_t / std::sqrt(variance));
+    }
+    problem->AddResidualBlock(cost, loss, source.pose_block, target.pose_block);
+  }
+}
+
+std::unique_ptr<ceres::Problem> NewProblem() {
+  ceres::Problem::Options options;
+  options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  return std::make_unique<ceres::Problem>(options);
+}
+
+ceres::Manifold* SharedPoseManifold() {
+  static PoseManifold manifold;
+  return &manifold;
+}
+
+double CorrespondenceRmse(const std::vector<Correspondence>& correspondences) {
+  if (correspondences.empty()) return 0.0;
+  double sum = 0.0;
+  for (const Correspondence& c : correspondences) sum += c.squared_distance;
+  return std::sqrt(sum / correspondences.size());
+}
+
+}  // namespace rigfit

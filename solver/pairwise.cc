@@ -1,0 +1,179 @@
+#include "solver/pairwise.h"
+
+#include <ceres/crs_matrix.h>
+#include <ceres/solver.h>
+
+#include <memory>
+#include <sstream>
+
+#include "residuals/gravity_prior.h"
+#include "solver/correspondences.h"
+
+namespace rigfit {
+namespace {
+
+/// Fewer correspondences than this cannot constrain 6 degrees of freedom reliably.
+constexpr size_t kMinCorrespondences = 30;
+/// An ICP scale ends when one step moves the pose by less than this (rad and m).
+constexpr double kConvergedStep = 1e-6;
+/// A normal angle that accepts every pair of normals (overlap statistics).
+constexpr double kAnyNormalAngleDeg = 180.0;
+/// Levenberg-Marquardt iterations per ICP step (correspondences fixed).
+constexpr int kSolverIterationsPerStep = 2;
+
+ceres::Solver::Options StepSolverOptions(int num_threads) {
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = kSolverIterationsPerStep;
+  options.num_threads = num_threads;
+  options.logging_type = ceres::SILENT;
+  return options;
+}
+
+}  // namespace
+
+Mat6 BlockInformation(ceres::Problem* problem, double* block,
+                      const std::vector<ceres::ResidualBlockId>& residual_blocks) {
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks = {block};
+  eval.residual_blocks = residual_blocks;
+  eval.apply_loss_function = false;
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  const bool was_constant = problem->IsParameterBlockConstant(block);
+  if (was_constant) problem->SetParameterBlockVariable(block);
+  problem->Evaluate(eval, nullptr, &residuals, nullptr, &J);
+  if (was_constant) problem->SetParameterBlockConstant(block);
+  Mat6 JtJ = Mat6::Zero();
+  for (int row = 0; row < J.num_rows; ++row) {
+    Vec6 g = Vec6::Zero();
+    for (int k = J.rows[row]; k < J.rows[row + 1]; ++k) g(J.cols[k]) = J.values[k];
+    JtJ += g * g.transpose();
+  }
+  double sum_sq = 0.0;
+  for (double r : residuals) sum_sq += r * r;
+  const double dof = static_cast<double>(residuals.size()) - kPoseTangentSize;
+  if (dof <= 0.0 || sum_sq <= 0.0) return JtJ;
+  return JtJ / (sum_sq / dof);
+}
+
+PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
+                            const RegistrationCamera& target_camera, const IcpOptions& options,
+                            int num_threads, const Log& log) {
+  const CloudPyramid& source = *source_camera.pyramid;
+  const CloudPyramid& target = *target_camera.pyramid;
+  const Pose& T_world_source = source_camera.T_world_camera;
+  const Pose& T_world_target = target_camera.T_world_camera;
+  PairwiseResult result;
+  result.T_world_source = T_world_source;
+  result.T_target_source = T_world_target.inverse() * T_world_source;
+  if (source.levels.empty() || target.levels.size() != source.levels.size()) {
+    result.message = "no levels to register";
+    return result;
+  }
+  const ScaleLevel& finest_source = source.levels.back();
+  const ScaleLevel& finest_target = target.levels.back();
+  const double finest_distance =
+      options.max_correspondence_distance_factor * finest_source.voxel_size;
+  result.rmse_before_m = CorrespondenceRmse(
+      FindCorrespondences(finest_source, T_world_source, finest_target, T_world_target,
+                          finest_distance, kAnyNormalAngleDeg, num_threads));
+
+  double source_pose[kPoseAmbientSize];
+  double target_pose[kPoseAmbientSize];
+  PoseToParameters(T_world_source, source_pose);
+  PoseToParameters(T_world_target, target_pose);
+  const ceres::Solver::Options solver_options = StepSolverOptions(num_threads);
+
+  for (size_t s = 0; s < source.levels.size(); ++s) {
+    const ScaleLevel& src = source.levels[s];
+    const ScaleLevel& tgt = target.levels[s];
+    const double max_distance = options.max_correspondence_distance_factor * src.voxel_size;
+    const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
+    const int max_iterations = s < options.max_iterations.size() ? options.max_iterations[s] : 0;
+    for (int it = 0; it < max_iterations; ++it) {
+      const Pose T_current = PoseFromParameters(source_pose);
+      const std::vector<Correspondence> matches =
+          FindCorrespondences(src, T_current, tgt, T_world_target, max_distance,
+                              options.max_normal_angle_deg, num_threads);
+      if (matches.size() < kMinCorrespondences) {
+        std::ostringstream m;
+        m << "only " << matches.size() << " correspondences at voxel " << src.voxel_size << " m";
+        result.message = m.str();
+        return result;
+      }
+      std::unique_ptr<ceres::Problem> problem = NewProblem();
+      problem->AddParameterBlock(source_pose, kPoseAmbientSize, SharedPoseManifold());
+      problem->AddParameterBlock(target_pose, kPoseAmbientSize, SharedPoseManifold());
+      problem->SetParameterBlockConstant(target_pose);
+      AddCorrespondenceTerms(
+          problem.get(), options, {&src, T_current, source_pose, source_camera.depth_noise},
+          {&tgt, T_world_target, target_pose, target_camera.depth_noise}, matches, loss.get());
+      if (options.gravity_weight > 0.0) {
+        problem->AddResidualBlock(
+            GravityPriorCost::Create(T_world_source.linear(), options.gravity_weight), nullptr,
+            source_pose);
+      }
+      ceres::Solver::Summary summary;
+      ceres::Solve(solver_options, problem.get(), &summary);
+      ++result.iterations;
+      const Vec6 step = PoseDifference(T_current, PoseFromParameters(source_pose));
+      log.Debug("  voxel " + std::to_string(src.voxel_size) + " iteration " + std::to_string(it) +
+                ": " + std::to_string(matches.size()) + " correspondences, cost " +
+                std::to_string(summary.final_cost));
+      if (step.head<3>().norm() < kConvergedStep && step.tail<3>().norm() < kConvergedStep) break;
+    }
+  }
+
+  // Final correspondences at the finest level: fitness, RMSE, information.
+  result.T_world_source = PoseFromParameters(source_pose);
+  result.T_target_source = T_world_target.inverse() * result.T_world_source;
+  // Fitness measures overlap: the fraction of the finest source points with a target
+  // point within the coarsest scale's correspondence distance, so that depth noise larger
+  // than the finest voxel does not read as missing overlap. RMSE is Open3D's inlier RMSE
+  // at the finest distance. Neither looks at normals; the information uses the
+  // correspondences the solve used.
+  const std::vector<Correspondence> overlap = FindCorrespondences(
+      finest_source, result.T_world_source, finest_target, T_world_target,
+      options.max_correspondence_distance_factor * source.levels.front().voxel_size,
+      kAnyNormalAngleDeg, num_threads);
+  result.fitness = finest_source.points.empty()
+                       ? 0.0
+                       : static_cast<double>(overlap.size()) / finest_source.points.size();
+  result.rmse_after_m = CorrespondenceRmse(
+      FindCorrespondences(finest_source, result.T_world_source, finest_target, T_world_target,
+                          finest_distance, kAnyNormalAngleDeg, num_threads));
+  const std::vector<Correspondence> final_matches =
+      FindCorrespondences(finest_source, result.T_world_source, finest_target, T_world_target,
+                          finest_distance, options.max_normal_angle_deg, num_threads);
+  result.correspondences = static_cast<int>(final_matches.size());
+  if (final_matches.size() < kMinCorrespondences) {
+    result.message = "only " + std::to_string(final_matches.size()) + " correspondences after ICP";
+    return result;
+  }
+  result.converged = true;
+  {
+    std::unique_ptr<ceres::Problem> problem = NewProblem();
+    problem->AddParameterBlock(source_pose, kPoseAmbientSize, SharedPoseManifold());
+    problem->AddParameterBlock(target_pose, kPoseAmbientSize, SharedPoseManifold());
+    problem->SetParameterBlockConstant(target_pose);
+    AddCorrespondenceTerms(
+        problem.get(), options,
+        {&finest_source, result.T_world_source, source_pose, source_camera.depth_noise},
+        {&finest_target, T_world_target, target_pose, target_camera.depth_noise}, final_matches,
+        nullptr);
+    std::vector<ceres::ResidualBlockId> blocks;
+    problem->GetResidualBlocks(&blocks);
+    result.information = BlockInformation(problem.get(), source_pose, blocks);
+  }
+  if (result.fitness < options.min_fitness) {
+    std::ostringstream m;
+    m << "fitness " << result.fitness << " below min_fitness " << options.min_fitness;
+    result.message = m.str();
+    return result;
+  }
+  result.accepted = true;
+  return result;
+}
+
+}  // namespace rigfit

@@ -1,0 +1,79 @@
+#include "solver/pose_graph.h"
+
+#include <ceres/loss_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include <array>
+#include <cmath>
+#include <memory>
+
+#include "residuals/relative_pose.h"
+#include "solver/correspondences.h"
+
+namespace rigfit {
+namespace {
+
+/// Cauchy scale on the whitened 6-vector: sqrt of the 99% quantile of chi-square(6).
+const double kEdgeLossScale = std::sqrt(16.81);
+constexpr int kMaxIterations = 100;
+
+std::vector<bool> ReachableFrom(int reference, size_t n, const std::vector<PoseGraphEdge>& edges) {
+  std::vector<bool> reached(n, false);
+  if (reference < 0 || static_cast<size_t>(reference) >= n) return reached;
+  reached[reference] = true;
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (const PoseGraphEdge& e : edges) {
+      if (reached[e.a] != reached[e.b]) {
+        reached[e.a] = reached[e.b] = true;
+        grew = true;
+      }
+    }
+  }
+  return reached;
+}
+
+}  // namespace
+
+PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
+                                  const std::vector<PoseGraphEdge>& edges, int reference,
+                                  int num_threads) {
+  PoseGraphResult result;
+  result.poses = initial;
+  result.connected = ReachableFrom(reference, initial.size(), edges);
+  std::vector<std::array<double, kPoseAmbientSize>> blocks(initial.size());
+  for (size_t i = 0; i < initial.size(); ++i) PoseToParameters(initial[i], blocks[i].data());
+
+  std::unique_ptr<ceres::Problem> problem = NewProblem();
+  ceres::CauchyLoss loss(kEdgeLossScale);
+  for (const PoseGraphEdge& e : edges) {
+    if (!result.connected[e.a]) continue;  // both ends share connectivity
+    for (int i : {e.a, e.b}) {
+      problem->AddParameterBlock(blocks[i].data(), kPoseAmbientSize, SharedPoseManifold());
+    }
+    problem->AddResidualBlock(RelativePoseCost::Create(e.T_a_b, e.information), &loss,
+                              blocks[e.a].data(), blocks[e.b].data());
+  }
+  if (problem->NumResidualBlocks() == 0) {
+    result.message = "no edges reach the reference camera";
+    return result;
+  }
+  problem->SetParameterBlockConstant(blocks[reference].data());
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = kMaxIterations;
+  options.num_threads = num_threads;
+  options.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, problem.get(), &summary);
+  result.usable = summary.IsSolutionUsable();
+  result.message = summary.message;
+  if (!result.usable) return result;
+  for (size_t i = 0; i < initial.size(); ++i) {
+    if (result.connected[i]) result.poses[i] = PoseFromParameters(blocks[i].data());
+  }
+  return result;
+}
+
+}  // namespace rigfit

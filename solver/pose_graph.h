@@ -1,0 +1,32 @@
+// Pairwise mode, step 2: a pose graph over the cameras with one relative-pose edge per
+// accepted pair, the reference camera held constant, solved with Ceres.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+
+namespace rigfit {
+
+struct PoseGraphEdge {
+  int a = 0;
+  int b = 0;
+  Pose T_a_b = Pose::Identity();        ///< measured T_world_a^-1 T_world_b
+  Mat6 information = Mat6::Identity();  ///< in RelativePoseCost's error frame (camera a)
+};
+
+struct PoseGraphResult {
+  std::vector<Pose> poses;      ///< optimised poses; unconnected ones as given
+  std::vector<bool> connected;  ///< reachable from the reference through edges
+  bool usable = false;          ///< Ceres' solution is usable
+  std::string message;
+};
+
+/// Optimises the poses of the cameras connected to `reference` (held constant). Edges
+/// carry a Cauchy loss so one inconsistent pair cannot drag the others. Never throws.
+PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
+                                  const std::vector<PoseGraphEdge>& edges, int reference,
+                                  int num_threads);
+
+}  // namespace rigfit

@@ -1,0 +1,213 @@
+#include "solver/refine.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "core/geometry.h"
+#include "residuals/relative_pose.h"
+#include "solver/pairwise.h"
+#include "solver/pose_graph.h"
+#include "solver/preprocess.h"
+#include "solver/region.h"
+
+namespace rigfit {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(digits);
+  s << value;
+  return s.str();
+}
+
+int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
+  for (size_t i = 0; i < capture.cameras.size(); ++i) {
+    if (capture.cameras[i].serial == reference) return static_cast<int>(i);
+  }
+  return 0;
+}
+
+/// Pairwise mode: ICP per candidate pair, then the pose graph. Returns refined poses.
+std::vector<Pose> RegisterPairwise(const std::vector<RegistrationCamera>& cameras,
+                                   const std::vector<Pose>& leveled,
+                                   const std::vector<CandidatePair>& candidates, int reference,
+                                   const IcpOptions& options, int num_threads, const Log& log,
+                                   RefineResult* result) {
+  std::vector<PoseGraphEdge> edges;
+  for (const CandidatePair& pair : candidates) {
+    PairReport& report = result->pairs.emplace_back();
+    report.serial_a = result->cameras[pair.a].serial;
+    report.serial_b = result->cameras[pair.b].serial;
+    report.overlap_area_m2 = pair.overlap_area_m2;
+    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": ICP");
+    const auto start = std::chrono::steady_clock::now();
+    const PairwiseResult icp =
+        RegisterPair(cameras[pair.b], cameras[pair.a], options, num_threads, log);
+    result->times.registration_s += SecondsSince(start);
+    report.fitness = icp.fitness;
+    report.rmse_before_m = icp.rmse_before_m;
+    report.rmse_after_m = icp.rmse_after_m;
+    report.correspondences = icp.correspondences;
+    report.iterations = icp.iterations;
+    report.accepted = icp.accepted;
+    report.message = icp.message;
+    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": fitness " +
+             Fixed(icp.fitness, 3) + ", RMSE " + Fixed(icp.rmse_before_m * 1e3, 2) + " -> " +
+             Fixed(icp.rmse_after_m * 1e3, 2) + " mm, " + std::to_string(icp.iterations) +
+             " iterations" + (icp.accepted ? "" : ", rejected: " + icp.message));
+    if (!icp.accepted) continue;
+    edges.push_back({pair.a, pair.b, icp.T_target_source,
+                     EdgeInformationFromTangentInformation(icp.information, leveled[pair.a])});
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const PoseGraphResult graph = OptimizePoseGraph(leveled, edges, reference, num_threads);
+  result->times.pose_graph_s = SecondsSince(start);
+  for (size_t i = 0; i < leveled.size(); ++i) result->cameras[i].connected = graph.connected[i];
+  if (!graph.usable) {
+    result->message = "pose graph: " + graph.message;
+    return leveled;
+  }
+  return graph.poses;
+}
+
+}  // namespace
+
+RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
+                    bool run_icp, int num_threads, const Log& log) {
+  RefineResult result;
+  const size_t n = capture.cameras.size();
+  result.reference = options.icp.reference.empty() && n > 0 ? capture.cameras.front().serial
+                                                            : options.icp.reference;
+  const int reference = ReferenceIndex(capture, result.reference);
+
+  // Ground leveling.
+  auto start = std::chrono::steady_clock::now();
+  const UnprojectOptions unproject{options.region.pixel_stride, options.region.min_depth_m,
+                                   options.region.max_depth_m};
+  std::vector<PointCloud> points(n);
+  std::vector<Pose> leveled(n);
+  result.cameras.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const CameraCapture& camera = capture.cameras[i];
+    CameraReport& report = result.cameras[i];
+    report.serial = camera.serial;
+    report.reference = static_cast<int>(i) == reference;
+    points[i] = CameraPoints(camera, unproject);
+    report.points = static_cast<int>(points[i].size());
+    leveled[i] = initial.at(camera.serial);
+    if (options.ground.enabled) {
+      report.ground = LevelCamera(points[i], leveled[i], options.ground);
+      leveled[i] = report.ground.T_world_camera;
+      if (report.ground.accepted) {
+        log.Info("camera " + camera.serial + ": floor leveled (" +
+                 Fixed(report.ground.correction_rotation_deg, 3) + " deg, " +
+                 Fixed(report.ground.correction_translation_m * 1e3, 1) + " mm, " +
+                 std::to_string(report.ground.inliers) + " inliers)");
+      } else {
+        result.warnings.push_back("camera " + camera.serial +
+                                  ": ground leveling not applied: " + report.ground.message);
+        log.Warning(result.warnings.back());
+      }
+    }
+    result.leveled[camera.serial] = leveled[i];
+  }
+  result.times.leveling_s = SecondsSince(start);
+  result.refined = result.leveled;
+  if (!run_icp) {
+    result.success = true;
+    result.message = "leveling only";
+    return result;
+  }
+  if (n < 2) {
+    result.message = "nothing to register: the capture has one camera";
+    result.warnings.push_back(result.message);
+    log.Warning(result.message);
+    return result;
+  }
+
+  // Near-floor band, preprocessing and candidate pairs.
+  start = std::chrono::steady_clock::now();
+  std::vector<double> voxel_sizes;
+  for (double s : options.icp.scales) voxel_sizes.push_back(s * options.icp.voxel_size);
+  std::vector<CloudPyramid> pyramids(n);
+  std::vector<GroundBox> boxes(n);
+  for (size_t i = 0; i < n; ++i) {
+    const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
+    result.cameras[i].band_points = static_cast<int>(band.size());
+    boxes[i] = RobustGroundBox(Transform(leveled[i], band));
+    pyramids[i] =
+        BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(), num_threads);
+    log.Info("camera " + capture.cameras[i].serial + ": " + std::to_string(band.size()) +
+             " band points, " + std::to_string(pyramids[i].levels.back().points.size()) +
+             " at the finest voxel");
+  }
+  const std::vector<CandidatePair> candidates =
+      FindCandidatePairs(boxes, options.icp.overlap_margin, options.icp.min_overlap_area);
+  result.times.preprocessing_s = SecondsSince(start);
+  log.Info(std::to_string(candidates.size()) + " candidate pairs");
+
+  std::vector<RegistrationCamera> cameras(n);
+  for (size_t i = 0; i < n; ++i) {
+    const GroundResult& ground = result.cameras[i].ground;
+    cameras[i] = {&pyramids[i], leveled[i],
+                  options.icp.depth_noise > 0.0 ? options.icp.depth_noise
+                  : ground.found                ? ground.depth_noise
+                                                : 0.0};
+    log.Info("camera " + capture.cameras[i].serial +
+             ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
+             (options.icp.depth_noise > 0.0 ? " (configured)"
+              : ground.found                ? " (measured on the floor)"
+                                            : " (no floor: noise floor only)"));
+  }
+  std::vector<Pose> refined = RegisterPairwise(cameras, leveled, candidates, reference, options.icp,
+                                               num_threads, log, &result);
+
+  // Safety bounds and per-camera report.
+  int moved = 0;
+  for (size_t i = 0; i < n; ++i) {
+    CameraReport& report = result.cameras[i];
+    const Vec6 delta = PoseDifference(leveled[i], refined[i]);
+    report.delta_rotation_deg = delta.head<3>().norm() * kRadToDeg;
+    report.delta_translation_m = delta.tail<3>().norm();
+    if (report.reference) {
+      report.accepted = true;
+      continue;
+    }
+    if (!report.connected) {
+      report.message = "not connected to the reference camera by an accepted pair";
+    } else if (!refined[i].matrix().allFinite()) {
+      report.message = "registration produced a non-finite pose";
+    } else if (report.delta_rotation_deg > options.icp.max_rotation_deg) {
+      report.message = "rotation change " + Fixed(report.delta_rotation_deg, 3) +
+                       " deg exceeds max_rotation_deg " + Fixed(options.icp.max_rotation_deg, 3);
+    } else if (report.delta_translation_m > options.icp.max_translation_m) {
+      report.message = "translation change " + Fixed(report.delta_translation_m, 4) +
+                       " m exceeds max_translation_m " + Fixed(options.icp.max_translation_m, 4);
+    } else {
+      report.accepted = true;
+      ++moved;
+      result.refined[report.serial] = refined[i];
+      continue;
+    }
+    result.warnings.push_back("camera " + report.serial +
+                              " keeps its leveled pose: " + report.message);
+    log.Warning(result.warnings.back());
+  }
+  result.success = moved > 0;
+  if (result.message.empty()) {
+    result.message = result.success ? "refined " + std::to_string(moved) + " of " +
+                                          std::to_string(n - 1) + " non-reference cameras"
+                                    : "no camera could be refined";
+  }
+  return result;
+}
+
+}  // namespace rigfit

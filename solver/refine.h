@@ -1,0 +1,67 @@
+// `rigfit refine`: load-independent pipeline from a rig capture and initial extrinsics to
+// refined extrinsics: ground leveling, near-floor band, preprocessing, candidate pairs,
+// then pairwise (ICP + pose graph) or joint registration, and the safety bounds.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "solver/ground.h"
+#include "solver/log.h"
+#include "solver/options.h"
+
+namespace rigfit {
+
+struct CameraReport {
+  std::string serial;
+  bool reference = false;
+  GroundResult ground;              ///< leveling of this camera (found = false when disabled)
+  int points = 0;                   ///< valid points used for leveling
+  int band_points = 0;              ///< points of the near-floor band
+  bool connected = false;           ///< linked to the reference by accepted pairs
+  bool accepted = false;            ///< registration change applied
+  double delta_rotation_deg = 0.0;  ///< registration change (refined vs leveled)
+  double delta_translation_m = 0.0;
+  std::string message;  ///< why the change was not applied
+};
+
+struct PairReport {
+  std::string serial_a;  ///< target (held still in pairwise ICP)
+  std::string serial_b;  ///< source
+  double overlap_area_m2 = 0.0;
+  double fitness = 0.0;
+  double rmse_before_m = 0.0;
+  double rmse_after_m = 0.0;
+  int correspondences = 0;
+  int iterations = 0;
+  bool accepted = false;
+  std::string message;
+};
+
+struct StageTimes {
+  double leveling_s = 0.0;
+  double preprocessing_s = 0.0;
+  double registration_s = 0.0;  ///< correspondences and solves (ICP or joint)
+  double pose_graph_s = 0.0;
+};
+
+struct RefineResult {
+  PoseMap leveled;  ///< after ground leveling
+  PoseMap refined;  ///< the output extrinsics
+  std::string reference;
+  bool success = false;  ///< false: the refinement was not applied (refined == leveled)
+  std::string message;
+  std::vector<std::string> warnings;
+  std::vector<CameraReport> cameras;  ///< in capture order (by serial)
+  std::vector<PairReport> pairs;
+  StageTimes times;
+};
+
+/// Runs the pipeline. Every camera of the capture must have a pose in `initial` (the CLI
+/// checks this). `run_icp` false stops after leveling. Never throws on bad geometry: the
+/// result says what was and was not applied.
+RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
+                    bool run_icp, int num_threads, const Log& log);
+
+}  // namespace rigfit
