@@ -10,7 +10,9 @@ std::vector<Command>& Registry() {
 
 }  // namespace
 
-void RegisterCommands(CLI::App& app) { Registry() = {AddSimulateCommand(app)}; }
+void RegisterCommands(CLI::App& app) {
+  Registry() = {AddSimulateCommand(app), AddRefineCommand(app)};
+}
 
 int RunSelected(const CLI::App& app) {
   for (const Command& c : Registry()) {

@@ -20,6 +20,8 @@ struct Command {
 };
 
 Command AddSimulateCommand(CLI::App& app);
+/// `rigfit refine`: capture + initial extrinsics -> refined extrinsics (docs/usage.md).
+Command AddRefineCommand(CLI::App& app);
 
 /// Adds every subcommand to app.
 void RegisterCommands(CLI::App& app);

@@ -1,0 +1,473 @@
+// `rigfit refine`: refines the extrinsics of a rig from one capture (solver/refine.h: ground
+// leveling, then registration of the near-floor band). Every input is checked before any work;
+// the refined extrinsics are written with their report in _meta (../shared/docs/formats.md,
+// docs/usage.md), and a summary is printed on stdout.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cli/commands.h"
+#include "core/errors.h"
+#include "io/atomic_file.h"
+#include "io/capture_h5.h"
+#include "io/config_yaml.h"
+#include "io/extrinsics_json.h"
+#include "solver/refine.h"
+
+namespace rigfit::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+constexpr int kMaxThreads = 256;
+
+enum class Verbosity { kQuiet, kNormal, kVerbose };
+
+struct RefineArgs {
+  std::string capture_path;
+  std::string extrinsics_path;
+  std::string out_path;
+  std::string config_path;
+  // Overrides of the config; applied only when given (see the options below).
+  std::string mode;
+  std::string method;
+  double voxel_size = 0.0;
+  std::string reference;
+  CLI::Option* mode_option = nullptr;
+  CLI::Option* method_option = nullptr;
+  CLI::Option* voxel_size_option = nullptr;
+  CLI::Option* reference_option = nullptr;
+  bool no_ground = false;
+  bool no_icp = false;
+  bool no_timings = false;
+  bool quiet = false;
+  bool verbose = false;
+  int threads = 2;
+};
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string Join(const std::vector<std::string>& items, const std::string& separator) {
+  std::string text;
+  for (const std::string& item : items) text += (text.empty() ? "" : separator) + item;
+  return text;
+}
+
+Log StderrLog(Verbosity verbosity) {
+  Log log;
+  log.sink = [verbosity](LogLevel level, const std::string& message) {
+    switch (level) {
+      case LogLevel::kWarning:
+        std::fprintf(stderr, "refine: warning: %s\n", message.c_str());
+        break;
+      case LogLevel::kInfo:
+        if (verbosity != Verbosity::kQuiet) std::fprintf(stderr, "refine: %s\n", message.c_str());
+        break;
+      case LogLevel::kDebug:
+        if (verbosity == Verbosity::kVerbose) {
+          std::fprintf(stderr, "refine: debug: %s\n", message.c_str());
+        }
+        break;
+    }
+  };
+  return log;
+}
+
+/// The flags that do not map to a config key.
+void CheckFlags(const RefineArgs& a) {
+  std::vector<std::string> problems;
+  if (a.voxel_size_option->count() > 0 && !(std::isfinite(a.voxel_size) && a.voxel_size > 0.0)) {
+    problems.push_back("--voxel-size must be a finite number > 0, got " +
+                       a.voxel_size_option->as<std::string>());
+  }
+  if (a.threads < 1 || a.threads > kMaxThreads) {
+    problems.push_back("--threads must be in [1, " + std::to_string(kMaxThreads) + "], got " +
+                       std::to_string(a.threads));
+  }
+  if (!problems.empty()) throw InputError("refine: " + Join(problems, "; "));
+}
+
+/// The files the run reads, which --out must not replace.
+std::vector<std::string> InputFiles(const RefineArgs& a) {
+  std::vector<std::string> inputs = {a.capture_path, a.extrinsics_path};
+  if (!a.config_path.empty()) inputs.push_back(a.config_path);
+  return inputs;
+}
+
+/// --out must be a new or replaceable file, in an existing directory, and none of the inputs.
+void CheckOutputPath(const RefineArgs& a) {
+  RefuseToOverwriteInputs(a.out_path, InputFiles(a), "refine: --out");
+  const fs::path out(a.out_path);
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) {
+    throw InputError("refine: --out " + a.out_path + ": directory " + dir.string() +
+                     " does not exist");
+  }
+  if (fs::is_directory(out, ec)) {
+    throw InputError("refine: --out " + a.out_path + " is a directory, expected a JSON file name");
+  }
+}
+
+/// The config file (or the defaults) with the command-line overrides applied, checked.
+RefineOptions EffectiveOptions(const RefineArgs& a) {
+  RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
+  if (a.mode_option->count() > 0) {
+    options.icp.mode = a.mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
+  }
+  if (a.method_option->count() > 0) {
+    options.icp.method =
+        a.method == "gicp" ? RegistrationMethod::kGicp : RegistrationMethod::kPointToPlane;
+  }
+  if (a.voxel_size_option->count() > 0) options.icp.voxel_size = a.voxel_size;
+  if (a.reference_option->count() > 0) options.icp.reference = a.reference;
+  if (a.no_ground) options.ground.enabled = false;
+  const std::vector<std::string> problems = OptionProblems(options);
+  if (!problems.empty()) {
+    throw InputError("refine: invalid options (config file with command-line overrides):\n  " +
+                     Join(problems, "\n  "));
+  }
+  return options;
+}
+
+/// Every capture camera needs a pose, and every pose a capture camera.
+void CheckCameras(const RigCapture& capture, const PoseMap& poses, const RefineArgs& a) {
+  std::set<std::string> serials;
+  std::vector<std::string> missing;
+  for (const CameraCapture& camera : capture.cameras) {
+    serials.insert(camera.serial);
+    if (poses.count(camera.serial) == 0) missing.push_back(camera.serial);
+  }
+  std::vector<std::string> extra;
+  for (const auto& [serial, pose] : poses) {
+    if (serials.count(serial) == 0) extra.push_back(serial);
+  }
+  std::vector<std::string> problems;
+  if (!missing.empty()) {
+    problems.push_back(a.extrinsics_path + " has no pose for camera(s) " + Join(missing, ", ") +
+                       " of " + a.capture_path);
+  }
+  if (!extra.empty()) {
+    problems.push_back(a.extrinsics_path + " has pose(s) for camera(s) " + Join(extra, ", ") +
+                       " that " + a.capture_path + " does not hold");
+  }
+  if (!problems.empty()) throw InputError("refine: " + Join(problems, "; "));
+}
+
+void CheckReference(const RigCapture& capture, const RefineOptions& options, const RefineArgs& a) {
+  const std::string& reference = options.icp.reference;
+  if (reference.empty()) return;
+  std::vector<std::string> serials;
+  for (const CameraCapture& camera : capture.cameras) {
+    if (camera.serial == reference) return;
+    serials.push_back(camera.serial);
+  }
+  const std::string source =
+      a.reference_option->count() > 0 ? "--reference" : a.config_path + ": icp.reference";
+  throw InputError("refine: " + source + " '" + reference + "' is not a camera of " +
+                   a.capture_path + " (cameras: " + Join(serials, ", ") + ")");
+}
+
+Json PlaneJson(const Plane& plane) {
+  return {plane.normal.x(), plane.normal.y(), plane.normal.z(), plane.d};
+}
+
+Json GroundMeta(const RefineResult& result, const RefineOptions& options, const RefineArgs& a) {
+  if (!options.ground.enabled) {
+    return {{"skipped", true},
+            {"message", a.no_ground ? "ground leveling skipped (--no-ground)"
+                                    : "ground leveling skipped (ground.enabled: false)"}};
+  }
+  Json cameras = Json::object();
+  for (const CameraReport& camera : result.cameras) {
+    const GroundResult& g = camera.ground;
+    cameras[camera.serial] = {
+        {"found", g.found},
+        {"accepted", g.accepted},
+        {"message", g.message},
+        {"points", camera.points},
+        {"plane_camera", g.found ? PlaneJson(g.plane_camera) : Json()},
+        {"inliers", g.inliers},
+        {"inlier_rms_m", g.inlier_rms_m},
+        {"depth_noise", g.depth_noise},
+        {"correction",
+         {{"T_leveled_input", PoseToJson(g.correction)},
+          {"rotation_deg", g.correction_rotation_deg},
+          {"translation_m", g.correction_translation_m}}},
+    };
+  }
+  return {{"skipped", false}, {"cameras", cameras}};
+}
+
+struct Timings {
+  double load_s = 0.0;
+  StageTimes solver;
+  double output_s = 0.0;
+  double total_s = 0.0;
+};
+
+Json TimingsJson(const Timings& t) {
+  return {{"load", t.load_s},
+          {"leveling", t.solver.leveling_s},
+          {"preprocessing", t.solver.preprocessing_s},
+          {"registration", t.solver.registration_s},
+          {"pose_graph", t.solver.pose_graph_s},
+          {"output", t.output_s},
+          {"total", t.total_s}};
+}
+
+Json IcpMeta(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
+             const std::vector<std::string>& warnings) {
+  const Json config = ConfigToJson(options);
+  Json meta = {{"skipped", a.no_icp},
+               {"mode", config["icp"]["mode"]},
+               {"method", config["icp"]["method"]},
+               {"config", config},
+               {"reference", result.reference},
+               {"warnings", warnings},
+               {"success", result.success},
+               {"message", a.no_icp ? "registration skipped (--no-icp)" : result.message}};
+  if (a.no_icp) return meta;
+  Json pairs = Json::array();
+  for (const PairReport& p : result.pairs) {
+    pairs.push_back({{"serial_a", p.serial_a},
+                     {"serial_b", p.serial_b},
+                     {"overlap_area_m2", p.overlap_area_m2},
+                     {"fitness", p.fitness},
+                     {"rmse_before_m", p.rmse_before_m},
+                     {"rmse_after_m", p.rmse_after_m},
+                     {"correspondences", p.correspondences},
+                     {"iterations", p.iterations},
+                     {"accepted", p.accepted},
+                     {"message", p.message}});
+  }
+  Json cameras = Json::object();
+  for (const CameraReport& c : result.cameras) {
+    cameras[c.serial] = {{"reference", c.reference},
+                         {"band_points", c.band_points},
+                         {"connected", c.connected},
+                         {"accepted", c.accepted},
+                         {"delta_rotation_deg", c.delta_rotation_deg},
+                         {"delta_translation_m", c.delta_translation_m},
+                         {"message", c.message}};
+  }
+  meta["pairs"] = pairs;
+  meta["cameras"] = cameras;
+  return meta;
+}
+
+/// JSON cannot hold NaN or infinity (nlohmann would write null silently): replaces each by
+/// null and returns where, as "_meta.a.b[2]" paths.
+std::vector<std::string> ReplaceNonFinite(Json& value, const std::string& path) {
+  std::vector<std::string> where;
+  if (value.is_number_float() && !std::isfinite(value.get<double>())) {
+    value = nullptr;
+    where.push_back(path);
+  } else if (value.is_object()) {
+    for (auto& [key, item] : value.items()) {
+      for (std::string& w : ReplaceNonFinite(item, path + "." + key)) where.push_back(std::move(w));
+    }
+  } else if (value.is_array()) {
+    for (size_t i = 0; i < value.size(); ++i) {
+      for (std::string& w : ReplaceNonFinite(value[i], path + "[" + std::to_string(i) + "]")) {
+        where.push_back(std::move(w));
+      }
+    }
+  }
+  return where;
+}
+
+std::string Fixed(double value, int digits) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", digits, value);
+  return text;
+}
+
+void PrintSummary(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
+                  const Timings& t) {
+  std::printf("\n%-16s %10s %9s %12s %9s  %s\n", "camera", "level deg", "level mm", "register deg",
+              "reg. mm", "result");
+  int leveled = 0;
+  for (const CameraReport& c : result.cameras) {
+    const GroundResult& g = c.ground;
+    const bool level_shown = options.ground.enabled && g.accepted;
+    leveled += level_shown ? 1 : 0;
+    std::string status;
+    if (!options.ground.enabled) {
+      status = "not leveled (skipped)";
+    } else if (!g.accepted) {
+      status = "not leveled: " + g.message;
+    } else if (a.no_icp) {
+      status = "leveled";
+    }
+    if (!a.no_icp) {
+      const std::string registration = c.reference  ? "reference (held fixed)"
+                                       : c.accepted ? "refined"
+                                                    : "kept leveled pose: " + c.message;
+      status += (status.empty() ? "" : "; ") + registration;
+    }
+    std::printf("%-16s %10s %9s %12s %9s  %s\n", c.serial.c_str(),
+                level_shown ? Fixed(g.correction_rotation_deg, 3).c_str() : "-",
+                level_shown ? Fixed(g.correction_translation_m * 1e3, 1).c_str() : "-",
+                a.no_icp ? "-" : Fixed(c.delta_rotation_deg, 3).c_str(),
+                a.no_icp ? "-" : Fixed(c.delta_translation_m * 1e3, 1).c_str(), status.c_str());
+  }
+  if (!a.no_icp) {
+    // Pairwise ICP moves b onto a; the joint mode moves both.
+    const std::string link = options.icp.mode == RefineMode::kPairwise ? " <- " : " - ";
+    std::printf("\n%-35s %7s %22s %6s  %s\n", "pair", "fitness", "RMSE before->after mm", "iters",
+                "result");
+    for (const PairReport& p : result.pairs) {
+      const std::string name = p.serial_a + link + p.serial_b;
+      const std::string rmse =
+          Fixed(p.rmse_before_m * 1e3, 2) + " -> " + Fixed(p.rmse_after_m * 1e3, 2);
+      std::printf("%-35s %7s %22s %6d  %s\n", name.c_str(), Fixed(p.fitness, 3).c_str(),
+                  rmse.c_str(), p.iterations,
+                  p.accepted ? "accepted" : ("rejected: " + p.message).c_str());
+    }
+    if (result.pairs.empty()) std::printf("(no candidate pairs)\n");
+  }
+  std::printf(
+      "\ntime (s): load %.2f, leveling %.2f, preprocessing %.2f, registration %.2f, "
+      "pose graph %.2f, output %.2f, total %.2f\n",
+      t.load_s, t.solver.leveling_s, t.solver.preprocessing_s, t.solver.registration_s,
+      t.solver.pose_graph_s, t.output_s, t.total_s);
+  const int cameras = static_cast<int>(result.cameras.size());
+  if (a.no_icp) {
+    std::printf("leveled %d of %d cameras (registration skipped) -> %s\n", leveled, cameras,
+                a.out_path.c_str());
+    return;
+  }
+  int refined = 0;
+  for (const CameraReport& c : result.cameras) refined += !c.reference && c.accepted ? 1 : 0;
+  if (result.success) {
+    std::printf("refined %d of %d non-reference cameras -> %s\n", refined, cameras - 1,
+                a.out_path.c_str());
+  } else {
+    std::printf("refinement not applied: %s; wrote the %s poses -> %s\n", result.message.c_str(),
+                options.ground.enabled ? "leveled" : "input", a.out_path.c_str());
+  }
+}
+
+int RunRefine(const RefineArgs& a) {
+  const auto start = Clock::now();
+  const Log log = StderrLog(a.quiet     ? Verbosity::kQuiet
+                            : a.verbose ? Verbosity::kVerbose
+                                        : Verbosity::kNormal);
+  CheckFlags(a);
+  CheckOutputPath(a);
+  const RefineOptions options = EffectiveOptions(a);
+  log.Info("loading " + a.capture_path + " and " + a.extrinsics_path);
+  const RigCapture capture = ReadCapture(a.capture_path);
+  const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
+  CheckCameras(capture, initial.poses, a);
+  CheckReference(capture, options, a);
+  std::vector<std::string> warnings = initial.warnings;
+  for (const std::string& w : initial.warnings) log.Warning(w);
+  Timings timings;
+  timings.load_s = SecondsSince(start);
+  log.Info("loaded " + std::to_string(capture.cameras.size()) + " cameras in " +
+           Fixed(timings.load_s, 2) + " s");
+
+  const RefineResult result = Refine(capture, initial.poses, options, !a.no_icp, a.threads, log);
+  timings.solver = result.times;
+  for (const PoseMap* poses : {&result.leveled, &result.refined}) {
+    for (const auto& [serial, T] : *poses) {
+      if (!T.matrix().allFinite()) {
+        throw std::runtime_error("refine: the solver produced a non-finite pose for " + serial);
+      }
+    }
+  }
+
+  const auto output_start = Clock::now();
+  warnings.insert(warnings.end(), result.warnings.begin(), result.warnings.end());
+  Json meta = {{"ground_refined", GroundMeta(result, options, a)},
+               {"icp_refined", IcpMeta(result, options, a, warnings)}};
+  for (const std::string& path : ReplaceNonFinite(meta, "_meta")) {
+    const std::string warning = path + " was not finite and is written as null";
+    log.Warning(warning);
+    meta["icp_refined"]["warnings"].push_back(warning);
+  }
+  // The file cannot time its own writing: its "output" is the time to assemble the report,
+  // its "total" runs up to the write; the summary on stdout includes the write.
+  timings.output_s = SecondsSince(output_start);
+  timings.total_s = SecondsSince(start);
+  if (!a.no_timings) meta["icp_refined"]["timings_s"] = TimingsJson(timings);
+
+  // Issue 4: when the refinement is not applied, the output is the leveled input.
+  const PoseMap& poses = result.success ? result.refined : result.leveled;
+  WriteExtrinsics(a.out_path, poses, initial.document, meta, InputFiles(a));
+  timings.output_s = SecondsSince(output_start);
+  timings.total_s = SecondsSince(start);
+  PrintSummary(result, options, a, timings);
+  return result.success ? kExitOk : kExitNotApplied;
+}
+
+}  // namespace
+
+Command AddRefineCommand(CLI::App& app) {
+  auto args = std::make_shared<RefineArgs>();
+  RefineArgs& a = *args;
+  CLI::App* sub = app.add_subcommand(
+      "refine",
+      "Refine the extrinsics of a rig from one capture: ground leveling (floor -> y = 0, +Y "
+      "up), then registration of every camera's near-floor band. Writes OUT with the refined "
+      "T_world_camera of every camera and a report in _meta. Exit codes: 0 refined; 3 ran but "
+      "the refinement was not applied (OUT holds the leveled poses, success false); 2 bad "
+      "input or usage (nothing written); 1 internal error.");
+  sub->add_option("--capture", a.capture_path, "Rig capture (HDF5)")->required();
+  sub->add_option("--extrinsics", a.extrinsics_path,
+                  "Initial extrinsics (JSON): a pose for every camera of the capture")
+      ->required();
+  sub->add_option("--out", a.out_path,
+                  "Output extrinsics (JSON); its directory must exist, and it must not be an "
+                  "input file")
+      ->required();
+  sub->add_option("--config", a.config_path,
+                  "Options (YAML, docs/config.md); the flags below override it");
+  // Defaults in the help come from solver/options.h, the single source of truth.
+  const Json defaults = ConfigToJson(RefineOptions{})["icp"];
+  a.mode_option =
+      sub->add_option("--mode", a.mode,
+                      "Registration: joint (all cameras in one problem) or pairwise (pairwise "
+                      "ICP + pose graph); overrides icp.mode (default " +
+                          defaults["mode"].get<std::string>() + ")")
+          ->check(CLI::IsMember({"joint", "pairwise"}));
+  a.method_option = sub->add_option("--method", a.method,
+                                    "Residual: point_to_plane or gicp; overrides icp.method "
+                                    "(default " +
+                                        defaults["method"].get<std::string>() + ")")
+                        ->check(CLI::IsMember({"point_to_plane", "gicp"}));
+  a.voxel_size_option =
+      sub->add_option("--voxel-size", a.voxel_size,
+                      "Finest voxel size in metres (> 0); overrides icp.voxel_size (default " +
+                          defaults["voxel_size"].dump() + ")");
+  a.reference_option = sub->add_option(
+      "--reference", a.reference,
+      "Serial of the camera held fixed; overrides icp.reference (default: the first serial)");
+  sub->add_flag("--no-ground", a.no_ground, "Skip ground leveling (sets ground.enabled false)");
+  sub->add_flag("--no-icp", a.no_icp, "Stop after ground leveling (no registration)");
+  sub->add_flag("--no-timings", a.no_timings,
+                "Leave timings out of _meta, so that outputs of identical runs are "
+                "byte-identical");
+  sub->add_option("--threads", a.threads, "Worker threads")->capture_default_str();
+  CLI::Option* quiet =
+      sub->add_flag("--quiet,-q", a.quiet, "Progress off: stderr shows only warnings and errors");
+  sub->add_flag("--verbose,-v", a.verbose, "Also debug messages (per scale and iteration)")
+      ->excludes(quiet);
+  return {sub, [args] { return RunRefine(*args); }};
+}
+
+}  // namespace rigfit::cli

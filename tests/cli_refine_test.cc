@@ -1,0 +1,368 @@
+// End-to-end tests of `rigfit refine`: the built executable (RIGFIT_CLI_PATH) runs as a
+// subprocess on a small rig written by `rigfit simulate`, and the tests check its exit codes,
+// its output file and what it leaves untouched.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/geometry.h"
+#include "io/extrinsics_json.h"
+
+namespace rigfit {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr int kCameras = 3;
+constexpr double kRadToDeg = 180.0 / M_PI;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string out;  ///< stdout
+  std::string err;  ///< stderr
+};
+
+std::string ReadText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+Json ReadJson(const fs::path& path) { return Json::parse(ReadText(path)); }
+
+void WriteJson(const fs::path& path, const Json& json) { WriteText(path, json.dump(2)); }
+
+/// Single-quoted for /bin/sh.
+std::string ShellQuote(const std::string& s) {
+  std::string quoted = "'";
+  for (char c : s) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+/// Runs the rigfit executable with args; stdout and stderr go through files in `scratch`.
+RunResult RunRigfit(const std::vector<std::string>& args, const fs::path& scratch) {
+  std::string command = ShellQuote(RIGFIT_CLI_PATH);
+  for (const std::string& arg : args) command += " " + ShellQuote(arg);
+  const fs::path out = scratch / "stdout.txt";
+  const fs::path err = scratch / "stderr.txt";
+  command += " >" + ShellQuote(out.string()) + " 2>" + ShellQuote(err.string());
+  const int status = std::system(command.c_str());
+  RunResult result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.out = ReadText(out);
+  result.err = ReadText(err);
+  fs::remove(out);
+  fs::remove(err);
+  return result;
+}
+
+std::string Describe(const RunResult& r) {
+  return "exit " + std::to_string(r.exit_code) + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
+}
+
+/// Largest errors of the relative poses T_i^-1 T_j against ground truth (gauge-free).
+RelativePoseError MaxRelativeError(const PoseMap& est, const PoseMap& gt) {
+  RelativePoseError worst;
+  for (auto i = gt.begin(); i != gt.end(); ++i) {
+    for (auto j = std::next(i); j != gt.end(); ++j) {
+      const RelativePoseError e =
+          RelativeError(est.at(i->first), est.at(j->first), i->second, j->second);
+      worst.rotation_rad = std::max(worst.rotation_rad, e.rotation_rad);
+      worst.translation_m = std::max(worst.translation_m, e.translation_m);
+    }
+  }
+  return worst;
+}
+
+double MaxTiltErrorDeg(const PoseMap& est, const PoseMap& gt) {
+  double worst = 0.0;
+  for (const auto& [serial, T] : gt) {
+    worst = std::max(worst, TiltErrorRad(est.at(serial), T) * kRadToDeg);
+  }
+  return worst;
+}
+
+double MaxPoseDifference(const PoseMap& a, const PoseMap& b) {
+  double worst = 0.0;
+  for (const auto& [serial, T] : a) {
+    worst = std::max(worst, (T.matrix() - b.at(serial).matrix()).cwiseAbs().maxCoeff());
+  }
+  return worst;
+}
+
+/// Every number in the document is finite (JSON has no NaN; a null would stand for one).
+bool AllNumbersFinite(const Json& j) {
+  if (j.is_number()) return std::isfinite(j.get<double>());
+  if (j.is_structured()) {
+    for (const Json& item : j) {
+      if (!AllNumbersFinite(item)) return false;
+    }
+  }
+  return true;
+}
+
+class CliRefineTest : public ::testing::Test {
+ protected:
+  /// One small simulated rig shared by every test: 3 cameras, 320 x 180, noise-free depth (the
+  /// solver's accuracy under noise is tests/refine_test.cc's job), and a perturbation small
+  /// enough that the true change of every camera, reference shift included, is within the
+  /// default safety bounds (icp.max_translation_m 0.1: a 2 deg yaw of the reference would
+  /// already move a camera 3 m away by 0.1 m).
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("rigfit_cli_refine_test_" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    const RunResult sim =
+        RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras",
+                   std::to_string(kCameras), "--width", "320", "--height", "180", "--noise", "0",
+                   "--perturb-yaw-deg", "0.5", "--perturb-xz-m", "0.02"},
+                  root_);
+    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  void SetUp() override {
+    ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed";
+    dir_ = root_ / ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    fs::create_directories(dir_);
+  }
+
+  static std::string Capture() { return (root_ / "rig" / "capture.h5").string(); }
+  static std::string Init() { return (root_ / "rig" / "init.json").string(); }
+  static std::string Gt() { return (root_ / "rig" / "gt.json").string(); }
+  std::string Out() const { return (dir_ / "out.json").string(); }
+
+  RunResult Refine(std::vector<std::string> extra) const {
+    return Refine(Init(), Out(), std::move(extra));
+  }
+  RunResult Refine(const std::string& extrinsics, const std::string& out,
+                   std::vector<std::string> extra) const {
+    std::vector<std::string> args = {"refine",   "--capture", Capture(), "--extrinsics",
+                                     extrinsics, "--out",     out,       "--threads",
+                                     "2"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return RunRigfit(args, root_);
+  }
+
+  /// Expects exit code 2, a message containing `message` and an untouched output directory.
+  void ExpectBadInput(const RunResult& r, const std::string& message) const {
+    EXPECT_EQ(r.exit_code, 2) << Describe(r);
+    EXPECT_NE(r.err.find(message), std::string::npos) << Describe(r);
+    EXPECT_FALSE(fs::exists(Out()));
+    for (const auto& entry : fs::directory_iterator(dir_)) {
+      ADD_FAILURE() << "unexpected file " << entry.path();
+    }
+  }
+
+  /// The leveled poses: a --no-icp run into its own file.
+  PoseMap LeveledPoses() const {
+    const std::string out = (dir_ / "leveled.json").string();
+    const RunResult r = Refine(Init(), out, {"--no-icp"});
+    EXPECT_EQ(r.exit_code, 0) << Describe(r);
+    return ReadExtrinsics(out).poses;
+  }
+
+  static fs::path root_;
+  static std::string simulate_error_;
+  fs::path dir_;
+};
+
+fs::path CliRefineTest::root_;
+std::string CliRefineTest::simulate_error_;
+
+TEST_F(CliRefineTest, RefinesTheRigAndPreservesUnknownKeys) {
+  Json init = ReadJson(Init());
+  const std::string first = init.begin().key();
+  init[first]["model"] = "ZED 2i";
+  init["_meta"]["site"] = "lab 3";
+  const std::string extrinsics = (dir_ / "init.json").string();
+  WriteJson(extrinsics, init);
+
+  const RunResult r = Refine(extrinsics, Out(), {});
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  const Json out = ReadJson(Out());
+  const PoseMap gt = ReadExtrinsics(Gt()).poses;
+  const PoseMap refined = ReadExtrinsics(Out()).poses;
+  ASSERT_EQ(refined.size(), gt.size());
+  for (const auto& [serial, T] : gt) EXPECT_EQ(refined.count(serial), 1u) << serial;
+  EXPECT_EQ(out[first]["model"], "ZED 2i");
+  EXPECT_EQ(out["_meta"]["site"], "lab 3");
+  EXPECT_TRUE(out["_meta"].contains("simulated"));  // written by simulate, kept
+
+  const Json& icp = out["_meta"]["icp_refined"];
+  EXPECT_EQ(icp["success"], true) << icp["message"];
+  EXPECT_EQ(icp["skipped"], false);
+  EXPECT_EQ(icp["reference"], first);
+  EXPECT_EQ(icp["config"]["icp"]["voxel_size"], 0.02);
+  EXPECT_EQ(icp["cameras"].size(), static_cast<size_t>(kCameras));
+  EXPECT_FALSE(icp["pairs"].empty());
+  for (const char* stage :
+       {"load", "leveling", "preprocessing", "registration", "pose_graph", "output", "total"}) {
+    EXPECT_TRUE(icp["timings_s"].contains(stage)) << stage;
+  }
+  EXPECT_EQ(out["_meta"]["ground_refined"]["cameras"].size(), static_cast<size_t>(kCameras));
+  EXPECT_TRUE(AllNumbersFinite(out));
+
+  // End to end, the noise-free rig ends at least twice as close to the truth as it started.
+  const RelativePoseError before = MaxRelativeError(ReadExtrinsics(Init()).poses, gt);
+  const RelativePoseError after = MaxRelativeError(refined, gt);
+  EXPECT_LT(after.rotation_rad, 0.5 * before.rotation_rad);
+  EXPECT_LT(after.translation_m, 0.5 * before.translation_m);
+  EXPECT_NE(r.out.find("refined "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find(Out()), std::string::npos) << r.out;
+}
+
+TEST_F(CliRefineTest, NoTimingsMakesTheOutputByteIdentical) {
+  const std::string second = (dir_ / "second.json").string();
+  const RunResult a = Refine(Init(), Out(), {"--no-timings", "--quiet"});
+  const RunResult b = Refine(Init(), second, {"--no-timings", "--quiet"});
+  ASSERT_EQ(a.exit_code, b.exit_code) << Describe(a) << Describe(b);
+  const std::string text = ReadText(Out());
+  EXPECT_FALSE(text.empty());
+  EXPECT_EQ(text, ReadText(second));
+  EXPECT_FALSE(ReadJson(Out())["_meta"]["icp_refined"].contains("timings_s"));
+}
+
+TEST_F(CliRefineTest, NoIcpLevelsTheFloor) {
+  const RunResult r = Refine({"--no-icp"});
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  const Json out = ReadJson(Out());
+  const Json& icp = out["_meta"]["icp_refined"];
+  EXPECT_EQ(icp["skipped"], true);
+  EXPECT_EQ(icp["success"], true);
+  const PoseMap init = ReadExtrinsics(Init()).poses;
+  const PoseMap leveled = ReadExtrinsics(Out()).poses;
+  const PoseMap gt = ReadExtrinsics(Gt()).poses;
+  EXPECT_GT(MaxPoseDifference(leveled, init), 1e-6);
+  EXPECT_LT(MaxTiltErrorDeg(leveled, gt), MaxTiltErrorDeg(init, gt));
+
+  // The floor found in each camera frame lies on y = 0, normal +Y, at the written pose.
+  const double kFloorTolerance = 1e-9;
+  for (const auto& [serial, ground] : out["_meta"]["ground_refined"]["cameras"].items()) {
+    ASSERT_EQ(ground["accepted"], true) << serial << ": " << ground["message"];
+    const Json& plane = ground["plane_camera"];
+    const Pose& T = leveled.at(serial);
+    const Vec3 normal_world = T.linear() * Vec3(plane[0], plane[1], plane[2]);
+    const double d_world = plane[3].get<double>() - normal_world.dot(T.translation());
+    EXPECT_NEAR(std::abs(normal_world.y()), 1.0, kFloorTolerance) << serial;
+    EXPECT_NEAR(d_world, 0.0, kFloorTolerance) << serial;
+  }
+}
+
+TEST_F(CliRefineTest, NoGroundNoIcpWritesTheInputPoses) {
+  const RunResult r = Refine({"--no-ground", "--no-icp"});
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  const Json out = ReadJson(Out());
+  const Json init = ReadJson(Init());
+  for (const auto& [serial, camera] : init.items()) {
+    if (serial != "_meta") {
+      EXPECT_EQ(out[serial]["T_world_camera"], camera["T_world_camera"]) << serial;
+    }
+  }
+  EXPECT_EQ(out["_meta"]["ground_refined"]["skipped"], true);
+  EXPECT_EQ(out["_meta"]["icp_refined"]["skipped"], true);
+}
+
+TEST_F(CliRefineTest, AllPairsFailingExitsThreeWithTheLeveledPoses) {
+  const fs::path config = dir_.parent_path() / "strict_fitness.yaml";
+  WriteText(config, "icp:\n  mode: pairwise\n  min_fitness: 1.0\n");
+  const PoseMap leveled = LeveledPoses();
+  fs::remove(dir_ / "leveled.json");
+
+  const RunResult r = Refine({"--config", config.string()});
+  ASSERT_EQ(r.exit_code, 3) << Describe(r);
+  EXPECT_EQ(MaxPoseDifference(ReadExtrinsics(Out()).poses, leveled), 0.0);
+  const Json out = ReadJson(Out());
+  const Json& icp = out["_meta"]["icp_refined"];
+  EXPECT_EQ(icp["success"], false);
+  EXPECT_FALSE(icp["message"].get<std::string>().empty());
+  EXPECT_EQ(icp["config"]["icp"]["min_fitness"], 1.0);
+  ASSERT_FALSE(icp["pairs"].empty());
+  for (const Json& pair : icp["pairs"]) EXPECT_EQ(pair["accepted"], false) << pair.dump();
+  EXPECT_TRUE(out["_meta"].contains("ground_refined"));
+  EXPECT_NE(r.out.find("refinement not applied"), std::string::npos) << r.out;
+}
+
+TEST_F(CliRefineTest, MissingCaptureIsBadInput) {
+  ExpectBadInput(RunRigfit({"refine", "--capture", (dir_ / "none.h5").string(), "--extrinsics",
+                            Init(), "--out", Out()},
+                           root_),
+                 "none.h5");
+}
+
+TEST_F(CliRefineTest, MalformedExtrinsicsIsBadInput) {
+  const fs::path extrinsics = dir_.parent_path() / "malformed.json";
+  WriteText(extrinsics, "{\"31000000\": {\"T_world_camera\": [[1, 0, 0, 0],");
+  ExpectBadInput(Refine(extrinsics.string(), Out(), {}), "malformed JSON");
+}
+
+TEST_F(CliRefineTest, CameraMissingFromExtrinsicsIsBadInput) {
+  Json init = ReadJson(Init());
+  const std::string dropped = std::prev(init.end(), 2).key();  // the last camera before _meta
+  init.erase(dropped);
+  const fs::path extrinsics = dir_.parent_path() / "missing_camera.json";
+  WriteJson(extrinsics, init);
+  ExpectBadInput(Refine(extrinsics.string(), Out(), {}), "no pose for camera(s) " + dropped);
+}
+
+TEST_F(CliRefineTest, ExtraCameraInExtrinsicsIsBadInput) {
+  Json init = ReadJson(Init());
+  init["99999999"] = init.begin().value();
+  const fs::path extrinsics = dir_.parent_path() / "extra_camera.json";
+  WriteJson(extrinsics, init);
+  ExpectBadInput(Refine(extrinsics.string(), Out(), {}), "camera(s) 99999999");
+}
+
+TEST_F(CliRefineTest, OutputOntoTheExtrinsicsIsRefused) {
+  const fs::path extrinsics = dir_.parent_path() / "own_input.json";
+  fs::copy_file(Init(), extrinsics, fs::copy_options::overwrite_existing);
+  const std::string before = ReadText(extrinsics);
+  const RunResult r = Refine(extrinsics.string(), extrinsics.string(), {});
+  EXPECT_EQ(r.exit_code, 2) << Describe(r);
+  EXPECT_NE(r.err.find("it is an input file"), std::string::npos) << Describe(r);
+  EXPECT_EQ(ReadText(extrinsics), before);
+}
+
+TEST_F(CliRefineTest, OutputDirectoryMustExist) {
+  const RunResult r = Refine(Init(), (dir_ / "no_such_dir" / "out.json").string(), {});
+  ExpectBadInput(r, "does not exist");
+}
+
+TEST_F(CliRefineTest, NegativeVoxelSizeIsBadInput) {
+  ExpectBadInput(Refine({"--voxel-size=-0.01"}), "--voxel-size must be");
+}
+
+TEST_F(CliRefineTest, UnknownConfigKeyIsBadInput) {
+  const fs::path config = dir_.parent_path() / "unknown_key.yaml";
+  WriteText(config, "icp:\n  voxl_size: 0.05\n");
+  ExpectBadInput(Refine({"--config", config.string()}), "voxl_size");
+}
+
+TEST_F(CliRefineTest, UnknownReferenceIsBadInput) {
+  ExpectBadInput(Refine({"--reference", "12345678"}), "'12345678' is not a camera");
+}
+
+TEST_F(CliRefineTest, UnknownMethodIsAUsageError) {
+  ExpectBadInput(Refine({"--method", "icp"}), "--method");
+}
+
+TEST_F(CliRefineTest, QuietAndVerboseExcludeEachOther) {
+  ExpectBadInput(Refine({"--quiet", "--verbose"}), "excludes");
+}
+
+}  // namespace
+}  // namespace rigfit
