@@ -1,37 +1,42 @@
 #include "solver/correspondences.h"
 
+#include <algorithm>
 #include <cmath>
 
+#include "core/parallel.h"
 #include "residuals/gicp.h"
 #include "residuals/point_to_plane.h"
 
 namespace rigfit {
+namespace {
 
-std::vector<Correspondence> FindCorrespondences(const ScaleLevel& source,
-                                                const Pose& T_world_source,
-                                                const ScaleLevel& target,
-                                                const Pose& T_world_target, double max_distance,
-                                                double max_normal_angle_deg, int num_threads) {
-  const Pose T_target_source = T_world_target.inverse() * T_world_source;
+/// A normal angle that accepts every pair of normals (overlap statistics).
+constexpr double kAnyNormalAngleDeg = 180.0;
+
+}  // namespace
+
+std::vector<Correspondence> FindCorrespondences(const CameraView& source, const CameraView& target,
+                                                double max_distance, double max_normal_angle_deg,
+                                                int num_threads) {
+  const ScaleLevel& src = *source.level;
+  const ScaleLevel& tgt = *target.level;
+  const Pose T_target_source = target.T_world_camera.inverse() * source.T_world_camera;
   const double cos_max_angle = std::cos(max_normal_angle_deg * M_PI / 180.0);
-  const int n = static_cast<int>(source.points.size());
+  const int n = static_cast<int>(src.points.size());
   std::vector<Correspondence> found(n);
   std::vector<char> ok(n, 0);
-#pragma omp parallel for num_threads(num_threads) schedule(static)
-  for (int i = 0; i < n; ++i) {
+  ParallelFor(n, num_threads, [&](int i) {
+    if (!src.geometry.IsValid(i)) return;
     int j = 0;
     double d2 = 0.0;
-    // Both points valid, the match within max_distance, and the two normals (both facing
-    // their cameras, so a surface seen by both has them on the same side) compatible.
-    if (source.geometry.IsValid(i) &&
-        target.tree->Nearest(T_target_source * source.points[i], max_distance, &j, &d2) &&
-        target.geometry.IsValid(j) &&
-        (T_target_source.linear() * source.geometry.normals[i]).dot(target.geometry.normals[j]) >=
+    if (tgt.tree->Nearest(T_target_source * src.points[i], max_distance, &j, &d2) &&
+        tgt.geometry.IsValid(j) &&
+        (T_target_source.linear() * src.geometry.normals[i]).dot(tgt.geometry.normals[j]) >=
             cos_max_angle) {
       found[i] = {i, j, d2};
       ok[i] = 1;
     }
-  }
+  });
   std::vector<Correspondence> out;
   out.reserve(n);
   for (int i = 0; i < n; ++i) {
@@ -110,6 +115,23 @@ std::unique_ptr<ceres::Problem> NewProblem() {
 ceres::Manifold* SharedPoseManifold() {
   static PoseManifold manifold;
   return &manifold;
+}
+
+OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
+                            double coarsest_voxel_size, const IcpOptions& options,
+                            int num_threads) {
+  OverlapStats stats;
+  const size_t n = source.level->points.size();
+  if (n == 0) return stats;
+  const double factor = options.max_correspondence_distance_factor;
+  stats.fitness =
+      static_cast<double>(FindCorrespondences(source, target, factor * coarsest_voxel_size,
+                                              kAnyNormalAngleDeg, num_threads)
+                              .size()) /
+      n;
+  stats.rmse_m = CorrespondenceRmse(FindCorrespondences(
+      source, target, factor * source.level->voxel_size, kAnyNormalAngleDeg, num_threads));
+  return stats;
 }
 
 double CorrespondenceRmse(const std::vector<Correspondence>& correspondences) {

@@ -21,17 +21,6 @@ struct Correspondence {
   double squared_distance = 0.0;  ///< in the world, at the poses of the search (m^2)
 };
 
-/// For every source point, the nearest target point closer than max_distance at the given
-/// poses, kept when both points have a valid normal and the normals are within
-/// max_normal_angle_deg of each other: points of different surfaces (the faces of a leg or
-/// a box corner that each camera sees differently) do not pair up. Ordered by source
-/// index; deterministic whatever num_threads.
-std::vector<Correspondence> FindCorrespondences(const ScaleLevel& source,
-                                                const Pose& T_world_source,
-                                                const ScaleLevel& target,
-                                                const Pose& T_world_target, double max_distance,
-                                                double max_normal_angle_deg, int num_threads);
-
 /// One camera's side of a registration term: its cloud at the current scale, its pose (as
 /// used for the correspondence search), its Ceres pose block and its depth noise model.
 struct CameraView {
@@ -40,6 +29,17 @@ struct CameraView {
   double* pose_block = nullptr;
   double depth_noise = 0.0;  ///< k of sigma_z = k z^2 (1/m); 0 for none
 };
+
+/// For every source point, the nearest target point at the views' poses, kept when both
+/// points have a valid normal and the normals are within max_normal_angle_deg of each
+/// other (points of different surfaces, such as the faces of a leg or a box corner that
+/// each camera sees differently, do not pair up). The search radius is max_distance: a
+/// radius widened with the depth noise (3 sigma at the points' depth) was measured to bias
+/// far points toward the wrong structure (docs/benchmarks.md). Ordered by source index;
+/// deterministic whatever num_threads.
+std::vector<Correspondence> FindCorrespondences(const CameraView& source, const CameraView& target,
+                                                double max_distance, double max_normal_angle_deg,
+                                                int num_threads);
 
 /// The robust loss of the options on whitened residuals (nullptr for none).
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
@@ -61,6 +61,19 @@ std::unique_ptr<ceres::Problem> NewProblem();
 
 /// The pose manifold shared by every pose block (stateless; never owned by a problem).
 ceres::Manifold* SharedPoseManifold();
+
+/// How much two views overlap and how well they fit.
+struct OverlapStats {
+  /// Fraction of source points with a target point within the coarsest scale's
+  /// correspondence distance, so that depth noise larger than the finest voxel does not
+  /// read as missing overlap (normals not compared).
+  double fitness = 0.0;
+  /// Point-to-point RMSE of the matches within the view's own scale's correspondence
+  /// distance (normals not compared), m.
+  double rmse_m = 0.0;
+};
+OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
+                            double coarsest_voxel_size, const IcpOptions& options, int num_threads);
 
 /// Root mean square of the correspondence distances (m); 0 when there are none.
 double CorrespondenceRmse(const std::vector<Correspondence>& correspondences);

@@ -23,16 +23,25 @@ constexpr size_t kMaxScoredPoints = 4000;
 constexpr int kRefits = 5;
 constexpr double kRefitSigmas = 3.0;
 constexpr double kMinRefitDistance = 1e-3;
+/// Noise-weighted refits after the inliers are settled.
+constexpr int kWeightedRefits = 2;
 
-/// Total least squares plane through points (normal = smallest eigenvector of the scatter).
-Plane FitPlane(const PointCloud& points, const std::vector<int>& indices) {
+/// Weighted total least squares plane through points: the normal is the smallest
+/// eigenvector of the weighted scatter about the weighted mean (weights empty: all 1).
+Plane FitPlane(const PointCloud& points, const std::vector<int>& indices,
+               const std::vector<double>& weights) {
+  const auto w = [&](size_t k) { return weights.empty() ? 1.0 : weights[k]; };
   Vec3 mean = Vec3::Zero();
-  for (int i : indices) mean += points[i];
-  mean /= static_cast<double>(indices.size());
+  double total = 0.0;
+  for (size_t k = 0; k < indices.size(); ++k) {
+    mean += w(k) * points[indices[k]];
+    total += w(k);
+  }
+  mean /= total;
   Mat3 scatter = Mat3::Zero();
-  for (int i : indices) {
-    const Vec3 d = points[i] - mean;
-    scatter += d * d.transpose();
+  for (size_t k = 0; k < indices.size(); ++k) {
+    const Vec3 d = points[indices[k]] - mean;
+    scatter += w(k) * d * d.transpose();
   }
   Eigen::SelfAdjointEigenSolver<Mat3> eig(scatter);
   Plane plane;
@@ -40,6 +49,13 @@ Plane FitPlane(const PointCloud& points, const std::vector<int>& indices) {
   if (plane.normal.y() < 0.0) plane.normal = -plane.normal;
   plane.d = -plane.normal.dot(mean);
   return plane;
+}
+
+/// The world plane in the camera frame: n_w . (R p + t) + d = 0  =>  n_c = R^T n_w,
+/// d_c = n_w . t + d.
+Plane PlaneInCameraFrame(const Plane& plane_world, const Pose& T_world_camera) {
+  return {T_world_camera.linear().transpose() * plane_world.normal,
+          plane_world.normal.dot(T_world_camera.translation()) + plane_world.d};
 }
 
 std::vector<int> Inliers(const PointCloud& points, const std::vector<int>& candidates,
@@ -152,7 +168,7 @@ GroundResult LevelCamera(const PointCloud& points_camera, const Pose& T_world_ca
   std::vector<int> inliers = Inliers(points, candidates, best, options.ransac_distance_m);
   double distance = options.ransac_distance_m;
   for (int refit = 0; refit < kRefits && inliers.size() >= 3; ++refit) {
-    best = FitPlane(points, inliers);
+    best = FitPlane(points, inliers, {});
     double sum_sq = 0.0;
     for (int i : inliers) sum_sq += std::pow(best.SignedDistance(points[i]), 2);
     const double rms = std::sqrt(sum_sq / inliers.size());
@@ -166,6 +182,21 @@ GroundResult LevelCamera(const PointCloud& points_camera, const Pose& T_world_ca
     return result;
   }
   result.found = true;
+  // Depth noise grows as z^2 along the rays: refit with weights 1 / sigma_i^2, sigma_i the
+  // distance-to-plane part of each point's noise (EstimateDepthNoise) plus the RANSAC
+  // floor, so that far, noisy floor points no longer dominate the plane.
+  for (int refit = 0; refit < kWeightedRefits; ++refit) {
+    const Plane plane_camera = PlaneInCameraFrame(best, T_world_camera);
+    const double k = EstimateDepthNoise(points_camera, plane_camera,
+                                        kNoiseWindowFactor * options.ransac_distance_m);
+    std::vector<double> weights(inliers.size());
+    for (size_t j = 0; j < inliers.size(); ++j) {
+      const Vec3& p = points_camera[inliers[j]];
+      const double sigma = k * p.z() * std::abs(plane_camera.normal.dot(p));
+      weights[j] = 1.0 / (sigma * sigma + kMinRefitDistance * kMinRefitDistance);
+    }
+    best = FitPlane(points, inliers, weights);
+  }
   double sum_sq = 0.0;
   Vec3 pivot = Vec3::Zero();
   for (int i : inliers) {
@@ -176,9 +207,7 @@ GroundResult LevelCamera(const PointCloud& points_camera, const Pose& T_world_ca
   pivot /= static_cast<double>(inliers.size());
   pivot -= best.SignedDistance(pivot) * best.normal;  // exactly on the plane
   result.plane_world = best;
-  // n_w . (R p + t) + d = 0  =>  n_c = R^T n_w, d_c = n_w . t + d.
-  result.plane_camera.normal = T_world_camera.linear().transpose() * best.normal;
-  result.plane_camera.d = best.normal.dot(T_world_camera.translation()) + best.d;
+  result.plane_camera = PlaneInCameraFrame(best, T_world_camera);
   result.depth_noise = EstimateDepthNoise(points_camera, result.plane_camera,
                                           kNoiseWindowFactor * options.ransac_distance_m);
 

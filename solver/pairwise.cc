@@ -16,8 +16,6 @@ namespace {
 constexpr size_t kMinCorrespondences = 30;
 /// An ICP scale ends when one step moves the pose by less than this (rad and m).
 constexpr double kConvergedStep = 1e-6;
-/// A normal angle that accepts every pair of normals (overlap statistics).
-constexpr double kAnyNormalAngleDeg = 180.0;
 /// Levenberg-Marquardt iterations per ICP step (correspondences fixed).
 constexpr int kSolverIterationsPerStep = 2;
 
@@ -62,43 +60,46 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
                             int num_threads, const Log& log) {
   const CloudPyramid& source = *source_camera.pyramid;
   const CloudPyramid& target = *target_camera.pyramid;
-  const Pose& T_world_source = source_camera.T_world_camera;
   const Pose& T_world_target = target_camera.T_world_camera;
   PairwiseResult result;
-  result.T_world_source = T_world_source;
-  result.T_target_source = T_world_target.inverse() * T_world_source;
+  result.T_world_source = source_camera.T_world_camera;
+  result.T_target_source = T_world_target.inverse() * result.T_world_source;
   if (source.levels.empty() || target.levels.size() != source.levels.size()) {
     result.message = "no levels to register";
     return result;
   }
-  const ScaleLevel& finest_source = source.levels.back();
-  const ScaleLevel& finest_target = target.levels.back();
-  const double finest_distance =
-      options.max_correspondence_distance_factor * finest_source.voxel_size;
-  result.rmse_before_m = CorrespondenceRmse(
-      FindCorrespondences(finest_source, T_world_source, finest_target, T_world_target,
-                          finest_distance, kAnyNormalAngleDeg, num_threads));
-
   double source_pose[kPoseAmbientSize];
   double target_pose[kPoseAmbientSize];
-  PoseToParameters(T_world_source, source_pose);
+  PoseToParameters(result.T_world_source, source_pose);
   PoseToParameters(T_world_target, target_pose);
-  const ceres::Solver::Options solver_options = StepSolverOptions(num_threads);
+  // The views of level s at the source pose T (the target does not move).
+  const auto views = [&](size_t s, const Pose& T) {
+    return std::make_pair(
+        CameraView{&source.levels[s], T, source_pose, source_camera.depth_noise},
+        CameraView{&target.levels[s], T_world_target, target_pose, target_camera.depth_noise});
+  };
+  const size_t finest = source.levels.size() - 1;
+  const double coarsest_voxel = source.levels.front().voxel_size;
+  {
+    const auto [src, tgt] = views(finest, result.T_world_source);
+    result.rmse_before_m = MeasureOverlap(src, tgt, coarsest_voxel, options, num_threads).rmse_m;
+  }
 
-  for (size_t s = 0; s < source.levels.size(); ++s) {
-    const ScaleLevel& src = source.levels[s];
-    const ScaleLevel& tgt = target.levels[s];
-    const double max_distance = options.max_correspondence_distance_factor * src.voxel_size;
-    const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
+  const ceres::Solver::Options solver_options = StepSolverOptions(num_threads);
+  const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
+  for (size_t s = 0; s <= finest; ++s) {
+    const double max_distance =
+        options.max_correspondence_distance_factor * source.levels[s].voxel_size;
     const int max_iterations = s < options.max_iterations.size() ? options.max_iterations[s] : 0;
     for (int it = 0; it < max_iterations; ++it) {
       const Pose T_current = PoseFromParameters(source_pose);
+      const auto [src, tgt] = views(s, T_current);
       const std::vector<Correspondence> matches =
-          FindCorrespondences(src, T_current, tgt, T_world_target, max_distance,
-                              options.max_normal_angle_deg, num_threads);
+          FindCorrespondences(src, tgt, max_distance, options.max_normal_angle_deg, num_threads);
       if (matches.size() < kMinCorrespondences) {
         std::ostringstream m;
-        m << "only " << matches.size() << " correspondences at voxel " << src.voxel_size << " m";
+        m << "only " << matches.size() << " correspondences at voxel "
+          << source.levels[s].voxel_size << " m";
         result.message = m.str();
         return result;
       }
@@ -106,46 +107,32 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
       problem->AddParameterBlock(source_pose, kPoseAmbientSize, SharedPoseManifold());
       problem->AddParameterBlock(target_pose, kPoseAmbientSize, SharedPoseManifold());
       problem->SetParameterBlockConstant(target_pose);
-      AddCorrespondenceTerms(
-          problem.get(), options, {&src, T_current, source_pose, source_camera.depth_noise},
-          {&tgt, T_world_target, target_pose, target_camera.depth_noise}, matches, loss.get());
+      AddCorrespondenceTerms(problem.get(), options, src, tgt, matches, loss.get());
       if (options.gravity_weight > 0.0) {
         problem->AddResidualBlock(
-            GravityPriorCost::Create(T_world_source.linear(), options.gravity_weight), nullptr,
-            source_pose);
+            GravityPriorCost::Create(source_camera.T_world_camera.linear(), options.gravity_weight),
+            nullptr, source_pose);
       }
       ceres::Solver::Summary summary;
       ceres::Solve(solver_options, problem.get(), &summary);
       ++result.iterations;
       const Vec6 step = PoseDifference(T_current, PoseFromParameters(source_pose));
-      log.Debug("  voxel " + std::to_string(src.voxel_size) + " iteration " + std::to_string(it) +
-                ": " + std::to_string(matches.size()) + " correspondences, cost " +
-                std::to_string(summary.final_cost));
+      log.Debug("  voxel " + std::to_string(source.levels[s].voxel_size) + " iteration " +
+                std::to_string(it) + ": " + std::to_string(matches.size()) +
+                " correspondences, cost " + std::to_string(summary.final_cost));
       if (step.head<3>().norm() < kConvergedStep && step.tail<3>().norm() < kConvergedStep) break;
     }
   }
 
-  // Final correspondences at the finest level: fitness, RMSE, information.
   result.T_world_source = PoseFromParameters(source_pose);
   result.T_target_source = T_world_target.inverse() * result.T_world_source;
-  // Fitness measures overlap: the fraction of the finest source points with a target
-  // point within the coarsest scale's correspondence distance, so that depth noise larger
-  // than the finest voxel does not read as missing overlap. RMSE is Open3D's inlier RMSE
-  // at the finest distance. Neither looks at normals; the information uses the
-  // correspondences the solve used.
-  const std::vector<Correspondence> overlap = FindCorrespondences(
-      finest_source, result.T_world_source, finest_target, T_world_target,
-      options.max_correspondence_distance_factor * source.levels.front().voxel_size,
-      kAnyNormalAngleDeg, num_threads);
-  result.fitness = finest_source.points.empty()
-                       ? 0.0
-                       : static_cast<double>(overlap.size()) / finest_source.points.size();
-  result.rmse_after_m = CorrespondenceRmse(
-      FindCorrespondences(finest_source, result.T_world_source, finest_target, T_world_target,
-                          finest_distance, kAnyNormalAngleDeg, num_threads));
-  const std::vector<Correspondence> final_matches =
-      FindCorrespondences(finest_source, result.T_world_source, finest_target, T_world_target,
-                          finest_distance, options.max_normal_angle_deg, num_threads);
+  const auto [src, tgt] = views(finest, result.T_world_source);
+  const OverlapStats overlap = MeasureOverlap(src, tgt, coarsest_voxel, options, num_threads);
+  result.fitness = overlap.fitness;
+  result.rmse_after_m = overlap.rmse_m;
+  const std::vector<Correspondence> final_matches = FindCorrespondences(
+      src, tgt, options.max_correspondence_distance_factor * src.level->voxel_size,
+      options.max_normal_angle_deg, num_threads);
   result.correspondences = static_cast<int>(final_matches.size());
   if (final_matches.size() < kMinCorrespondences) {
     result.message = "only " + std::to_string(final_matches.size()) + " correspondences after ICP";
@@ -157,11 +144,7 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
     problem->AddParameterBlock(source_pose, kPoseAmbientSize, SharedPoseManifold());
     problem->AddParameterBlock(target_pose, kPoseAmbientSize, SharedPoseManifold());
     problem->SetParameterBlockConstant(target_pose);
-    AddCorrespondenceTerms(
-        problem.get(), options,
-        {&finest_source, result.T_world_source, source_pose, source_camera.depth_noise},
-        {&finest_target, T_world_target, target_pose, target_camera.depth_noise}, final_matches,
-        nullptr);
+    AddCorrespondenceTerms(problem.get(), options, src, tgt, final_matches, nullptr);
     std::vector<ceres::ResidualBlockId> blocks;
     problem->GetResidualBlocks(&blocks);
     result.information = BlockInformation(problem.get(), source_pose, blocks);

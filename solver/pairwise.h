@@ -23,11 +23,8 @@ struct PairwiseResult {
   Pose T_world_source = Pose::Identity();
   /// The measured relative pose T_target_source = T_world_target^-1 T_world_source.
   Pose T_target_source = Pose::Identity();
-  /// Overlap: fraction of finest-level source points with a target point within the
-  /// coarsest scale's correspondence distance.
+  /// Overlap and fit at the finest level (OverlapStats), at the start and at the end.
   double fitness = 0.0;
-  /// Point-to-point RMSE of the finest-level matches within the finest correspondence
-  /// distance, at the start and at the end.
   double rmse_before_m = 0.0;
   double rmse_after_m = 0.0;
   int correspondences = 0;  ///< at the end, finest level
@@ -39,11 +36,13 @@ struct PairwiseResult {
 };
 
 /// A camera as the registration sees it: its pyramid (levels in the order of
-/// options.scales), its leveled pose and its depth noise (k of sigma_z = k z^2, 1/m).
+/// options.scales), its leveled pose, its depth noise (k of sigma_z = k z^2, 1/m) and the
+/// indices of its floor points per level (SnapFloorNormals; empty without a floor).
 struct RegistrationCamera {
   const CloudPyramid* pyramid = nullptr;
   Pose T_world_camera = Pose::Identity();
   double depth_noise = 0.0;
+  std::vector<std::vector<int>> floor_points;
 };
 
 /// Registers the source camera onto the target camera. The gravity prior keeps the

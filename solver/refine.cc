@@ -6,6 +6,8 @@
 
 #include "core/geometry.h"
 #include "residuals/relative_pose.h"
+#include "solver/correspondences.h"
+#include "solver/joint.h"
 #include "solver/pairwise.h"
 #include "solver/pose_graph.h"
 #include "solver/preprocess.h"
@@ -26,6 +28,12 @@ std::string Fixed(double value, int digits) {
   s.precision(digits);
   s << value;
   return s.str();
+}
+
+/// The depth noise k of a camera: configured, or measured on its floor, or 0.
+double DepthNoise(const IcpOptions& options, const GroundResult& ground) {
+  if (options.depth_noise > 0.0) return options.depth_noise;
+  return ground.found ? ground.depth_noise : 0.0;
 }
 
 int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
@@ -76,6 +84,63 @@ std::vector<Pose> RegisterPairwise(const std::vector<RegistrationCamera>& camera
     return leveled;
   }
   return graph.poses;
+}
+
+/// Joint mode: one problem over every camera. Returns refined poses.
+std::vector<Pose> RegisterAllJointly(const std::vector<RegistrationCamera>& cameras,
+                                     const std::vector<CandidatePair>& candidates, int reference,
+                                     const IcpOptions& options, int num_threads, const Log& log,
+                                     RefineResult* result) {
+  const size_t finest = options.scales.size() - 1;
+  const double coarsest_voxel = options.scales.front() * options.voxel_size;
+  const auto overlap = [&](const CandidatePair& pair, const Pose& T_a, const Pose& T_b) {
+    const CameraView a{&cameras[pair.a].pyramid->levels[finest], T_a, nullptr,
+                       cameras[pair.a].depth_noise};
+    const CameraView b{&cameras[pair.b].pyramid->levels[finest], T_b, nullptr,
+                       cameras[pair.b].depth_noise};
+    return MeasureOverlap(b, a, coarsest_voxel, options, num_threads);
+  };
+  for (const CandidatePair& pair : candidates) {
+    PairReport& report = result->pairs.emplace_back();
+    report.serial_a = result->cameras[pair.a].serial;
+    report.serial_b = result->cameras[pair.b].serial;
+    report.overlap_area_m2 = pair.overlap_area_m2;
+    report.rmse_before_m =
+        overlap(pair, cameras[pair.a].T_world_camera, cameras[pair.b].T_world_camera).rmse_m;
+  }
+  log.Info("joint: " + std::to_string(cameras.size()) + " cameras, " +
+           std::to_string(candidates.size()) + " pairs");
+  const auto start = std::chrono::steady_clock::now();
+  const JointResult joint =
+      RegisterJoint(cameras, candidates, reference, options, num_threads, log);
+  result->times.registration_s = SecondsSince(start);
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    CameraReport& report = result->cameras[i];
+    report.connected = joint.connected[i];
+    report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference;
+    report.covariance = joint.covariance[i];
+  }
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    PairReport& report = result->pairs[k];
+    const OverlapStats after =
+        overlap(candidates[k], joint.poses[candidates[k].a], joint.poses[candidates[k].b]);
+    report.fitness = after.fitness;
+    report.rmse_after_m = after.rmse_m;
+    report.correspondences = joint.pair_correspondences[k];
+    report.iterations = joint.iterations;
+    report.accepted = joint.connected[candidates[k].a] && joint.connected[candidates[k].b] &&
+                      joint.pair_correspondences[k] > 0;
+    log.Info("pair " + report.serial_a + " - " + report.serial_b + ": fitness " +
+             Fixed(report.fitness, 3) + ", RMSE " + Fixed(report.rmse_before_m * 1e3, 2) + " -> " +
+             Fixed(report.rmse_after_m * 1e3, 2) + " mm");
+  }
+  if (!joint.usable) {
+    result->message = joint.message;
+    std::vector<Pose> leveled;
+    for (const RegistrationCamera& c : cameras) leveled.push_back(c.T_world_camera);
+    return leveled;
+  }
+  return joint.poses;
 }
 
 }  // namespace
@@ -138,6 +203,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   std::vector<double> voxel_sizes;
   for (double s : options.icp.scales) voxel_sizes.push_back(s * options.icp.voxel_size);
   std::vector<CloudPyramid> pyramids(n);
+  std::vector<std::vector<std::vector<int>>> floor_points(n);
   std::vector<GroundBox> boxes(n);
   for (size_t i = 0; i < n; ++i) {
     const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
@@ -157,18 +223,19 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   std::vector<RegistrationCamera> cameras(n);
   for (size_t i = 0; i < n; ++i) {
     const GroundResult& ground = result.cameras[i].ground;
-    cameras[i] = {&pyramids[i], leveled[i],
-                  options.icp.depth_noise > 0.0 ? options.icp.depth_noise
-                  : ground.found                ? ground.depth_noise
-                                                : 0.0};
+    cameras[i] = {&pyramids[i], leveled[i], DepthNoise(options.icp, ground),
+                  std::move(floor_points[i])};
     log.Info("camera " + capture.cameras[i].serial +
              ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
              (options.icp.depth_noise > 0.0 ? " (configured)"
               : ground.found                ? " (measured on the floor)"
                                             : " (no floor: noise floor only)"));
   }
-  std::vector<Pose> refined = RegisterPairwise(cameras, leveled, candidates, reference, options.icp,
-                                               num_threads, log, &result);
+  std::vector<Pose> refined = options.icp.mode == RefineMode::kJoint
+                                  ? RegisterAllJointly(cameras, candidates, reference, options.icp,
+                                                       num_threads, log, &result)
+                                  : RegisterPairwise(cameras, leveled, candidates, reference,
+                                                     options.icp, num_threads, log, &result);
 
   // Safety bounds and per-camera report.
   int moved = 0;

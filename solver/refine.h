@@ -24,6 +24,10 @@ struct CameraReport {
   double delta_rotation_deg = 0.0;  ///< registration change (refined vs leveled)
   double delta_translation_m = 0.0;
   std::string message;  ///< why the change was not applied
+  /// Joint mode: covariance of the refined pose in the PoseManifold tangent (world
+  /// rotation vector, world translation), gauge fixed by the reference.
+  bool has_covariance = false;
+  Mat6 covariance = Mat6::Zero();
 };
 
 struct PairReport {

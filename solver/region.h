@@ -6,6 +6,7 @@
 
 #include "core/types.h"
 #include "solver/options.h"
+#include "solver/preprocess.h"
 
 namespace rigfit {
 
@@ -13,6 +14,18 @@ namespace rigfit {
 /// [-band_below, band_height]; every point when band_height is 0.
 PointCloud NearFloorBand(const PointCloud& points_camera, const Pose& T_world_camera,
                          const RegionOptions& options);
+
+/// Gives the floor points of every level the floor's own normal (and a plane-shaped GICP
+/// covariance). A plane carries no information about yaw or horizontal position, but the
+/// normals that neighbourhoods of noisy floor points yield are tilted by the depth noise
+/// (which acts along each camera's rays), and would invent both information and bias in
+/// exactly those directions. A point counts as floor when its leveled height is within
+/// max(thickness_m, 3 sigma_v) of y = 0, with sigma_v = k z |n_c . p| the vertical part of
+/// its depth noise (n_c the floor normal in the camera frame). Returns the indices of the
+/// floor points of every level.
+std::vector<std::vector<int>> SnapFloorNormals(CloudPyramid* pyramid,
+                                               const Pose& T_world_camera_leveled,
+                                               double depth_noise, double thickness_m);
 
 /// Axis-aligned box of a cloud in the world XZ (ground) plane.
 struct GroundBox {

@@ -1,0 +1,40 @@
+#include "core/evaluate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace rigfit {
+
+RigErrors EvaluateRig(const PoseMap& est, const PoseMap& gt) {
+  for (const auto& [serial, pose] : gt) {
+    if (est.count(serial) == 0) {
+      throw std::invalid_argument("camera " + serial + " has no estimated pose");
+    }
+  }
+  RigErrors e;
+  double sum_r2 = 0.0, sum_t2 = 0.0, sum_tilt2 = 0.0;
+  for (auto i = gt.begin(); i != gt.end(); ++i) {
+    const double tilt = TiltErrorRad(est.at(i->first), i->second);
+    e.tilt_rad.emplace_back(i->first, tilt);
+    sum_tilt2 += tilt * tilt;
+    e.max_tilt_rad = std::max(e.max_tilt_rad, tilt);
+    for (auto j = std::next(i); j != gt.end(); ++j) {
+      const RelativePoseError r =
+          RelativeError(est.at(i->first), est.at(j->first), i->second, j->second);
+      e.pairs.push_back({i->first, j->first, r});
+      sum_r2 += r.rotation_rad * r.rotation_rad;
+      sum_t2 += r.translation_m * r.translation_m;
+      e.max_rotation_rad = std::max(e.max_rotation_rad, r.rotation_rad);
+      e.max_translation_m = std::max(e.max_translation_m, r.translation_m);
+    }
+  }
+  if (!e.pairs.empty()) {
+    e.rms_rotation_rad = std::sqrt(sum_r2 / e.pairs.size());
+    e.rms_translation_m = std::sqrt(sum_t2 / e.pairs.size());
+  }
+  if (!gt.empty()) e.rms_tilt_rad = std::sqrt(sum_tilt2 / gt.size());
+  return e;
+}
+
+}  // namespace rigfit

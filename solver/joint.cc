@@ -1,0 +1,214 @@
+#include "solver/joint.h"
+
+#include <ceres/covariance.h>
+#include <ceres/solver.h>
+
+#include <array>
+#include <cmath>
+#include <memory>
+#include <sstream>
+
+#include "core/geometry.h"
+#include "residuals/gravity_prior.h"
+#include "residuals/point_to_plane.h"
+#include "solver/correspondences.h"
+
+namespace rigfit {
+namespace {
+
+/// A pair with fewer correspondences does not link its cameras in this iteration.
+constexpr size_t kMinPairCorrespondences = 30;
+/// A scale ends when no camera moves by more than this in one outer iteration (rad, m).
+constexpr double kConvergedStep = 1e-6;
+/// Levenberg-Marquardt iterations per outer iteration (correspondences fixed).
+constexpr int kSolverIterationsPerStep = 3;
+/// Floor points per camera and outer iteration; more are subsampled evenly with their
+/// weight scaled up, which keeps the information of the whole floor (a plane's moments
+/// are those of any even sample of it).
+constexpr size_t kMaxFloorPoints = 2000;
+
+using PoseBlock = std::array<double, kPoseAmbientSize>;
+
+/// The world frame as a constant pose block: the floor term is a point-to-plane residual
+/// against the plane y = 0 of this block.
+PoseBlock WorldBlock() { return {0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0}; }
+
+std::vector<bool> Reachable(int reference, size_t n, const std::vector<CandidatePair>& pairs,
+                            const std::vector<int>& correspondences) {
+  std::vector<bool> reached(n, false);
+  reached[reference] = true;
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      if (correspondences[k] < static_cast<int>(kMinPairCorrespondences)) continue;
+      if (reached[pairs[k].a] != reached[pairs[k].b]) {
+        reached[pairs[k].a] = reached[pairs[k].b] = true;
+        grew = true;
+      }
+    }
+  }
+  return reached;
+}
+
+/// Floor term of one camera at one level: r = e_y . (R p + t) / sigma for its floor points,
+/// sigma^2 = (k z (n_c . p))^2 + min_noise^2 (the vertical part of the point's depth noise).
+void AddFloorTerms(ceres::Problem* problem, const RegistrationCamera& camera, size_t level,
+                   const IcpOptions& options, double* pose_block, double* world_block,
+                   ceres::LossFunction* loss) {
+  if (level >= camera.floor_points.size()) return;
+  const std::vector<int>& floor = camera.floor_points[level];
+  const PointCloud& points = camera.pyramid->levels[level].points;
+  const size_t step = (floor.size() + kMaxFloorPoints - 1) / kMaxFloorPoints;
+  if (step == 0) return;
+  const Vec3 n_c = camera.T_world_camera.linear().transpose() * kWorldUp;
+  const double floor2 = options.min_noise_m * options.min_noise_m;
+  for (size_t j = 0; j < floor.size(); j += step) {
+    const Vec3& p = points[floor[j]];
+    const double sigma_v = camera.depth_noise * p.z() * n_c.dot(p);
+    const double weight = std::sqrt(static_cast<double>(step) / (sigma_v * sigma_v + floor2));
+    problem->AddResidualBlock(PointToPlaneCost::Create(p, Vec3::Zero(), weight * kWorldUp), loss,
+                              pose_block, world_block);
+  }
+}
+
+/// Covariance of every free pose block (tangent space), scaled by the measured variance
+/// of the whitened residuals (sigma^2 = cost * 2 / (m - dof)).
+bool PoseCovariances(ceres::Problem* problem, std::vector<PoseBlock>& blocks,
+                     const std::vector<bool>& free, int num_threads, std::vector<Mat6>* out) {
+  ceres::Covariance::Options options;
+  options.num_threads = num_threads;
+  options.algorithm_type = ceres::DENSE_SVD;
+  options.null_space_rank = -1;
+  ceres::Covariance covariance(options);
+  std::vector<std::pair<const double*, const double*>> pairs;
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    if (free[i]) pairs.emplace_back(blocks[i].data(), blocks[i].data());
+  }
+  if (pairs.empty() || !covariance.Compute(pairs, problem)) return false;
+  double cost = 0.0;
+  ceres::Problem::EvaluateOptions eval;
+  eval.apply_loss_function = false;
+  problem->Evaluate(eval, &cost, nullptr, nullptr, nullptr);
+  const double dof = problem->NumResiduals() - kPoseTangentSize * static_cast<double>(pairs.size());
+  const double variance = dof > 0.0 ? 2.0 * cost / dof : 1.0;
+  out->assign(blocks.size(), Mat6::Zero());
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    if (!free[i]) continue;
+    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
+    if (!covariance.GetCovarianceBlockInTangentSpace(blocks[i].data(), blocks[i].data(),
+                                                     c.data())) {
+      return false;
+    }
+    (*out)[i] = variance * c;
+  }
+  return true;
+}
+
+}  // namespace
+
+JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
+                          const std::vector<CandidatePair>& pairs, int reference,
+                          const IcpOptions& options, int num_threads, const Log& log) {
+  const size_t n = cameras.size();
+  JointResult result;
+  result.poses.resize(n);
+  for (size_t i = 0; i < n; ++i) result.poses[i] = cameras[i].T_world_camera;
+  result.connected.assign(n, false);
+  result.pair_correspondences.assign(pairs.size(), 0);
+  result.covariance.assign(n, Mat6::Zero());
+  if (n == 0 || cameras[0].pyramid == nullptr) return result;
+  const size_t levels = cameras[0].pyramid->levels.size();
+
+  std::vector<PoseBlock> blocks(n);
+  for (size_t i = 0; i < n; ++i) PoseToParameters(cameras[i].T_world_camera, blocks[i].data());
+  PoseBlock world = WorldBlock();
+  const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  solver_options.max_num_iterations = kSolverIterationsPerStep;
+  solver_options.num_threads = num_threads;
+  solver_options.logging_type = ceres::SILENT;
+
+  std::unique_ptr<ceres::Problem> problem;
+  for (size_t s = 0; s < levels; ++s) {
+    const double max_distance =
+        options.max_correspondence_distance_factor * cameras[0].pyramid->levels[s].voxel_size;
+    const int max_iterations = s < options.max_iterations.size() ? options.max_iterations[s] : 0;
+    for (int it = 0; it < max_iterations; ++it) {
+      std::vector<Pose> current(n);
+      std::vector<CameraView> views(n);
+      for (size_t i = 0; i < n; ++i) {
+        current[i] = PoseFromParameters(blocks[i].data());
+        views[i] = {&cameras[i].pyramid->levels[s], current[i], blocks[i].data(),
+                    cameras[i].depth_noise};
+      }
+      problem = NewProblem();
+      for (PoseBlock& b : blocks) {
+        problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+      }
+      problem->AddParameterBlock(world.data(), kPoseAmbientSize);
+      problem->SetParameterBlockConstant(world.data());
+      size_t total = 0;
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        const CameraView& a = views[pairs[k].a];
+        const CameraView& b = views[pairs[k].b];
+        const std::vector<Correspondence> ab =
+            FindCorrespondences(a, b, max_distance, options.max_normal_angle_deg, num_threads);
+        const std::vector<Correspondence> ba =
+            FindCorrespondences(b, a, max_distance, options.max_normal_angle_deg, num_threads);
+        result.pair_correspondences[k] = static_cast<int>(ab.size() + ba.size());
+        if (ab.size() + ba.size() < kMinPairCorrespondences) continue;
+        AddCorrespondenceTerms(problem.get(), options, a, b, ab, loss.get());
+        AddCorrespondenceTerms(problem.get(), options, b, a, ba, loss.get());
+        total += ab.size() + ba.size();
+      }
+      result.connected = Reachable(reference, n, pairs, result.pair_correspondences);
+      for (size_t i = 0; i < n; ++i) {
+        if (!result.connected[i]) {
+          problem->SetParameterBlockConstant(blocks[i].data());
+          continue;
+        }
+        AddFloorTerms(problem.get(), cameras[i], s, options, blocks[i].data(), world.data(),
+                      loss.get());
+        if (static_cast<int>(i) != reference && options.gravity_weight > 0.0) {
+          problem->AddResidualBlock(
+              GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
+              nullptr, blocks[i].data());
+        }
+      }
+      problem->SetParameterBlockConstant(blocks[reference].data());
+      ceres::Solver::Summary summary;
+      ceres::Solve(solver_options, problem.get(), &summary);
+      ++result.iterations;
+      result.usable = summary.IsSolutionUsable();
+      if (!result.usable) {
+        result.message = "joint solve: " + summary.message;
+        return result;
+      }
+      double max_rotation = 0.0, max_translation = 0.0;
+      for (size_t i = 0; i < n; ++i) {
+        const Vec6 step = PoseDifference(current[i], PoseFromParameters(blocks[i].data()));
+        max_rotation = std::max(max_rotation, step.head<3>().norm());
+        max_translation = std::max(max_translation, step.tail<3>().norm());
+      }
+      std::ostringstream m;
+      m << "joint: voxel " << cameras[0].pyramid->levels[s].voxel_size << " iteration " << it
+        << ": " << total << " correspondences, cost " << summary.final_cost << ", step "
+        << max_rotation * 180.0 / M_PI << " deg " << max_translation * 1e3 << " mm";
+      log.Debug(m.str());
+      if (max_rotation < kConvergedStep && max_translation < kConvergedStep) break;
+    }
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (result.connected[i]) result.poses[i] = PoseFromParameters(blocks[i].data());
+  }
+  if (problem != nullptr) {
+    std::vector<bool> free = result.connected;
+    free[reference] = false;
+    result.covariance_ok =
+        PoseCovariances(problem.get(), blocks, free, num_threads, &result.covariance);
+  }
+  return result;
+}
+
+}  // namespace rigfit

@@ -1,0 +1,39 @@
+// Joint mode: every camera pose in ONE Ceres problem with the reference camera held
+// constant. Coarse to fine, correspondences of every candidate pair are re-found (in both
+// directions) at the current poses, then the joint problem is solved for a few
+// iterations, until the poses stop moving. Terms: noise-whitened point-to-plane or GICP
+// correspondences (robust loss), the floor term of every camera (its floor points lie on
+// y = 0) and the gravity prior of every non-reference camera.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "solver/log.h"
+#include "solver/options.h"
+#include "solver/pairwise.h"
+#include "solver/region.h"
+
+namespace rigfit {
+
+struct JointResult {
+  std::vector<Pose> poses;                ///< refined poses; unconnected cameras as given
+  std::vector<bool> connected;            ///< linked to the reference by pairs with correspondences
+  std::vector<int> pair_correspondences;  ///< per candidate pair, at the end (both ways)
+  bool usable = false;                    ///< Ceres' last solution is usable
+  std::string message;
+  int iterations = 0;  ///< outer iterations (correspondence searches) over all scales
+  /// Per camera: 6x6 covariance of the pose in the PoseManifold tangent (world rotation
+  /// vector, world translation), gauge fixed by the reference (whose covariance is 0),
+  /// scaled by the measured variance of the whitened residuals. Zero when unavailable.
+  std::vector<Mat6> covariance;
+  bool covariance_ok = false;
+};
+
+/// Refines every camera connected to `reference` jointly. Never throws on bad geometry.
+JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
+                          const std::vector<CandidatePair>& pairs, int reference,
+                          const IcpOptions& options, int num_threads, const Log& log);
+
+}  // namespace rigfit
