@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 
 #include "core/geometry.h"
@@ -36,6 +37,34 @@ double DepthNoise(const IcpOptions& options, const GroundResult& ground) {
   return ground.found ? ground.depth_noise : 0.0;
 }
 
+/// The rigid motion G that best explains the change of the connected cameras,
+/// refined_i ~ G leveled_i (Gauss-Newton on the tangent residuals PoseDifference(G
+/// leveled_i, refined_i); a few steps suffice for the small motions of a refinement).
+Pose CommonMotion(const std::vector<Pose>& leveled, const std::vector<Pose>& refined,
+                  const std::vector<bool>& connected) {
+  constexpr int kSteps = 5;
+  Pose G = Pose::Identity();
+  for (int step = 0; step < kSteps; ++step) {
+    // Moving G by the left tangent step (w, d) about the world origin moves camera i by
+    // w in rotation and by d + w x t_i in translation (t_i = its centre under G).
+    Mat6 H = Mat6::Zero();
+    Vec6 g = Vec6::Zero();
+    for (size_t i = 0; i < leveled.size(); ++i) {
+      if (!connected[i]) continue;
+      const Pose moved = G * leveled[i];
+      const Vec6 r = PoseDifference(moved, refined[i]);
+      Eigen::Matrix<double, 6, 6> J = Mat6::Identity();
+      J.block<3, 3>(3, 0) = -Hat(moved.translation());
+      H += J.transpose() * J;
+      g += J.transpose() * r;
+    }
+    if (H.isZero()) break;
+    const Vec6 delta = H.ldlt().solve(g);
+    G = PosePlus(Pose::Identity(), delta) * G;
+  }
+  return G;
+}
+
 int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
     if (capture.cameras[i].serial == reference) return static_cast<int>(i);
@@ -44,11 +73,12 @@ int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
 }
 
 /// Pairwise mode: ICP per candidate pair, then the pose graph. Returns refined poses.
-std::vector<Pose> RegisterPairwise(const std::vector<RegistrationCamera>& cameras,
-                                   const std::vector<Pose>& leveled,
-                                   const std::vector<CandidatePair>& candidates, int reference,
-                                   const IcpOptions& options, int num_threads, const Log& log,
-                                   RefineResult* result) {
+std::optional<std::vector<Pose>> RegisterPairwise(const std::vector<RegistrationCamera>& cameras,
+                                                  const std::vector<Pose>& leveled,
+                                                  const std::vector<CandidatePair>& candidates,
+                                                  int reference, const IcpOptions& options,
+                                                  int num_threads, const Log& log,
+                                                  RefineResult* result) {
   std::vector<PoseGraphEdge> edges;
   for (const CandidatePair& pair : candidates) {
     PairReport& report = result->pairs.emplace_back();
@@ -81,16 +111,17 @@ std::vector<Pose> RegisterPairwise(const std::vector<RegistrationCamera>& camera
   for (size_t i = 0; i < leveled.size(); ++i) result->cameras[i].connected = graph.connected[i];
   if (!graph.usable) {
     result->message = "pose graph: " + graph.message;
-    return leveled;
+    return std::nullopt;
   }
   return graph.poses;
 }
 
 /// Joint mode: one problem over every camera. Returns refined poses.
-std::vector<Pose> RegisterAllJointly(const std::vector<RegistrationCamera>& cameras,
-                                     const std::vector<CandidatePair>& candidates, int reference,
-                                     const IcpOptions& options, int num_threads, const Log& log,
-                                     RefineResult* result) {
+std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<RegistrationCamera>& cameras,
+                                                    const std::vector<CandidatePair>& candidates,
+                                                    int reference, const IcpOptions& options,
+                                                    int num_threads, const Log& log,
+                                                    RefineResult* result) {
   const size_t finest = options.scales.size() - 1;
   const double coarsest_voxel = options.scales.front() * options.voxel_size;
   const auto overlap = [&](const CandidatePair& pair, const Pose& T_a, const Pose& T_b) {
@@ -136,9 +167,7 @@ std::vector<Pose> RegisterAllJointly(const std::vector<RegistrationCamera>& came
   }
   if (!joint.usable) {
     result->message = joint.message;
-    std::vector<Pose> leveled;
-    for (const RegistrationCamera& c : cameras) leveled.push_back(c.T_world_camera);
-    return leveled;
+    return std::nullopt;
   }
   return joint.poses;
 }
@@ -198,6 +227,10 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
     return result;
   }
 
+  result.icp_ran = true;
+  result.mode = options.icp.mode;
+  result.method = options.icp.method;
+
   // Near-floor band, preprocessing and candidate pairs.
   start = std::chrono::steady_clock::now();
   std::vector<double> voxel_sizes;
@@ -231,19 +264,35 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
               : ground.found                ? " (measured on the floor)"
                                             : " (no floor: noise floor only)"));
   }
-  std::vector<Pose> refined = options.icp.mode == RefineMode::kJoint
-                                  ? RegisterAllJointly(cameras, candidates, reference, options.icp,
-                                                       num_threads, log, &result)
-                                  : RegisterPairwise(cameras, leveled, candidates, reference,
-                                                     options.icp, num_threads, log, &result);
+  const std::optional<std::vector<Pose>> registered =
+      options.icp.mode == RefineMode::kJoint
+          ? RegisterAllJointly(cameras, candidates, reference, options.icp, num_threads, log,
+                               &result)
+          : RegisterPairwise(cameras, leveled, candidates, reference, options.icp, num_threads, log,
+                             &result);
+  if (!registered) {
+    result.warnings.push_back("registration failed, every camera keeps its leveled pose: " +
+                              result.message);
+    log.Warning(result.warnings.back());
+    return result;
+  }
+  const std::vector<Pose>& refined = *registered;
 
-  // Safety bounds and per-camera report.
+  // Safety bounds, measured after removing the motion common to the whole rig: a wrong
+  // reference pose moves every other camera by its lever arm, which is no reason to
+  // distrust them; one camera moving against the others is.
+  std::vector<bool> connected(n);
+  for (size_t i = 0; i < n; ++i) connected[i] = result.cameras[i].connected;
+  const Pose common = CommonMotion(leveled, refined, connected);
   int moved = 0;
   for (size_t i = 0; i < n; ++i) {
     CameraReport& report = result.cameras[i];
     const Vec6 delta = PoseDifference(leveled[i], refined[i]);
     report.delta_rotation_deg = delta.head<3>().norm() * kRadToDeg;
     report.delta_translation_m = delta.tail<3>().norm();
+    const Vec6 own = PoseDifference(common * leveled[i], refined[i]);
+    report.own_rotation_deg = own.head<3>().norm() * kRadToDeg;
+    report.own_translation_m = own.tail<3>().norm();
     if (report.reference) {
       report.accepted = true;
       continue;
@@ -252,11 +301,11 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
       report.message = "not connected to the reference camera by an accepted pair";
     } else if (!refined[i].matrix().allFinite()) {
       report.message = "registration produced a non-finite pose";
-    } else if (report.delta_rotation_deg > options.icp.max_rotation_deg) {
-      report.message = "rotation change " + Fixed(report.delta_rotation_deg, 3) +
+    } else if (report.own_rotation_deg > options.icp.max_rotation_deg) {
+      report.message = "rotation change against the rig " + Fixed(report.own_rotation_deg, 3) +
                        " deg exceeds max_rotation_deg " + Fixed(options.icp.max_rotation_deg, 3);
-    } else if (report.delta_translation_m > options.icp.max_translation_m) {
-      report.message = "translation change " + Fixed(report.delta_translation_m, 4) +
+    } else if (report.own_translation_m > options.icp.max_translation_m) {
+      report.message = "translation change against the rig " + Fixed(report.own_translation_m, 4) +
                        " m exceeds max_translation_m " + Fixed(options.icp.max_translation_m, 4);
     } else {
       report.accepted = true;

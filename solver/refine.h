@@ -23,6 +23,10 @@ struct CameraReport {
   bool accepted = false;            ///< registration change applied
   double delta_rotation_deg = 0.0;  ///< registration change (refined vs leveled)
   double delta_translation_m = 0.0;
+  /// The change after removing the motion common to the whole rig (what the safety
+  /// bounds max_rotation_deg and max_translation_m apply to).
+  double own_rotation_deg = 0.0;
+  double own_translation_m = 0.0;
   std::string message;  ///< why the change was not applied
   /// Joint mode: covariance of the refined pose in the PoseManifold tangent (world
   /// rotation vector, world translation), gauge fixed by the reference.
@@ -54,6 +58,9 @@ struct RefineResult {
   PoseMap leveled;  ///< after ground leveling
   PoseMap refined;  ///< the output extrinsics
   std::string reference;
+  RefineMode mode = RefineMode::kJoint;  ///< the registration mode that ran
+  RegistrationMethod method = RegistrationMethod::kPointToPlane;
+  bool icp_ran = false;  ///< false: leveling only (run_icp false or a single camera)
   bool success = false;  ///< false: the refinement was not applied (refined == leveled)
   std::string message;
   std::vector<std::string> warnings;
