@@ -40,7 +40,8 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads);
   std::string config;
   app.add_option("--config", config, "refine options (YAML); --mode and --method override");
-  bool verbose = false, from_gt = false;
+  bool verbose = false, from_gt = false, verbose_sigma = false;
+  app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
   app.add_flag("--from-gt", from_gt, "start at the true poses (measures the estimator's bias)");
   app.add_flag("--verbose", verbose, "solver progress to stderr");
   CLI11_PARSE(app, argc, argv);
@@ -56,7 +57,8 @@ int main(int argc, char** argv) {
               "trans mm", "tilt", "rot deg", "trans mm", "tilt", "max mm", "level", "prep", "solve",
               "result");
   double sum_r2 = 0, sum_t2 = 0, sum_tilt2 = 0, worst_t = 0;
-  int pairs = 0, cameras = 0, failures = 0;
+  int pairs = 0, cameras = 0, failures = 0, normalised = 0;
+  double sum_nr2 = 0, sum_nt2 = 0;
   for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
     sim.seed = static_cast<std::uint64_t>(seed);
     const SimulatedRig rig = SimulateRig(sim);
@@ -76,6 +78,25 @@ int main(int argc, char** argv) {
                 r.times.registration_s + r.times.pose_graph_s,
                 r.success ? "ok" : r.message.c_str());
     failures += r.success ? 0 : 1;
+    // Errors of each camera relative to the reference against the predicted 1-sigma (joint
+    // mode): a reference that does not move makes its covariance that of T_ref^-1 T_i.
+    for (const CameraReport& c : r.cameras) {
+      if (!c.has_covariance) continue;
+      const Pose& ref_est = r.refined.at(r.reference);
+      const Pose& ref_gt = rig.gt.at(r.reference);
+      const RelativePoseError e =
+          RelativeError(ref_est, r.refined.at(c.serial), ref_gt, rig.gt.at(c.serial));
+      const double sigma_r = std::sqrt(c.covariance.topLeftCorner<3, 3>().trace());
+      const double sigma_t = std::sqrt(c.covariance.bottomRightCorner<3, 3>().trace());
+      if (verbose_sigma) {
+        std::printf("       %s: error %.4f deg %.2f mm, predicted %.4f deg %.2f mm\n",
+                    c.serial.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3,
+                    sigma_r * kRadToDeg, sigma_t * 1e3);
+      }
+      sum_nr2 += std::pow(e.rotation_rad / sigma_r, 2);
+      sum_nt2 += std::pow(e.translation_m / sigma_t, 2);
+      ++normalised;
+    }
     for (const PairError& p : after.pairs) {
       sum_r2 += std::pow(p.error.rotation_rad, 2);
       sum_t2 += std::pow(p.error.translation_m, 2);

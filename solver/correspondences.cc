@@ -6,6 +6,7 @@
 #include "core/parallel.h"
 #include "residuals/gicp.h"
 #include "residuals/point_to_plane.h"
+#include "residuals/stacked_cost.h"
 
 namespace rigfit {
 namespace {
@@ -77,6 +78,8 @@ void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
   const auto shape = [](const LocalGeometry& g, int i) {
     return Mat3(g.covariances[i] - kGicpPlaneEpsilon * g.normals[i] * g.normals[i].transpose());
   };
+  auto* stacked = new StackedCost({kPoseAmbientSize, kPoseAmbientSize});
+  const double* parameters[2] = {source.pose_block, target.pose_block};
   for (const Correspondence& c : correspondences) {
     const Vec3& p = src.points[c.source];
     const Vec3& q = tgt.points[c.target];
@@ -101,8 +104,15 @@ void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
           k_s2 * p.z() * p.z() * np * np + k_t2 * q.z() * q.z() * nq * nq + floor2;
       cost = PointToPlaneCost::Create(p, q, n_t / std::sqrt(variance));
     }
-    problem->AddResidualBlock(cost, loss, source.pose_block, target.pose_block);
+    double r[3];
+    cost->Evaluate(parameters, r, nullptr);
+    stacked->Add(cost, RobustWeight(loss, r, cost->num_residuals()));
   }
+  if (stacked->size() == 0) {
+    delete stacked;
+    return;
+  }
+  problem->AddResidualBlock(stacked, nullptr, source.pose_block, target.pose_block);
 }
 
 std::unique_ptr<ceres::Problem> NewProblem() {

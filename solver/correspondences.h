@@ -49,7 +49,9 @@ ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
 /// whitened by the depth noise model of both points (docs/residuals.md, "Weights"):
 /// a depth error moves a point along its ray, so a point p at depth z has covariance
 /// k^2 z^2 p p^T in its camera frame, plus min_noise_m^2 per residual. GICP weights use
-/// the poses of the views. The problem owns the cost functions, the caller `loss`.
+/// the poses of the views. All of them go into ONE residual block (StackedCost), `loss`
+/// entering as iteratively reweighted least squares at the current values of the pose
+/// blocks. The problem owns the cost functions, the caller `loss`.
 void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
                             const CameraView& source, const CameraView& target,
                             const std::vector<Correspondence>& correspondences,

@@ -4,13 +4,13 @@
 #include <ceres/solver.h>
 
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <memory>
 #include <sstream>
 
 #include "core/geometry.h"
 #include "residuals/gravity_prior.h"
-#include "residuals/point_to_plane.h"
 #include "solver/correspondences.h"
 
 namespace rigfit {
@@ -22,16 +22,12 @@ constexpr size_t kMinPairCorrespondences = 30;
 constexpr double kConvergedStep = 1e-6;
 /// Levenberg-Marquardt iterations per outer iteration (correspondences fixed).
 constexpr int kSolverIterationsPerStep = 3;
-/// Floor points per camera and outer iteration; more are subsampled evenly with their
-/// weight scaled up, which keeps the information of the whole floor (a plane's moments
-/// are those of any even sample of it).
-constexpr size_t kMaxFloorPoints = 2000;
 
 using PoseBlock = std::array<double, kPoseAmbientSize>;
 
-/// The world frame as a constant pose block: the floor term is a point-to-plane residual
-/// against the plane y = 0 of this block.
-PoseBlock WorldBlock() { return {0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0}; }
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
 
 std::vector<bool> Reachable(int reference, size_t n, const std::vector<CandidatePair>& pairs,
                             const std::vector<int>& correspondences) {
@@ -48,27 +44,6 @@ std::vector<bool> Reachable(int reference, size_t n, const std::vector<Candidate
     }
   }
   return reached;
-}
-
-/// Floor term of one camera at one level: r = e_y . (R p + t) / sigma for its floor points,
-/// sigma^2 = (k z (n_c . p))^2 + min_noise^2 (the vertical part of the point's depth noise).
-void AddFloorTerms(ceres::Problem* problem, const RegistrationCamera& camera, size_t level,
-                   const IcpOptions& options, double* pose_block, double* world_block,
-                   ceres::LossFunction* loss) {
-  if (level >= camera.floor_points.size()) return;
-  const std::vector<int>& floor = camera.floor_points[level];
-  const PointCloud& points = camera.pyramid->levels[level].points;
-  const size_t step = (floor.size() + kMaxFloorPoints - 1) / kMaxFloorPoints;
-  if (step == 0) return;
-  const Vec3 n_c = camera.T_world_camera.linear().transpose() * kWorldUp;
-  const double floor2 = options.min_noise_m * options.min_noise_m;
-  for (size_t j = 0; j < floor.size(); j += step) {
-    const Vec3& p = points[floor[j]];
-    const double sigma_v = camera.depth_noise * p.z() * n_c.dot(p);
-    const double weight = std::sqrt(static_cast<double>(step) / (sigma_v * sigma_v + floor2));
-    problem->AddResidualBlock(PointToPlaneCost::Create(p, Vec3::Zero(), weight * kWorldUp), loss,
-                              pose_block, world_block);
-  }
 }
 
 /// Covariance of every free pose block (tangent space), scaled by the measured variance
@@ -121,7 +96,6 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
 
   std::vector<PoseBlock> blocks(n);
   for (size_t i = 0; i < n; ++i) PoseToParameters(cameras[i].T_world_camera, blocks[i].data());
-  PoseBlock world = WorldBlock();
   const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
@@ -142,25 +116,33 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
         views[i] = {&cameras[i].pyramid->levels[s], current[i], blocks[i].data(),
                     cameras[i].depth_noise};
       }
+      auto start = std::chrono::steady_clock::now();
+      std::vector<std::vector<Correspondence>> matches(2 * pairs.size());
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        const CameraView& a = views[pairs[k].a];
+        const CameraView& b = views[pairs[k].b];
+        matches[2 * k] =
+            FindCorrespondences(a, b, max_distance, options.max_normal_angle_deg, num_threads);
+        matches[2 * k + 1] =
+            FindCorrespondences(b, a, max_distance, options.max_normal_angle_deg, num_threads);
+        result.pair_correspondences[k] =
+            static_cast<int>(matches[2 * k].size() + matches[2 * k + 1].size());
+      }
+      result.correspondences_s += SecondsSince(start);
+      start = std::chrono::steady_clock::now();
       problem = NewProblem();
       for (PoseBlock& b : blocks) {
         problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
       }
-      problem->AddParameterBlock(world.data(), kPoseAmbientSize);
-      problem->SetParameterBlockConstant(world.data());
       size_t total = 0;
       for (size_t k = 0; k < pairs.size(); ++k) {
-        const CameraView& a = views[pairs[k].a];
-        const CameraView& b = views[pairs[k].b];
-        const std::vector<Correspondence> ab =
-            FindCorrespondences(a, b, max_distance, options.max_normal_angle_deg, num_threads);
-        const std::vector<Correspondence> ba =
-            FindCorrespondences(b, a, max_distance, options.max_normal_angle_deg, num_threads);
-        result.pair_correspondences[k] = static_cast<int>(ab.size() + ba.size());
-        if (ab.size() + ba.size() < kMinPairCorrespondences) continue;
-        AddCorrespondenceTerms(problem.get(), options, a, b, ab, loss.get());
-        AddCorrespondenceTerms(problem.get(), options, b, a, ba, loss.get());
-        total += ab.size() + ba.size();
+        const size_t count = result.pair_correspondences[k];
+        if (count < kMinPairCorrespondences) continue;
+        AddCorrespondenceTerms(problem.get(), options, views[pairs[k].a], views[pairs[k].b],
+                               matches[2 * k], loss.get());
+        AddCorrespondenceTerms(problem.get(), options, views[pairs[k].b], views[pairs[k].a],
+                               matches[2 * k + 1], loss.get());
+        total += count;
       }
       result.connected = Reachable(reference, n, pairs, result.pair_correspondences);
       for (size_t i = 0; i < n; ++i) {
@@ -168,8 +150,6 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
           problem->SetParameterBlockConstant(blocks[i].data());
           continue;
         }
-        AddFloorTerms(problem.get(), cameras[i], s, options, blocks[i].data(), world.data(),
-                      loss.get());
         if (static_cast<int>(i) != reference && options.gravity_weight > 0.0) {
           problem->AddResidualBlock(
               GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
@@ -179,6 +159,7 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
       problem->SetParameterBlockConstant(blocks[reference].data());
       ceres::Solver::Summary summary;
       ceres::Solve(solver_options, problem.get(), &summary);
+      result.solve_s += SecondsSince(start);
       ++result.iterations;
       result.usable = summary.IsSolutionUsable();
       if (!result.usable) {

@@ -2,8 +2,10 @@
 // constant. Coarse to fine, correspondences of every candidate pair are re-found (in both
 // directions) at the current poses, then the joint problem is solved for a few
 // iterations, until the poses stop moving. Terms: noise-whitened point-to-plane or GICP
-// correspondences (robust loss), the floor term of every camera (its floor points lie on
-// y = 0) and the gravity prior of every non-reference camera.
+// correspondences (robust loss; floor points carry the leveled floor's normal, see
+// SnapFloorNormals) and the gravity prior of every non-reference camera. A separate floor
+// term (each camera's floor points on y = 0) was measured and did not help: the floor
+// correspondences between cameras already carry that information (docs/benchmarks.md).
 #pragma once
 
 #include <string>
@@ -29,6 +31,9 @@ struct JointResult {
   /// scaled by the measured variance of the whitened residuals. Zero when unavailable.
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
+  double correspondences_s = 0.0;  ///< time spent searching correspondences
+  double solve_s = 0.0;            ///< time spent building and solving problems
+  double covariance_s = 0.0;       ///< time spent on the covariance
 };
 
 /// Refines every camera connected to `reference` jointly. Never throws on bad geometry.

@@ -36,13 +36,11 @@ struct PairwiseResult {
 };
 
 /// A camera as the registration sees it: its pyramid (levels in the order of
-/// options.scales), its leveled pose, its depth noise (k of sigma_z = k z^2, 1/m) and the
-/// indices of its floor points per level (SnapFloorNormals; empty without a floor).
+/// options.scales), its leveled pose and its depth noise (k of sigma_z = k z^2, 1/m).
 struct RegistrationCamera {
   const CloudPyramid* pyramid = nullptr;
   Pose T_world_camera = Pose::Identity();
   double depth_noise = 0.0;
-  std::vector<std::vector<int>> floor_points;
 };
 
 /// Registers the source camera onto the target camera. The gravity prior keeps the

@@ -145,6 +145,11 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
   const JointResult joint =
       RegisterJoint(cameras, candidates, reference, options, num_threads, log);
   result->times.registration_s = SecondsSince(start);
+  result->times.correspondences_s = joint.correspondences_s;
+  result->times.solve_s = joint.solve_s;
+  log.Info("joint: " + std::to_string(joint.iterations) + " iterations, correspondences " +
+           Fixed(joint.correspondences_s, 3) + " s, solve " + Fixed(joint.solve_s, 3) +
+           " s, covariance " + Fixed(joint.covariance_s, 3) + " s");
   for (size_t i = 0; i < cameras.size(); ++i) {
     CameraReport& report = result->cameras[i];
     report.connected = joint.connected[i];
@@ -236,14 +241,17 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   std::vector<double> voxel_sizes;
   for (double s : options.icp.scales) voxel_sizes.push_back(s * options.icp.voxel_size);
   std::vector<CloudPyramid> pyramids(n);
-  std::vector<std::vector<std::vector<int>>> floor_points(n);
   std::vector<GroundBox> boxes(n);
   for (size_t i = 0; i < n; ++i) {
     const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
     result.cameras[i].band_points = static_cast<int>(band.size());
     boxes[i] = RobustGroundBox(Transform(leveled[i], band));
+    const GroundResult& ground = result.cameras[i].ground;
+    const FloorModel floor{leveled[i], DepthNoise(options.icp, ground),
+                           options.ground.ransac_distance_m};
     pyramids[i] =
         BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(), num_threads);
+    if (ground.accepted) SnapFloorNormals(&pyramids[i], floor);
     log.Info("camera " + capture.cameras[i].serial + ": " + std::to_string(band.size()) +
              " band points, " + std::to_string(pyramids[i].levels.back().points.size()) +
              " at the finest voxel");
@@ -256,8 +264,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   std::vector<RegistrationCamera> cameras(n);
   for (size_t i = 0; i < n; ++i) {
     const GroundResult& ground = result.cameras[i].ground;
-    cameras[i] = {&pyramids[i], leveled[i], DepthNoise(options.icp, ground),
-                  std::move(floor_points[i])};
+    cameras[i] = {&pyramids[i], leveled[i], DepthNoise(options.icp, ground)};
     log.Info("camera " + capture.cameras[i].serial +
              ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
              (options.icp.depth_noise > 0.0 ? " (configured)"

@@ -28,27 +28,25 @@ PointCloud NearFloorBand(const PointCloud& points_camera, const Pose& T_world_ca
   return band;
 }
 
-std::vector<std::vector<int>> SnapFloorNormals(CloudPyramid* pyramid,
-                                               const Pose& T_world_camera_leveled,
-                                               double depth_noise, double thickness_m) {
-  const Vec3 n_c = T_world_camera_leveled.linear().transpose() * kWorldUp;
+bool FloorModel::IsFloor(const Vec3& p) const {
+  const Vec3 n_c = NormalInCamera();
+  const double height = (T_world_camera * p).y();
+  const double sigma_v = depth_noise * p.z() * std::abs(n_c.dot(p));
+  return std::abs(height) <= std::max(thickness_m, 3.0 * sigma_v) && n_c.dot(-p) > 0.0;
+}
+
+void SnapFloorNormals(CloudPyramid* pyramid, const FloorModel& floor) {
+  const Vec3 n_c = floor.NormalInCamera();
   // Plane-regularised covariance with the floor normal (preprocess.h, LocalGeometry).
   const Mat3 plane_covariance =
       Mat3::Identity() - (1.0 - kGicpPlaneEpsilon) * n_c * n_c.transpose();
-  std::vector<std::vector<int>> floor(pyramid->levels.size());
-  for (size_t l = 0; l < pyramid->levels.size(); ++l) {
-    ScaleLevel& level = pyramid->levels[l];
+  for (ScaleLevel& level : pyramid->levels) {
     for (size_t i = 0; i < level.points.size(); ++i) {
-      const Vec3& p = level.points[i];
-      const double height = (T_world_camera_leveled * p).y();
-      const double sigma_v = depth_noise * p.z() * std::abs(n_c.dot(p));
-      if (std::abs(height) > std::max(thickness_m, 3.0 * sigma_v) || n_c.dot(-p) <= 0.0) continue;
+      if (!floor.IsFloor(level.points[i])) continue;
       level.geometry.normals[i] = n_c;
       level.geometry.covariances[i] = plane_covariance;
-      floor[l].push_back(static_cast<int>(i));
     }
   }
-  return floor;
 }
 
 GroundBox RobustGroundBox(const PointCloud& points_world) {

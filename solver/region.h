@@ -15,17 +15,25 @@ namespace rigfit {
 PointCloud NearFloorBand(const PointCloud& points_camera, const Pose& T_world_camera,
                          const RegionOptions& options);
 
+/// Which points of a leveled camera are floor. A point counts as floor when its leveled
+/// height is within max(thickness_m, 3 sigma_v) of y = 0, with sigma_v = k z |n_c . p| the
+/// vertical part of its depth noise (n_c the floor normal in the camera frame, k the
+/// depth noise of sigma_z = k z^2).
+struct FloorModel {
+  Pose T_world_camera = Pose::Identity();  ///< leveled
+  double depth_noise = 0.0;
+  double thickness_m = 0.02;
+
+  Vec3 NormalInCamera() const { return T_world_camera.linear().transpose() * Vec3::UnitY(); }
+  bool IsFloor(const Vec3& p_camera) const;
+};
+
 /// Gives the floor points of every level the floor's own normal (and a plane-shaped GICP
 /// covariance). A plane carries no information about yaw or horizontal position, but the
 /// normals that neighbourhoods of noisy floor points yield are tilted by the depth noise
 /// (which acts along each camera's rays), and would invent both information and bias in
-/// exactly those directions. A point counts as floor when its leveled height is within
-/// max(thickness_m, 3 sigma_v) of y = 0, with sigma_v = k z |n_c . p| the vertical part of
-/// its depth noise (n_c the floor normal in the camera frame). Returns the indices of the
-/// floor points of every level.
-std::vector<std::vector<int>> SnapFloorNormals(CloudPyramid* pyramid,
-                                               const Pose& T_world_camera_leveled,
-                                               double depth_noise, double thickness_m);
+/// exactly those directions.
+void SnapFloorNormals(CloudPyramid* pyramid, const FloorModel& floor);
 
 /// Axis-aligned box of a cloud in the world XZ (ground) plane.
 struct GroundBox {

@@ -43,7 +43,7 @@ SimulatedRig PairRig(double noise, std::uint64_t seed) {
   sim.noise = noise;
   SimulatedRig rig = SimulateRig(sim);
   rig.capture.cameras.resize(2);
-  for (const std::string serial : {SimSerial(2), SimSerial(3)}) {
+  for (const std::string& serial : {SimSerial(2), SimSerial(3)}) {
     rig.gt.erase(serial);
     rig.init.erase(serial);
   }
@@ -100,6 +100,92 @@ INSTANTIATE_TEST_SUITE_P(Methods, PairRecovery,
                          [](const auto& info) {
                            return info.param == RegistrationMethod::kGicp ? "Gicp" : "PointToPlane";
                          });
+
+SimulatedRig Rig(int cameras, double noise, std::uint64_t seed) {
+  SimOptions sim;
+  sim.cameras = cameras;
+  sim.noise = noise;
+  sim.seed = seed;
+  return SimulateRig(sim);
+}
+
+TEST(JointRefine, RecoversANoiseFreeThreeCameraRig) {
+  const SimulatedRig rig = Rig(3, 0.0, 4);
+  RefineOptions options;
+  ASSERT_EQ(options.icp.mode, RefineMode::kJoint);  // the default
+  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  ASSERT_TRUE(r.success) << r.message;
+  EXPECT_EQ(r.mode, RefineMode::kJoint);
+  const RigErrors after = Errors(r.refined, rig.gt);
+  EXPECT_LT(after.max_rotation_deg, 0.01);
+  EXPECT_LT(after.max_translation_m, 0.001);
+  for (const CameraReport& c : r.cameras) {
+    EXPECT_TRUE(c.accepted) << c.serial << ": " << c.message;
+    if (c.reference) continue;
+    ASSERT_TRUE(c.has_covariance) << c.serial;
+    EXPECT_TRUE(c.covariance.allFinite());
+    EXPECT_GT(c.covariance.diagonal().minCoeff(), 0.0);
+  }
+}
+
+class BothModes : public ::testing::TestWithParam<RefineMode> {};
+
+TEST_P(BothModes, ReferenceCameraNeverMoves) {
+  const SimulatedRig rig = Rig(3, SimOptions{}.noise, 5);
+  RefineOptions options;
+  options.icp.mode = GetParam();
+  options.icp.reference = SimSerial(1);
+  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  EXPECT_EQ(r.reference, SimSerial(1));
+  EXPECT_TRUE(r.refined.at(SimSerial(1)).isApprox(r.leveled.at(SimSerial(1)), 1e-12));
+}
+
+TEST_P(BothModes, CameraWithoutOverlapIsReportedAndKeepsItsLeveledPose) {
+  SimulatedRig rig = Rig(3, 0.0, 6);
+  // Camera 2 believed 40 m away: its band overlaps no other camera's.
+  rig.init.at(SimSerial(2)).translation() += Vec3(40.0, 0.0, 0.0);
+  RefineOptions options;
+  options.icp.mode = GetParam();
+  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  ASSERT_TRUE(r.success) << r.message;
+  const CameraReport& lonely = r.cameras[2];
+  EXPECT_FALSE(lonely.connected);
+  EXPECT_FALSE(lonely.accepted);
+  EXPECT_TRUE(r.refined.at(SimSerial(2)).isApprox(r.leveled.at(SimSerial(2)), 1e-12));
+  bool warned = false;
+  for (const std::string& w : r.warnings) warned |= w.find(SimSerial(2)) != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+TEST_P(BothModes, SafetyBoundsKeepTheLeveledPose) {
+  const SimulatedRig rig = Rig(3, 0.0, 7);
+  RefineOptions options;
+  options.icp.mode = GetParam();
+  options.icp.max_translation_m = 1e-4;  // far below the perturbation of the simulated rig
+  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  EXPECT_FALSE(r.success);
+  for (const CameraReport& c : r.cameras) {
+    EXPECT_TRUE(r.refined.at(c.serial).isApprox(r.leveled.at(c.serial), 1e-12)) << c.serial;
+    if (c.reference) continue;
+    EXPECT_FALSE(c.accepted);
+    EXPECT_NE(c.message.find("max_translation_m"), std::string::npos) << c.message;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Modes, BothModes,
+                         ::testing::Values(RefineMode::kJoint, RefineMode::kPairwise),
+                         [](const auto& info) {
+                           return info.param == RefineMode::kJoint ? "Joint" : "Pairwise";
+                         });
+
+TEST(Refine, OneCameraIsLeveledAndReported) {
+  const SimulatedRig rig = Rig(1, 0.0, 8);
+  const RefineResult r = Refine(rig.capture, rig.init, RefineOptions{}, true, 2, StderrLog());
+  EXPECT_FALSE(r.success);
+  EXPECT_NE(r.message.find("one camera"), std::string::npos) << r.message;
+  const Pose& leveled = r.refined.at(SimSerial(0));
+  EXPECT_LT(TiltErrorRad(leveled, rig.gt.at(SimSerial(0))) / kDeg, 0.05);
+}
 
 }  // namespace
 }  // namespace rigfit
