@@ -11,7 +11,7 @@ std::vector<Command>& Registry() {
 }  // namespace
 
 void RegisterCommands(CLI::App& app) {
-  Registry() = {AddSimulateCommand(app), AddRefineCommand(app)};
+  Registry() = {AddSimulateCommand(app), AddRefineCommand(app), AddEvaluateCommand(app)};
 }
 
 int RunSelected(const CLI::App& app) {

@@ -19,9 +19,12 @@ struct Command {
   std::function<int()> run;
 };
 
+/// `rigfit simulate`: writes an example rig (capture, true and perturbed extrinsics).
 Command AddSimulateCommand(CLI::App& app);
 /// `rigfit refine`: capture + initial extrinsics -> refined extrinsics (docs/usage.md).
 Command AddRefineCommand(CLI::App& app);
+/// `rigfit evaluate`: gauge-free errors of estimated extrinsics against ground truth.
+Command AddEvaluateCommand(CLI::App& app);
 
 /// Adds every subcommand to app.
 void RegisterCommands(CLI::App& app);

@@ -16,6 +16,7 @@
 
 #include "cli/commands.h"
 #include "core/errors.h"
+#include "core/evaluate.h"
 #include "io/atomic_file.h"
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
@@ -228,13 +229,42 @@ Json TimingsJson(const Timings& t) {
           {"total", t.total_s}};
 }
 
+/// The config names of the mode and method that ran (io/config_yaml.h holds the names).
+std::pair<Json, Json> ModeAndMethodNames(const RefineResult& result) {
+  if (!result.icp_ran) return {nullptr, nullptr};
+  RefineOptions ran;
+  ran.icp.mode = result.mode;
+  ran.icp.method = result.method;
+  const Json icp = ConfigToJson(ran)["icp"];
+  return {icp["mode"], icp["method"]};
+}
+
+Json SigmaJson(const PoseSigma& s) {
+  return {{"yaw_deg", s.yaw_deg},
+          {"tilt_deg", s.tilt_deg},
+          {"x_mm", s.x_mm},
+          {"y_mm", s.y_mm},
+          {"z_mm", s.z_mm}};
+}
+
+/// Whether the solver reached a verdict on the camera's registration change (applied, or a
+/// reason not to), so that the change was measured. When the registration fails as a whole
+/// it returns before that, the cameras' changes are not measured, and the result's message
+/// says why.
+bool ChangeMeasured(const RefineResult& result, const CameraReport& c) {
+  return result.icp_ran && (c.accepted || !c.message.empty());
+}
+
+/// `value`, or null when it was not measured.
+Json NumberOrNull(bool measured, double value) { return measured ? Json(value) : Json(); }
+
 Json IcpMeta(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
              const std::vector<std::string>& warnings) {
-  const Json config = ConfigToJson(options);
+  const auto [mode, method] = ModeAndMethodNames(result);
   Json meta = {{"skipped", a.no_icp},
-               {"mode", config["icp"]["mode"]},
-               {"method", config["icp"]["method"]},
-               {"config", config},
+               {"mode", mode},
+               {"method", method},
+               {"config", ConfigToJson(options)},
                {"reference", result.reference},
                {"warnings", warnings},
                {"success", result.success},
@@ -255,13 +285,17 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options, const Ref
   }
   Json cameras = Json::object();
   for (const CameraReport& c : result.cameras) {
+    const bool measured = ChangeMeasured(result, c);
     cameras[c.serial] = {{"reference", c.reference},
                          {"band_points", c.band_points},
                          {"connected", c.connected},
                          {"accepted", c.accepted},
-                         {"delta_rotation_deg", c.delta_rotation_deg},
-                         {"delta_translation_m", c.delta_translation_m},
-                         {"message", c.message}};
+                         {"delta_rotation_deg", NumberOrNull(measured, c.delta_rotation_deg)},
+                         {"delta_translation_m", NumberOrNull(measured, c.delta_translation_m)},
+                         {"own_rotation_deg", NumberOrNull(measured, c.own_rotation_deg)},
+                         {"own_translation_m", NumberOrNull(measured, c.own_translation_m)},
+                         {"message", measured || c.reference ? c.message : "registration failed"}};
+    if (c.has_covariance) cameras[c.serial]["sigma"] = SigmaJson(SigmaOf(c.covariance));
   }
   meta["pairs"] = pairs;
   meta["cameras"] = cameras;
@@ -295,10 +329,28 @@ std::string Fixed(double value, int digits) {
   return text;
 }
 
+/// `text` centred in `width` columns: a heading over a group of columns.
+std::string Centered(const std::string& text, size_t width) {
+  if (text.size() >= width) return text;
+  const size_t left = (width - text.size()) / 2;
+  return std::string(left, ' ') + text + std::string(width - text.size() - left, ' ');
+}
+
+/// `value` with `digits` decimals, or "-" when it was not measured.
+std::string FixedOrDash(bool measured, double value, int digits) {
+  return measured ? Fixed(value, digits) : "-";
+}
+
 void PrintSummary(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
                   const Timings& t) {
-  std::printf("\n%-16s %10s %9s %12s %9s  %s\n", "camera", "level deg", "level mm", "register deg",
-              "reg. mm", "result");
+  constexpr char kCameraRow[] = "%-16s %7s %6s %7s %7s %7s %7s %8s %8s %6s %6s %6s  %s\n";
+  std::string groups = std::string(16, ' ') + " " + Centered("leveling", 14) + " " +
+                       Centered("registration", 15) + " " + Centered("against the rig", 15) + " " +
+                       Centered("1-sigma (joint covariance)", 38);
+  groups.erase(groups.find_last_not_of(' ') + 1);
+  std::printf("\n%s\n", groups.c_str());
+  std::printf(kCameraRow, "camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg",
+              "x mm", "y mm", "z mm", "result");
   int leveled = 0;
   for (const CameraReport& c : result.cameras) {
     const GroundResult& g = c.ground;
@@ -313,20 +365,31 @@ void PrintSummary(const RefineResult& result, const RefineOptions& options, cons
       status = "leveled";
     }
     if (!a.no_icp) {
+      const bool failed = !ChangeMeasured(result, c);
       const std::string registration = c.reference  ? "reference (held fixed)"
                                        : c.accepted ? "refined"
+                                       : failed     ? "kept leveled pose: registration failed"
                                                     : "kept leveled pose: " + c.message;
       status += (status.empty() ? "" : "; ") + registration;
     }
-    std::printf("%-16s %10s %9s %12s %9s  %s\n", c.serial.c_str(),
-                level_shown ? Fixed(g.correction_rotation_deg, 3).c_str() : "-",
-                level_shown ? Fixed(g.correction_translation_m * 1e3, 1).c_str() : "-",
-                a.no_icp ? "-" : Fixed(c.delta_rotation_deg, 3).c_str(),
-                a.no_icp ? "-" : Fixed(c.delta_translation_m * 1e3, 1).c_str(), status.c_str());
+    const bool registered = ChangeMeasured(result, c);
+    const PoseSigma sigma = SigmaOf(c.covariance);
+    std::printf(kCameraRow, c.serial.c_str(),
+                FixedOrDash(level_shown, g.correction_rotation_deg, 3).c_str(),
+                FixedOrDash(level_shown, g.correction_translation_m * 1e3, 1).c_str(),
+                FixedOrDash(registered, c.delta_rotation_deg, 3).c_str(),
+                FixedOrDash(registered, c.delta_translation_m * 1e3, 1).c_str(),
+                FixedOrDash(registered, c.own_rotation_deg, 3).c_str(),
+                FixedOrDash(registered, c.own_translation_m * 1e3, 1).c_str(),
+                FixedOrDash(c.has_covariance, sigma.yaw_deg, 3).c_str(),
+                FixedOrDash(c.has_covariance, sigma.tilt_deg, 3).c_str(),
+                FixedOrDash(c.has_covariance, sigma.x_mm, 2).c_str(),
+                FixedOrDash(c.has_covariance, sigma.y_mm, 2).c_str(),
+                FixedOrDash(c.has_covariance, sigma.z_mm, 2).c_str(), status.c_str());
   }
   if (!a.no_icp) {
     // Pairwise ICP moves b onto a; the joint mode moves both.
-    const std::string link = options.icp.mode == RefineMode::kPairwise ? " <- " : " - ";
+    const std::string link = result.mode == RefineMode::kPairwise ? " <- " : " - ";
     std::printf("\n%-35s %7s %22s %6s  %s\n", "pair", "fitness", "RMSE before->after mm", "iters",
                 "result");
     for (const PairReport& p : result.pairs) {

@@ -37,4 +37,17 @@ RigErrors EvaluateRig(const PoseMap& est, const PoseMap& gt) {
   return e;
 }
 
+PoseSigma SigmaOf(const Mat6& covariance) {
+  constexpr double kRadToDeg = 180.0 / M_PI;
+  constexpr double kMToMm = 1e3;
+  const Mat6& C = covariance;
+  PoseSigma s;
+  s.yaw_deg = std::sqrt(C(1, 1)) * kRadToDeg;
+  s.tilt_deg = std::sqrt(C(0, 0) + C(2, 2)) * kRadToDeg;
+  s.x_mm = std::sqrt(C(3, 3)) * kMToMm;
+  s.y_mm = std::sqrt(C(4, 4)) * kMToMm;
+  s.z_mm = std::sqrt(C(5, 5)) * kMToMm;
+  return s;
+}
+
 }  // namespace rigfit

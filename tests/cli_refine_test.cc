@@ -208,8 +208,27 @@ TEST_F(CliRefineTest, RefinesTheRigAndPreservesUnknownKeys) {
   EXPECT_EQ(icp["skipped"], false);
   EXPECT_EQ(icp["reference"], first);
   EXPECT_EQ(icp["config"]["icp"]["voxel_size"], 0.02);
+  EXPECT_EQ(icp["mode"], "joint");
+  EXPECT_EQ(icp["method"], "point_to_plane");
   EXPECT_EQ(icp["cameras"].size(), static_cast<size_t>(kCameras));
   EXPECT_FALSE(icp["pairs"].empty());
+  // Every camera reports its change against the rig; the joint covariance gives a 1-sigma
+  // uncertainty to every connected camera but the reference (whose pose fixes the gauge).
+  int with_sigma = 0;
+  for (const auto& [serial, camera] : icp["cameras"].items()) {
+    EXPECT_GE(camera["own_rotation_deg"].get<double>(), 0.0) << serial;
+    EXPECT_GE(camera["own_translation_m"].get<double>(), 0.0) << serial;
+    const bool expect_sigma = camera["connected"] == true && camera["reference"] == false;
+    ASSERT_EQ(camera.contains("sigma"), expect_sigma) << serial << ": " << camera.dump();
+    if (!expect_sigma) continue;
+    ++with_sigma;
+    for (const char* key : {"yaw_deg", "tilt_deg", "x_mm", "y_mm", "z_mm"}) {
+      ASSERT_TRUE(camera["sigma"][key].is_number()) << serial << " " << key;
+      const double sigma = camera["sigma"][key].get<double>();
+      EXPECT_TRUE(std::isfinite(sigma) && sigma > 0.0) << serial << " " << key << " " << sigma;
+    }
+  }
+  EXPECT_GT(with_sigma, 0);
   for (const char* stage :
        {"load", "leveling", "preprocessing", "registration", "pose_graph", "output", "total"}) {
     EXPECT_TRUE(icp["timings_s"].contains(stage)) << stage;
@@ -244,6 +263,10 @@ TEST_F(CliRefineTest, NoIcpLevelsTheFloor) {
   const Json& icp = out["_meta"]["icp_refined"];
   EXPECT_EQ(icp["skipped"], true);
   EXPECT_EQ(icp["success"], true);
+  // Registration did not run: no mode or method ran, although the config names both.
+  EXPECT_TRUE(icp["mode"].is_null()) << icp["mode"];
+  EXPECT_TRUE(icp["method"].is_null()) << icp["method"];
+  EXPECT_EQ(icp["config"]["icp"]["mode"], "joint");
   const PoseMap init = ReadExtrinsics(Init()).poses;
   const PoseMap leveled = ReadExtrinsics(Out()).poses;
   const PoseMap gt = ReadExtrinsics(Gt()).poses;
@@ -291,8 +314,15 @@ TEST_F(CliRefineTest, AllPairsFailingExitsThreeWithTheLeveledPoses) {
   EXPECT_EQ(icp["success"], false);
   EXPECT_FALSE(icp["message"].get<std::string>().empty());
   EXPECT_EQ(icp["config"]["icp"]["min_fitness"], 1.0);
+  EXPECT_EQ(icp["mode"], "pairwise");
   ASSERT_FALSE(icp["pairs"].empty());
   for (const Json& pair : icp["pairs"]) EXPECT_EQ(pair["accepted"], false) << pair.dump();
+  for (const auto& [serial, camera] : icp["cameras"].items()) {
+    EXPECT_FALSE(camera.contains("sigma")) << serial;  // pairwise mode has no covariance
+    if (camera["reference"] == true) continue;
+    EXPECT_EQ(camera["accepted"], false) << serial;
+    EXPECT_FALSE(camera["message"].get<std::string>().empty()) << serial;  // says why
+  }
   EXPECT_TRUE(out["_meta"].contains("ground_refined"));
   EXPECT_NE(r.out.find("refinement not applied"), std::string::npos) << r.out;
 }

@@ -1,0 +1,171 @@
+// `rigfit evaluate`: gauge-free errors of estimated extrinsics against ground truth
+// (core/evaluate.h): the relative pose of every camera pair and the tilt of every camera.
+// A table on stdout, and optionally the same numbers as JSON (docs/usage.md).
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "core/errors.h"
+#include "core/evaluate.h"
+#include "io/atomic_file.h"
+#include "io/extrinsics_json.h"
+
+namespace rigfit::cli {
+namespace {
+
+using Json = nlohmann::json;
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kMToMm = 1e3;
+
+struct EvaluateArgs {
+  std::string estimate_path;
+  std::string ground_truth_path;
+  std::string json_path;  ///< empty: no JSON output
+};
+
+std::string Join(const std::vector<std::string>& items) {
+  std::string text;
+  for (const std::string& item : items) text += (text.empty() ? "" : ", ") + item;
+  return text;
+}
+
+/// The serials of `gt` that `est` lacks, and those of `est` that `gt` lacks.
+struct CameraSets {
+  std::vector<std::string> missing;
+  std::vector<std::string> ignored;
+};
+
+CameraSets CompareCameras(const PoseMap& est, const PoseMap& gt) {
+  CameraSets sets;
+  for (const auto& [serial, pose] : gt) {
+    if (est.count(serial) == 0) sets.missing.push_back(serial);
+  }
+  for (const auto& [serial, pose] : est) {
+    if (gt.count(serial) == 0) sets.ignored.push_back(serial);
+  }
+  return sets;
+}
+
+/// {"rms": ..., "max": ...}, null for both when there is nothing to summarise.
+Json RmsMax(bool defined, double rms, double max) {
+  if (!defined) return {{"rms", nullptr}, {"max", nullptr}};
+  return {{"rms", rms}, {"max", max}};
+}
+
+Json ErrorsJson(const RigErrors& e, const EvaluateArgs& a, const CameraSets& sets) {
+  Json pairs = Json::array();
+  for (const PairError& p : e.pairs) {
+    pairs.push_back({{"serial_i", p.serial_i},
+                     {"serial_j", p.serial_j},
+                     {"rotation_deg", p.error.rotation_rad * kRadToDeg},
+                     {"translation_mm", p.error.translation_m * kMToMm}});
+  }
+  Json cameras = Json::array();
+  for (const auto& [serial, tilt] : e.tilt_rad) {
+    cameras.push_back({{"serial", serial}, {"tilt_deg", tilt * kRadToDeg}});
+  }
+  const bool has_pairs = !e.pairs.empty();
+  return {{"estimate", a.estimate_path},
+          {"ground_truth", a.ground_truth_path},
+          {"ignored_cameras", sets.ignored},
+          {"cameras", cameras},
+          {"pairs", pairs},
+          {"summary",
+           {{"rotation_deg",
+             RmsMax(has_pairs, e.rms_rotation_rad * kRadToDeg, e.max_rotation_rad * kRadToDeg)},
+            {"translation_mm",
+             RmsMax(has_pairs, e.rms_translation_m * kMToMm, e.max_translation_m * kMToMm)},
+            {"tilt_deg", RmsMax(true, e.rms_tilt_rad * kRadToDeg, e.max_tilt_rad * kRadToDeg)}}}};
+}
+
+void WriteJson(const std::string& path, const Json& report) {
+  const std::string text = report.dump(2) + "\n";
+  WriteFileAtomically(path, [&](const std::string& tmp_path) {
+    std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw InputError(path + ": write error");
+  });
+}
+
+void PrintTable(const RigErrors& e, const EvaluateArgs& a) {
+  std::printf("%s against %s: %zu cameras (gauge-free)\n", a.estimate_path.c_str(),
+              a.ground_truth_path.c_str(), e.tilt_rad.size());
+  std::printf("\n%-35s %13s %15s\n", "pair", "rotation deg", "translation mm");
+  for (const PairError& p : e.pairs) {
+    const std::string name = p.serial_i + " - " + p.serial_j;
+    std::printf("%-35s %13.3f %15.2f\n", name.c_str(), p.error.rotation_rad * kRadToDeg,
+                p.error.translation_m * kMToMm);
+  }
+  if (e.pairs.empty()) {
+    std::printf("(one camera: no pairs)\n");
+  } else {
+    std::printf("%-35s %13.3f %15.2f\n", "RMS", e.rms_rotation_rad * kRadToDeg,
+                e.rms_translation_m * kMToMm);
+    std::printf("%-35s %13.3f %15.2f\n", "max", e.max_rotation_rad * kRadToDeg,
+                e.max_translation_m * kMToMm);
+  }
+  std::printf("\n%-35s %13s\n", "camera", "tilt deg");
+  for (const auto& [serial, tilt] : e.tilt_rad) {
+    std::printf("%-35s %13.3f\n", serial.c_str(), tilt * kRadToDeg);
+  }
+  std::printf("%-35s %13.3f\n", "RMS", e.rms_tilt_rad * kRadToDeg);
+  std::printf("%-35s %13.3f\n", "max", e.max_tilt_rad * kRadToDeg);
+}
+
+int RunEvaluate(const EvaluateArgs& a) {
+  if (!a.json_path.empty()) {
+    RefuseToOverwriteInputs(a.json_path, {a.estimate_path, a.ground_truth_path},
+                            "evaluate: --json");
+  }
+  const ExtrinsicsDocument est = ReadExtrinsics(a.estimate_path);
+  const ExtrinsicsDocument gt = ReadExtrinsics(a.ground_truth_path);
+  for (const std::vector<std::string>* w : {&est.warnings, &gt.warnings}) {
+    for (const std::string& warning : *w) {
+      std::fprintf(stderr, "evaluate: warning: %s\n", warning.c_str());
+    }
+  }
+  if (gt.poses.empty()) {
+    throw InputError("evaluate: " + a.ground_truth_path + " holds no camera");
+  }
+  const CameraSets sets = CompareCameras(est.poses, gt.poses);
+  if (!sets.missing.empty()) {
+    throw InputError("evaluate: " + a.estimate_path + " has no pose for camera(s) " +
+                     Join(sets.missing) + " of " + a.ground_truth_path);
+  }
+  if (!sets.ignored.empty()) {
+    std::fprintf(stderr, "evaluate: note: camera(s) %s of %s are not in %s: ignored\n",
+                 Join(sets.ignored).c_str(), a.estimate_path.c_str(), a.ground_truth_path.c_str());
+  }
+  const RigErrors errors = EvaluateRig(est.poses, gt.poses);
+  if (!a.json_path.empty()) WriteJson(a.json_path, ErrorsJson(errors, a, sets));
+  PrintTable(errors, a);
+  return kExitOk;
+}
+
+}  // namespace
+
+Command AddEvaluateCommand(CLI::App& app) {
+  auto args = std::make_shared<EvaluateArgs>();
+  CLI::App* sub = app.add_subcommand(
+      "evaluate",
+      "Compare estimated extrinsics EST with ground truth GT, free of the gauge (the pose of "
+      "the rig as a whole): the error of the relative pose of every camera pair (rotation "
+      "deg, translation mm) and the tilt error of every camera (deg), with RMS and max. "
+      "Every camera of GT must be in EST; cameras of EST not in GT are ignored. Exit codes: "
+      "0 done; 2 bad input or usage (nothing written).");
+  sub->add_option("EST", args->estimate_path, "Estimated extrinsics (JSON)")->required();
+  sub->add_option("GT", args->ground_truth_path, "Ground-truth extrinsics (JSON)")->required();
+  sub->add_option("--json", args->json_path,
+                  "Also write the errors to this JSON file (replaced atomically; must not be "
+                  "EST or GT)");
+  return {sub, [args] { return RunEvaluate(*args); }};
+}
+
+}  // namespace rigfit::cli
