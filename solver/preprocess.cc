@@ -5,8 +5,9 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
-#include <thread>
 #include <tuple>
+
+#include "core/parallel.h"
 
 namespace rigfit {
 namespace {
@@ -127,28 +128,22 @@ LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree
   geometry.normals.resize(n);
   geometry.covariances.resize(n);
   geometry.planarity.resize(n);
-  const auto estimate = [&](int begin, int end) {
-    std::vector<int> neighbours;
-    std::vector<double> squared_distances;
+  // Plain threads (ParallelFor) rather than OpenMP: a join blocks, where libgomp's default
+  // barrier spins, which on shared cores doubled the CPU time of this step
+  // (docs/benchmarks.md). Each thread keeps its own neighbour buffers.
+  const int chunks = std::max(1, std::min(num_threads, n / kMinPointsPerThread));
+  std::vector<std::vector<int>> chunk_neighbours(chunks);
+  std::vector<std::vector<double>> chunk_distances(chunks);
+  ParallelForChunks(n, chunks, [&](int chunk, int begin, int end) {
     for (int i = begin; i < end; ++i) {
-      tree.KNearest(points[i], k, &neighbours, &squared_distances);
-      const PointGeometry g = NeighbourhoodGeometry(points, neighbours, points[i], viewpoint);
+      tree.KNearest(points[i], k, &chunk_neighbours[chunk], &chunk_distances[chunk]);
+      const PointGeometry g =
+          NeighbourhoodGeometry(points, chunk_neighbours[chunk], points[i], viewpoint);
       geometry.normals[i] = g.normal;
       geometry.covariances[i] = g.covariance;
       geometry.planarity[i] = g.planarity;
     }
-  };
-  // Contiguous chunks, one per thread, the calling thread taking the first. Plain threads
-  // rather than OpenMP: a join blocks, where libgomp's default barrier spins, which on
-  // shared cores doubled the CPU time of this step (docs/benchmarks.md).
-  const int chunks = std::max(1, std::min(num_threads, n / kMinPointsPerThread));
-  std::vector<std::thread> workers;
-  for (int c = 1; c < chunks; ++c) {
-    workers.emplace_back(estimate, static_cast<int>(static_cast<long>(n) * c / chunks),
-                         static_cast<int>(static_cast<long>(n) * (c + 1) / chunks));
-  }
-  estimate(0, n / chunks);
-  for (std::thread& worker : workers) worker.join();
+  });
   return geometry;
 }
 
