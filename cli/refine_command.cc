@@ -224,6 +224,8 @@ Json TimingsJson(const Timings& t) {
           {"leveling", t.solver.leveling_s},
           {"preprocessing", t.solver.preprocessing_s},
           {"registration", t.solver.registration_s},
+          {"correspondences", t.solver.correspondences_s},
+          {"solve", t.solver.solve_s},
           {"pose_graph", t.solver.pose_graph_s},
           {"output", t.output_s},
           {"total", t.total_s}};
@@ -294,7 +296,7 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options, const Ref
                          {"delta_translation_m", NumberOrNull(measured, c.delta_translation_m)},
                          {"own_rotation_deg", NumberOrNull(measured, c.own_rotation_deg)},
                          {"own_translation_m", NumberOrNull(measured, c.own_translation_m)},
-                         {"message", measured || c.reference ? c.message : "registration failed"}};
+                         {"message", c.message}};
     if (c.has_covariance) cameras[c.serial]["sigma"] = SigmaJson(SigmaOf(c.covariance));
   }
   meta["pairs"] = pairs;
@@ -365,10 +367,8 @@ void PrintSummary(const RefineResult& result, const RefineOptions& options, cons
       status = "leveled";
     }
     if (!a.no_icp) {
-      const bool failed = !ChangeMeasured(result, c);
       const std::string registration = c.reference  ? "reference (held fixed)"
                                        : c.accepted ? "refined"
-                                       : failed     ? "kept leveled pose: registration failed"
                                                     : "kept leveled pose: " + c.message;
       status += (status.empty() ? "" : "; ") + registration;
     }

@@ -116,16 +116,17 @@ std::vector<Section> Schema(RefineOptions& o) {
            {"robust_loss_scale", &i.robust_loss_scale,
             "Robust loss scale on whitened residuals, in standard deviations (> 0)."},
            {"min_fitness", &i.min_fitness,
-            "Pairwise: fraction of source points with a correspondence a pair needs [0, 1]."},
+            "Pairwise: overlap a pair needs (fraction of its points near the other camera's) "
+            "[0, 1]."},
            {"overlap_margin", &i.overlap_margin,
             "Candidate pairs: metres added around each camera's world XZ box (>= 0)."},
            {"min_overlap_area", &i.min_overlap_area,
             "Candidate pairs: square metres the inflated boxes must share (>= 0)."},
            {"reference", &i.reference, "Camera held fixed (gauge); \"\" = the first serial."},
            {"max_rotation_deg", &i.max_rotation_deg,
-            "A camera changing more keeps its leveled pose (0, 180]."},
+            "A camera changing more against the rig keeps its leveled pose (0, 180]."},
            {"max_translation_m", &i.max_translation_m,
-            "A camera moving more keeps its leveled pose (> 0)."},
+            "A camera moving more against the rig keeps its leveled pose (> 0)."},
        }},
   };
 }

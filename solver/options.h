@@ -70,7 +70,7 @@ struct IcpOptions {
   RobustLoss robust_loss = RobustLoss::kHuber;
   /// Scale of the robust loss on whitened residuals, in standard deviations.
   double robust_loss_scale = 2.0;
-  /// Pairwise mode: a pair needs this fraction of source points with a correspondence.
+  /// Pairwise mode: a pair needs this overlap (OverlapStats::fitness).
   double min_fitness = 0.3;
   /// Candidate pairs: world XZ boxes inflated by overlap_margin must intersect by at least
   /// min_overlap_area.
@@ -78,7 +78,8 @@ struct IcpOptions {
   double min_overlap_area = 1.0;
   /// Camera held constant (gauge); empty means the first serial.
   std::string reference;
-  /// A camera whose total change exceeds these keeps its leveled pose (warning).
+  /// A camera whose change against the rig (after removing the motion common to all
+  /// connected cameras) exceeds these keeps its leveled pose (warning).
   double max_rotation_deg = 5.0;
   double max_translation_m = 0.1;
 };

@@ -278,6 +278,9 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
           : RegisterPairwise(cameras, leveled, candidates, reference, options.icp, num_threads, log,
                              &result);
   if (!registered) {
+    for (CameraReport& report : result.cameras) {
+      if (!report.reference) report.message = "registration failed: " + result.message;
+    }
     result.warnings.push_back("registration failed, every camera keeps its leveled pose: " +
                               result.message);
     log.Warning(result.warnings.back());

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_test_util.h"
 #include "core/evaluate.h"
 #include "io/extrinsics_json.h"
 
@@ -24,49 +25,11 @@ namespace {
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
+using namespace cli_test;  // NOLINT: RunRigfit and friends
 
 constexpr double kDegToRad = M_PI / 180.0;
 /// Errors of exactly equal relative poses are round-off: far below what the table prints.
 constexpr double kRoundOff = 1e-9;
-
-struct RunResult {
-  int exit_code = -1;
-  std::string out;  ///< stdout
-  std::string err;  ///< stderr
-};
-
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// Single-quoted for /bin/sh.
-std::string ShellQuote(const std::string& s) {
-  std::string quoted = "'";
-  for (char c : s) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
-}
-
-/// Runs the rigfit executable with args; stdout and stderr go through files in `scratch`.
-RunResult RunRigfit(const std::vector<std::string>& args, const fs::path& scratch) {
-  std::string command = ShellQuote(RIGFIT_CLI_PATH);
-  for (const std::string& arg : args) command += " " + ShellQuote(arg);
-  const fs::path out = scratch / "stdout.txt";
-  const fs::path err = scratch / "stderr.txt";
-  command += " >" + ShellQuote(out.string()) + " 2>" + ShellQuote(err.string());
-  const int status = std::system(command.c_str());
-  RunResult result;
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  result.out = ReadText(out);
-  result.err = ReadText(err);
-  fs::remove(out);
-  fs::remove(err);
-  return result;
-}
-
-std::string Describe(const RunResult& r) {
-  return "exit " + std::to_string(r.exit_code) + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
-}
 
 /// The whitespace-separated cells of the first table row of `text` that starts with `label`
 /// followed by two spaces, without the label; empty if there is none.

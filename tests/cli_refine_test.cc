@@ -15,7 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "core/geometry.h"
+#include "cli_test_util.h"
+#include "core/evaluate.h"
 #include "io/extrinsics_json.h"
 
 namespace rigfit {
@@ -23,20 +24,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
+using namespace cli_test;  // NOLINT: RunRigfit and friends
 
 constexpr int kCameras = 3;
 constexpr double kRadToDeg = 180.0 / M_PI;
-
-struct RunResult {
-  int exit_code = -1;
-  std::string out;  ///< stdout
-  std::string err;  ///< stderr
-};
-
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 void WriteText(const fs::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
@@ -45,48 +36,6 @@ void WriteText(const fs::path& path, const std::string& text) {
 Json ReadJson(const fs::path& path) { return Json::parse(ReadText(path)); }
 
 void WriteJson(const fs::path& path, const Json& json) { WriteText(path, json.dump(2)); }
-
-/// Single-quoted for /bin/sh.
-std::string ShellQuote(const std::string& s) {
-  std::string quoted = "'";
-  for (char c : s) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
-}
-
-/// Runs the rigfit executable with args; stdout and stderr go through files in `scratch`.
-RunResult RunRigfit(const std::vector<std::string>& args, const fs::path& scratch) {
-  std::string command = ShellQuote(RIGFIT_CLI_PATH);
-  for (const std::string& arg : args) command += " " + ShellQuote(arg);
-  const fs::path out = scratch / "stdout.txt";
-  const fs::path err = scratch / "stderr.txt";
-  command += " >" + ShellQuote(out.string()) + " 2>" + ShellQuote(err.string());
-  const int status = std::system(command.c_str());
-  RunResult result;
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  result.out = ReadText(out);
-  result.err = ReadText(err);
-  fs::remove(out);
-  fs::remove(err);
-  return result;
-}
-
-std::string Describe(const RunResult& r) {
-  return "exit " + std::to_string(r.exit_code) + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
-}
-
-/// Largest errors of the relative poses T_i^-1 T_j against ground truth (gauge-free).
-RelativePoseError MaxRelativeError(const PoseMap& est, const PoseMap& gt) {
-  RelativePoseError worst;
-  for (auto i = gt.begin(); i != gt.end(); ++i) {
-    for (auto j = std::next(i); j != gt.end(); ++j) {
-      const RelativePoseError e =
-          RelativeError(est.at(i->first), est.at(j->first), i->second, j->second);
-      worst.rotation_rad = std::max(worst.rotation_rad, e.rotation_rad);
-      worst.translation_m = std::max(worst.translation_m, e.translation_m);
-    }
-  }
-  return worst;
-}
 
 double MaxTiltErrorDeg(const PoseMap& est, const PoseMap& gt) {
   double worst = 0.0;
@@ -237,10 +186,10 @@ TEST_F(CliRefineTest, RefinesTheRigAndPreservesUnknownKeys) {
   EXPECT_TRUE(AllNumbersFinite(out));
 
   // End to end, the noise-free rig ends at least twice as close to the truth as it started.
-  const RelativePoseError before = MaxRelativeError(ReadExtrinsics(Init()).poses, gt);
-  const RelativePoseError after = MaxRelativeError(refined, gt);
-  EXPECT_LT(after.rotation_rad, 0.5 * before.rotation_rad);
-  EXPECT_LT(after.translation_m, 0.5 * before.translation_m);
+  const RigErrors before = EvaluateRig(ReadExtrinsics(Init()).poses, gt);
+  const RigErrors after = EvaluateRig(refined, gt);
+  EXPECT_LT(after.max_rotation_rad, 0.5 * before.max_rotation_rad);
+  EXPECT_LT(after.max_translation_m, 0.5 * before.max_translation_m);
   EXPECT_NE(r.out.find("refined "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find(Out()), std::string::npos) << r.out;
 }

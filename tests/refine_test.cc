@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "core/geometry.h"
+#include "core/evaluate.h"
 #include "sim/simulate_rig.h"
 
 namespace rigfit {
@@ -14,24 +14,16 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-struct RigErrors {
-  double max_rotation_deg = 0.0;
-  double max_translation_m = 0.0;
-  double max_tilt_deg = 0.0;
+/// Largest relative-pose errors (deg, m) and tilt (deg) of an estimate (EvaluateRig).
+struct MaxErrors {
+  double rotation_deg = 0.0;
+  double translation_m = 0.0;
+  double tilt_deg = 0.0;
 };
 
-RigErrors Errors(const PoseMap& est, const PoseMap& gt) {
-  RigErrors e;
-  for (auto i = gt.begin(); i != gt.end(); ++i) {
-    e.max_tilt_deg = std::max(e.max_tilt_deg, TiltErrorRad(est.at(i->first), i->second) / kDeg);
-    for (auto j = std::next(i); j != gt.end(); ++j) {
-      const RelativePoseError r =
-          RelativeError(est.at(i->first), est.at(j->first), i->second, j->second);
-      e.max_rotation_deg = std::max(e.max_rotation_deg, r.rotation_rad / kDeg);
-      e.max_translation_m = std::max(e.max_translation_m, r.translation_m);
-    }
-  }
-  return e;
+MaxErrors Errors(const PoseMap& est, const PoseMap& gt) {
+  const RigErrors e = EvaluateRig(est, gt);
+  return {e.max_rotation_rad / kDeg, e.max_translation_m, e.max_tilt_rad / kDeg};
 }
 
 /// Two neighbouring cameras of a simulated 4-camera rig (two cameras alone would face each
@@ -73,13 +65,13 @@ TEST_P(PairRecovery, NoiseFreeToAMillimetre) {
   const RefineResult r =
       Refine(rig.capture, rig.init, PairwiseOptions(GetParam()), true, 2, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
-  const RigErrors before = Errors(rig.init, rig.gt);
-  const RigErrors after = Errors(r.refined, rig.gt);
+  const MaxErrors before = Errors(rig.init, rig.gt);
+  const MaxErrors after = Errors(r.refined, rig.gt);
   std::printf("noise-free: before %.3f deg %.1f mm, after %.4f deg %.3f mm, tilt %.4f deg\n",
-              before.max_rotation_deg, before.max_translation_m * 1e3, after.max_rotation_deg,
-              after.max_translation_m * 1e3, after.max_tilt_deg);
-  EXPECT_LT(after.max_rotation_deg, 0.02);
-  EXPECT_LT(after.max_translation_m, 0.001);
+              before.rotation_deg, before.translation_m * 1e3, after.rotation_deg,
+              after.translation_m * 1e3, after.tilt_deg);
+  EXPECT_LT(after.rotation_deg, 0.02);
+  EXPECT_LT(after.translation_m, 0.001);
 }
 
 TEST_P(PairRecovery, DefaultNoiseToACentimetre) {
@@ -87,11 +79,11 @@ TEST_P(PairRecovery, DefaultNoiseToACentimetre) {
   const RefineResult r =
       Refine(rig.capture, rig.init, PairwiseOptions(GetParam()), true, 2, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
-  const RigErrors after = Errors(r.refined, rig.gt);
-  std::printf("default noise: after %.4f deg %.3f mm, tilt %.4f deg\n", after.max_rotation_deg,
-              after.max_translation_m * 1e3, after.max_tilt_deg);
-  EXPECT_LT(after.max_rotation_deg, 0.2);
-  EXPECT_LT(after.max_translation_m, 0.01);
+  const MaxErrors after = Errors(r.refined, rig.gt);
+  std::printf("default noise: after %.4f deg %.3f mm, tilt %.4f deg\n", after.rotation_deg,
+              after.translation_m * 1e3, after.tilt_deg);
+  EXPECT_LT(after.rotation_deg, 0.2);
+  EXPECT_LT(after.translation_m, 0.01);
 }
 
 INSTANTIATE_TEST_SUITE_P(Methods, PairRecovery,
@@ -116,9 +108,9 @@ TEST(JointRefine, RecoversANoiseFreeThreeCameraRig) {
   const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_EQ(r.mode, RefineMode::kJoint);
-  const RigErrors after = Errors(r.refined, rig.gt);
-  EXPECT_LT(after.max_rotation_deg, 0.01);
-  EXPECT_LT(after.max_translation_m, 0.001);
+  const MaxErrors after = Errors(r.refined, rig.gt);
+  EXPECT_LT(after.rotation_deg, 0.01);
+  EXPECT_LT(after.translation_m, 0.001);
   for (const CameraReport& c : r.cameras) {
     EXPECT_TRUE(c.accepted) << c.serial << ": " << c.message;
     if (c.reference) continue;
