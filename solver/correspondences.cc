@@ -1,5 +1,7 @@
 #include "solver/correspondences.h"
 
+#include <ceres/crs_matrix.h>
+
 #include <algorithm>
 #include <cmath>
 
@@ -142,6 +144,38 @@ OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
   stats.rmse_m = CorrespondenceRmse(FindCorrespondences(
       source, target, factor * source.level->voxel_size, kAnyNormalAngleDeg, num_threads));
   return stats;
+}
+
+Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
+                            const std::vector<ceres::ResidualBlockId>& residual_blocks) {
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks = blocks;
+  eval.residual_blocks = residual_blocks;
+  eval.apply_loss_function = false;
+  std::vector<double*> made_variable;
+  for (double* block : blocks) {
+    if (!problem->IsParameterBlockConstant(block)) continue;
+    problem->SetParameterBlockVariable(block);
+    made_variable.push_back(block);
+  }
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  problem->Evaluate(eval, nullptr, &residuals, nullptr, &J);
+  for (double* block : made_variable) problem->SetParameterBlockConstant(block);
+  const int n = J.num_cols;
+  Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(n, n);
+  for (int row = 0; row < J.num_rows; ++row) {
+    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+      for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
+        JtJ(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
+      }
+    }
+  }
+  double sum_sq = 0.0;
+  for (double r : residuals) sum_sq += r * r;
+  const double dof = static_cast<double>(residuals.size()) - n;
+  if (dof <= 0.0 || sum_sq <= 0.0) return JtJ;
+  return JtJ / (sum_sq / dof);
 }
 
 double CorrespondenceRmse(const std::vector<Correspondence>& correspondences) {

@@ -77,6 +77,12 @@ struct OverlapStats {
 OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
                             double coarsest_voxel_size, const IcpOptions& options, int num_threads);
 
+/// Information of the given pose blocks (PoseManifold tangents, in the order given,
+/// 6 per block) from the given residual blocks: J^T J / sigma^2 with sigma^2 = sum r^2 /
+/// (m - 6 k), loss functions not applied; the other blocks are held at their values.
+Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
+                            const std::vector<ceres::ResidualBlockId>& residual_blocks);
+
 /// Root mean square of the correspondence distances (m); 0 when there are none.
 double CorrespondenceRmse(const std::vector<Correspondence>& correspondences);
 

@@ -1,8 +1,8 @@
 #include "solver/joint.h"
 
-#include <ceres/covariance.h>
 #include <ceres/solver.h>
 
+#include <Eigen/Eigenvalues>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -46,35 +46,36 @@ std::vector<bool> Reachable(int reference, size_t n, const std::vector<Candidate
   return reached;
 }
 
-/// Covariance of every free pose block (tangent space), scaled by the measured variance
-/// of the whitened residuals (sigma^2 = cost * 2 / (m - dof)).
+/// Covariance of every free pose block (tangent space): the inverse of the joint
+/// information over the free blocks (Information: whitened residuals, scaled by their
+/// measured variance), eigenvalues below 1e-12 of the largest treated as unconstrained
+/// (pseudo-inverse). Returns false when the information is empty or not finite.
 bool PoseCovariances(ceres::Problem* problem, std::vector<PoseBlock>& blocks,
-                     const std::vector<bool>& free, int num_threads, std::vector<Mat6>* out) {
-  ceres::Covariance::Options options;
-  options.num_threads = num_threads;
-  options.algorithm_type = ceres::DENSE_SVD;
-  options.null_space_rank = -1;
-  ceres::Covariance covariance(options);
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    if (free[i]) pairs.emplace_back(blocks[i].data(), blocks[i].data());
-  }
-  if (pairs.empty() || !covariance.Compute(pairs, problem)) return false;
-  double cost = 0.0;
-  ceres::Problem::EvaluateOptions eval;
-  eval.apply_loss_function = false;
-  problem->Evaluate(eval, &cost, nullptr, nullptr, nullptr);
-  const double dof = problem->NumResiduals() - kPoseTangentSize * static_cast<double>(pairs.size());
-  const double variance = dof > 0.0 ? 2.0 * cost / dof : 1.0;
-  out->assign(blocks.size(), Mat6::Zero());
+                     const std::vector<bool>& free, std::vector<Mat6>* out) {
+  std::vector<double*> free_blocks;
+  std::vector<size_t> index;
   for (size_t i = 0; i < blocks.size(); ++i) {
     if (!free[i]) continue;
-    Eigen::Matrix<double, 6, 6, Eigen::RowMajor> c;
-    if (!covariance.GetCovarianceBlockInTangentSpace(blocks[i].data(), blocks[i].data(),
-                                                     c.data())) {
-      return false;
-    }
-    (*out)[i] = variance * c;
+    free_blocks.push_back(blocks[i].data());
+    index.push_back(i);
+  }
+  if (free_blocks.empty()) return false;
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  problem->GetResidualBlocks(&residual_blocks);
+  const Eigen::MatrixXd information = Information(problem, free_blocks, residual_blocks);
+  if (!information.allFinite()) return false;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  if (!(lambda.maxCoeff() > 0.0)) return false;
+  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(lambda.size());
+  for (int k = 0; k < lambda.size(); ++k) {
+    if (lambda(k) > 1e-12 * lambda.maxCoeff()) inverse(k) = 1.0 / lambda(k);
+  }
+  const Eigen::MatrixXd covariance =
+      eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
+  out->assign(blocks.size(), Mat6::Zero());
+  for (size_t k = 0; k < index.size(); ++k) {
+    (*out)[index[k]] = covariance.block<6, 6>(6 * k, 6 * k);
   }
   return true;
 }
@@ -186,8 +187,7 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   if (problem != nullptr) {
     std::vector<bool> free = result.connected;
     free[reference] = false;
-    result.covariance_ok =
-        PoseCovariances(problem.get(), blocks, free, num_threads, &result.covariance);
+    result.covariance_ok = PoseCovariances(problem.get(), blocks, free, &result.covariance);
   }
   return result;
 }

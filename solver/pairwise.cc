@@ -1,6 +1,5 @@
 #include "solver/pairwise.h"
 
-#include <ceres/crs_matrix.h>
 #include <ceres/solver.h>
 
 #include <memory>
@@ -29,31 +28,6 @@ ceres::Solver::Options StepSolverOptions(int num_threads) {
 }
 
 }  // namespace
-
-Mat6 BlockInformation(ceres::Problem* problem, double* block,
-                      const std::vector<ceres::ResidualBlockId>& residual_blocks) {
-  ceres::Problem::EvaluateOptions eval;
-  eval.parameter_blocks = {block};
-  eval.residual_blocks = residual_blocks;
-  eval.apply_loss_function = false;
-  std::vector<double> residuals;
-  ceres::CRSMatrix J;
-  const bool was_constant = problem->IsParameterBlockConstant(block);
-  if (was_constant) problem->SetParameterBlockVariable(block);
-  problem->Evaluate(eval, nullptr, &residuals, nullptr, &J);
-  if (was_constant) problem->SetParameterBlockConstant(block);
-  Mat6 JtJ = Mat6::Zero();
-  for (int row = 0; row < J.num_rows; ++row) {
-    Vec6 g = Vec6::Zero();
-    for (int k = J.rows[row]; k < J.rows[row + 1]; ++k) g(J.cols[k]) = J.values[k];
-    JtJ += g * g.transpose();
-  }
-  double sum_sq = 0.0;
-  for (double r : residuals) sum_sq += r * r;
-  const double dof = static_cast<double>(residuals.size()) - kPoseTangentSize;
-  if (dof <= 0.0 || sum_sq <= 0.0) return JtJ;
-  return JtJ / (sum_sq / dof);
-}
 
 PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
                             const RegistrationCamera& target_camera, const IcpOptions& options,
@@ -147,7 +121,7 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
     AddCorrespondenceTerms(problem.get(), options, src, tgt, final_matches, nullptr);
     std::vector<ceres::ResidualBlockId> blocks;
     problem->GetResidualBlocks(&blocks);
-    result.information = BlockInformation(problem.get(), source_pose, blocks);
+    result.information = Information(problem.get(), {source_pose}, blocks);
   }
   if (result.fitness < options.min_fitness) {
     std::ostringstream m;

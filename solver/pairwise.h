@@ -48,9 +48,4 @@ struct RegistrationCamera {
 PairwiseResult RegisterPair(const RegistrationCamera& source, const RegistrationCamera& target,
                             const IcpOptions& options, int num_threads, const Log& log);
 
-/// Information (6x6, PoseManifold tangent of `block`) of the given residual blocks:
-/// J^T J / sigma^2 with sigma^2 = sum r^2 / (m - 6), loss functions not applied.
-Mat6 BlockInformation(ceres::Problem* problem, double* block,
-                      const std::vector<ceres::ResidualBlockId>& residual_blocks);
-
 }  // namespace rigfit

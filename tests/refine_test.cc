@@ -120,6 +120,24 @@ TEST(JointRefine, RecoversANoiseFreeThreeCameraRig) {
   }
 }
 
+TEST(JointRefine, CovarianceShrinksWhenMorePointsAreUsed) {
+  const SimulatedRig rig = Rig(3, SimOptions{}.noise, 9);
+  RefineOptions sparse;
+  sparse.region.pixel_stride = 4;
+  RefineOptions dense;
+  dense.region.pixel_stride = 2;
+  const RefineResult r_sparse = Refine(rig.capture, rig.init, sparse, true, 2, StderrLog());
+  const RefineResult r_dense = Refine(rig.capture, rig.init, dense, true, 2, StderrLog());
+  for (size_t i = 1; i < r_dense.cameras.size(); ++i) {
+    ASSERT_TRUE(r_sparse.cameras[i].has_covariance && r_dense.cameras[i].has_covariance);
+    // Four times the pixels: every variance smaller, the trace by a clear margin.
+    const Mat6& c_sparse = r_sparse.cameras[i].covariance;
+    const Mat6& c_dense = r_dense.cameras[i].covariance;
+    EXPECT_LT(c_dense.trace(), 0.8 * c_sparse.trace()) << r_dense.cameras[i].serial;
+    for (int k = 0; k < 6; ++k) EXPECT_LT(c_dense(k, k), c_sparse(k, k)) << k;
+  }
+}
+
 class BothModes : public ::testing::TestWithParam<RefineMode> {};
 
 TEST_P(BothModes, ReferenceCameraNeverMoves) {
