@@ -17,6 +17,8 @@
 #include "cli/commands.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
+#include "core/format.h"
+#include "core/stopwatch.h"
 #include "io/atomic_file.h"
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
@@ -55,10 +57,6 @@ struct RefineArgs {
   bool verbose = false;
   int threads = 2;
 };
-
-double SecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 std::string Join(const std::vector<std::string>& items, const std::string& separator) {
   std::string text;
@@ -323,12 +321,6 @@ std::vector<std::string> ReplaceNonFinite(Json& value, const std::string& path) 
     }
   }
   return where;
-}
-
-std::string Fixed(double value, int digits) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", digits, value);
-  return text;
 }
 
 /// `text` centred in `width` columns: a heading over a group of columns.

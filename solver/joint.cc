@@ -10,8 +10,10 @@
 #include <sstream>
 
 #include "core/geometry.h"
+#include "core/stopwatch.h"
 #include "residuals/gravity_prior.h"
 #include "solver/correspondences.h"
+#include "solver/pose_graph.h"
 
 namespace rigfit {
 namespace {
@@ -24,27 +26,6 @@ constexpr double kConvergedStep = 1e-6;
 constexpr int kSolverIterationsPerStep = 3;
 
 using PoseBlock = std::array<double, kPoseAmbientSize>;
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-std::vector<bool> Reachable(int reference, size_t n, const std::vector<CandidatePair>& pairs,
-                            const std::vector<int>& correspondences) {
-  std::vector<bool> reached(n, false);
-  reached[reference] = true;
-  for (bool grew = true; grew;) {
-    grew = false;
-    for (size_t k = 0; k < pairs.size(); ++k) {
-      if (correspondences[k] < static_cast<int>(kMinPairCorrespondences)) continue;
-      if (reached[pairs[k].a] != reached[pairs[k].b]) {
-        reached[pairs[k].a] = reached[pairs[k].b] = true;
-        grew = true;
-      }
-    }
-  }
-  return reached;
-}
 
 /// Covariance of every free pose block (tangent space): the inverse of the joint
 /// information over the free blocks (Information: whitened residuals, scaled by their
@@ -136,16 +117,18 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
         problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
       }
       size_t total = 0;
+      std::vector<std::pair<int, int>> links;
       for (size_t k = 0; k < pairs.size(); ++k) {
         const size_t count = result.pair_correspondences[k];
         if (count < kMinPairCorrespondences) continue;
+        links.emplace_back(pairs[k].a, pairs[k].b);
         AddCorrespondenceTerms(problem.get(), options, views[pairs[k].a], views[pairs[k].b],
                                matches[2 * k], loss.get());
         AddCorrespondenceTerms(problem.get(), options, views[pairs[k].b], views[pairs[k].a],
                                matches[2 * k + 1], loss.get());
         total += count;
       }
-      result.connected = Reachable(reference, n, pairs, result.pair_correspondences);
+      result.connected = ConnectedTo(reference, n, links);
       for (size_t i = 0; i < n; ++i) {
         if (!result.connected[i]) {
           problem->SetParameterBlockConstant(blocks[i].data());

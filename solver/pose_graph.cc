@@ -18,15 +18,18 @@ namespace {
 const double kEdgeLossScale = std::sqrt(16.81);
 constexpr int kMaxIterations = 100;
 
-std::vector<bool> ReachableFrom(int reference, size_t n, const std::vector<PoseGraphEdge>& edges) {
+}  // namespace
+
+std::vector<bool> ConnectedTo(int reference, size_t n,
+                              const std::vector<std::pair<int, int>>& links) {
   std::vector<bool> reached(n, false);
   if (reference < 0 || static_cast<size_t>(reference) >= n) return reached;
   reached[reference] = true;
   for (bool grew = true; grew;) {
     grew = false;
-    for (const PoseGraphEdge& e : edges) {
-      if (reached[e.a] != reached[e.b]) {
-        reached[e.a] = reached[e.b] = true;
+    for (const auto& [a, b] : links) {
+      if (reached[a] != reached[b]) {
+        reached[a] = reached[b] = true;
         grew = true;
       }
     }
@@ -34,14 +37,14 @@ std::vector<bool> ReachableFrom(int reference, size_t n, const std::vector<PoseG
   return reached;
 }
 
-}  // namespace
-
 PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
                                   const std::vector<PoseGraphEdge>& edges, int reference,
                                   int num_threads) {
   PoseGraphResult result;
   result.poses = initial;
-  result.connected = ReachableFrom(reference, initial.size(), edges);
+  std::vector<std::pair<int, int>> links;
+  for (const PoseGraphEdge& e : edges) links.emplace_back(e.a, e.b);
+  result.connected = ConnectedTo(reference, initial.size(), links);
   std::vector<std::array<double, kPoseAmbientSize>> blocks(initial.size());
   for (size_t i = 0; i < initial.size(); ++i) PoseToParameters(initial[i], blocks[i].data());
 

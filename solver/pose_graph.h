@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/types.h"
@@ -22,6 +23,11 @@ struct PoseGraphResult {
   bool usable = false;          ///< Ceres' solution is usable
   std::string message;
 };
+
+/// Which of n cameras the links (pairs of camera indices) connect to `reference`, the
+/// reference included.
+std::vector<bool> ConnectedTo(int reference, size_t n,
+                              const std::vector<std::pair<int, int>>& links);
 
 /// Optimises the poses of the cameras connected to `reference` (held constant). Edges
 /// carry a Cauchy loss so one inconsistent pair cannot drag the others. Never throws.

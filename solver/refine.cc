@@ -3,9 +3,10 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
-#include <sstream>
 
+#include "core/format.h"
 #include "core/geometry.h"
+#include "core/stopwatch.h"
 #include "residuals/relative_pose.h"
 #include "solver/correspondences.h"
 #include "solver/joint.h"
@@ -18,18 +19,6 @@ namespace rigfit {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-std::string Fixed(double value, int digits) {
-  std::ostringstream s;
-  s.setf(std::ios::fixed);
-  s.precision(digits);
-  s << value;
-  return s.str();
-}
 
 /// The depth noise k of a camera: configured, or measured on its floor, or 0.
 double DepthNoise(const IcpOptions& options, const GroundResult& ground) {
