@@ -11,7 +11,8 @@ std::vector<Command>& Registry() {
 }  // namespace
 
 void RegisterCommands(CLI::App& app) {
-  Registry() = {AddSimulateCommand(app), AddRefineCommand(app), AddEvaluateCommand(app)};
+  Registry() = {AddSimulateCommand(app), AddRefineCommand(app), AddEvaluateCommand(app),
+                AddImportPlyCommand(app)};
 }
 
 int RunSelected(const CLI::App& app) {

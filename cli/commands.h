@@ -26,6 +26,9 @@ Command AddRefineCommand(CLI::App& app);
 /// `rigfit evaluate`: gauge-free errors of estimated extrinsics against ground truth.
 Command AddEvaluateCommand(CLI::App& app);
 
+/// `rigfit import-ply`: a rig capture (points layout) from one PLY cloud per camera.
+Command AddImportPlyCommand(CLI::App& app);
+
 /// Adds every subcommand to app.
 void RegisterCommands(CLI::App& app);
 /// Runs the subcommand that was parsed; returns its exit code.

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include "core/format.h"
@@ -20,8 +21,13 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-/// The depth noise k of a camera: configured, or measured on its floor, or 0.
-double DepthNoise(const IcpOptions& options, const GroundResult& ground) {
+/// The depth noise k of a camera: configured, or measured on its floor, or 0. The stereo
+/// model sigma_z = k z^2 along the ray assumes the frame's origin is the sensor and z its
+/// depth, which a points camera (scanner frames, fused fragments) does not promise: its
+/// correspondences use icp.min_noise_m alone (k = 0).
+double DepthNoise(const IcpOptions& options, const CameraCapture& camera,
+                  const GroundResult& ground) {
+  if (!camera.HasDepth()) return 0.0;
   if (options.depth_noise > 0.0) return options.depth_noise;
   return ground.found ? ground.depth_noise : 0.0;
 }
@@ -180,6 +186,10 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   auto start = std::chrono::steady_clock::now();
   const UnprojectOptions unproject{options.region.pixel_stride, options.region.min_depth_m,
                                    options.region.max_depth_m};
+  // The depth range is a depth sensor's; a points camera's frame may have its origin inside
+  // the object (e.g. the Stanford bunny's scans), so it keeps every finite point.
+  const UnprojectOptions every_point{1, -std::numeric_limits<double>::infinity(),
+                                     std::numeric_limits<double>::infinity()};
   std::vector<PointCloud> points(n);
   std::vector<Pose> leveled(n);
   result.cameras.resize(n);
@@ -188,7 +198,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
     CameraReport& report = result.cameras[i];
     report.serial = camera.serial;
     report.reference = static_cast<int>(i) == reference;
-    points[i] = CameraPoints(camera, unproject);
+    points[i] = CameraPoints(camera, camera.HasDepth() ? unproject : every_point);
     report.points = static_cast<int>(points[i].size());
     leveled[i] = initial.at(camera.serial);
     if (options.ground.enabled) {
@@ -236,7 +246,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
     result.cameras[i].band_points = static_cast<int>(band.size());
     boxes[i] = RobustGroundBox(Transform(leveled[i], band));
     const GroundResult& ground = result.cameras[i].ground;
-    const FloorModel floor{leveled[i], DepthNoise(options.icp, ground),
+    const FloorModel floor{leveled[i], DepthNoise(options.icp, capture.cameras[i], ground),
                            options.ground.ransac_distance_m};
     pyramids[i] =
         BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(), num_threads);
@@ -253,12 +263,13 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   std::vector<RegistrationCamera> cameras(n);
   for (size_t i = 0; i < n; ++i) {
     const GroundResult& ground = result.cameras[i].ground;
-    cameras[i] = {&pyramids[i], leveled[i], DepthNoise(options.icp, ground)};
+    cameras[i] = {&pyramids[i], leveled[i], DepthNoise(options.icp, capture.cameras[i], ground)};
     log.Info("camera " + capture.cameras[i].serial +
              ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
-             (options.icp.depth_noise > 0.0 ? " (configured)"
-              : ground.found                ? " (measured on the floor)"
-                                            : " (no floor: noise floor only)"));
+             (!capture.cameras[i].HasDepth()  ? " (points camera: noise floor only)"
+              : options.icp.depth_noise > 0.0 ? " (configured)"
+              : ground.found                  ? " (measured on the floor)"
+                                              : " (no floor: noise floor only)"));
   }
   const std::optional<std::vector<Pose>> registered =
       options.icp.mode == RefineMode::kJoint
