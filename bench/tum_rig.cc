@@ -9,10 +9,10 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
-#include <random>
 #include <sstream>
 #include <stdexcept>
 
+#include "bench/bench_util.h"
 #include "core/evaluate.h"
 #include "solver/refine.h"
 
@@ -20,7 +20,6 @@ namespace {
 
 using namespace rigfit;
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 /// TUM depth PNGs: metres = value / 5000, 0 = no measurement.
 constexpr double kTumDepthScale = 1.0 / 5000.0;
 
@@ -118,31 +117,25 @@ int main(int argc, char** argv) {
   options.region.band_height = 0.0;
   options.icp.gravity_weight = 0.0;
   options.icp.depth_noise = depth_noise;
-  std::printf("TUM fr1/xyz frames as %zu cameras, start perturbed by %.2f deg and %.3f m\n",
+  std::printf("TUM fr1/xyz frames as %zu cameras, start perturbed by %.2f deg and %.3f m\n\n",
               frames.size(), rotation_deg, translation_m);
-  std::printf("%4s | %9s %9s | %9s %9s | %9s %9s\n", "seed", "start deg", "start mm", "joint deg",
-              "joint mm", "pair deg", "pair mm");
+  std::printf(
+      "| seed | start deg | start mm | start max mm | joint deg | joint mm | joint max mm | "
+      "pairwise deg | pairwise mm | pairwise max mm |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  bench::ErrorSummary summary[3];
   for (int seed = 0; seed < seeds; ++seed) {
-    std::mt19937_64 rng(seed);
-    std::normal_distribution<double> normal;
-    PoseMap init;
-    for (const auto& [serial, T] : gt) {
-      const Vec3 axis = Vec3(normal(rng), normal(rng), normal(rng)).normalized();
-      const Vec3 dir_t = Vec3(normal(rng), normal(rng), normal(rng)).normalized();
-      Vec6 delta;
-      delta << rotation_deg / kRadToDeg * axis, translation_m * dir_t;
-      init[serial] = PosePlus(T, delta);
-    }
-    const RigErrors before = EvaluateRig(init, gt);
-    RigErrors after[2];
+    const PoseMap init = bench::PerturbRig(gt, rotation_deg, translation_m, seed);
+    RigErrors errors[3] = {EvaluateRig(init, gt)};
     for (int m = 0; m < 2; ++m) {
       options.icp.mode = m == 0 ? RefineMode::kJoint : RefineMode::kPairwise;
-      after[m] = EvaluateRig(Refine(capture, init, options, true, 2, {}).refined, gt);
+      errors[m + 1] = EvaluateRig(Refine(capture, init, options, true, 2, {}).refined, gt);
     }
-    std::printf("%4d | %9.3f %9.2f | %9.3f %9.2f | %9.3f %9.2f\n", seed,
-                before.rms_rotation_rad * kRadToDeg, before.rms_translation_m * 1e3,
-                after[0].rms_rotation_rad * kRadToDeg, after[0].rms_translation_m * 1e3,
-                after[1].rms_rotation_rad * kRadToDeg, after[1].rms_translation_m * 1e3);
+    for (int k = 0; k < 3; ++k) summary[k].Add(errors[k]);
+    std::printf("| %d | %s | %s | %s |\n", seed, bench::ErrorCells(errors[0]).c_str(),
+                bench::ErrorCells(errors[1]).c_str(), bench::ErrorCells(errors[2]).c_str());
   }
+  std::printf("| RMS (max) | %s | %s | %s |\n", summary[0].Cells().c_str(),
+              summary[1].Cells().c_str(), summary[2].Cells().c_str());
   return 0;
 }

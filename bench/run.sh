@@ -1,0 +1,365 @@
+#!/usr/bin/env bash
+# The benchmark suite: regenerates every table of docs/benchmarks.md (accuracy, speed and
+# memory, real data, micro-benchmarks) and prints them as markdown.
+#
+# Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
+#   SECTION  accuracy | speed | real | micro (default: all four, in that order)
+#   --quick  a few seconds to minutes: 1 seed, small images, 1 run per case; checks the script
+#            and the programs, its numbers are not for the docs
+#   --build  Release build directory (default: <repo>/build) with rigfit, rig_accuracy, tum_rig,
+#            bunny_rig (and io_bench, knn_bench, residuals_bench for micro): cmake --build DIR
+#            --target rigfit rig_accuracy tum_rig bunny_rig io_bench knn_bench residuals_bench
+#   --out    where results go (default: DIR/bench-results/<date-time>): SECTION.md (markdown,
+#            ready to paste) and raw/ (every program's output)
+#
+# Sections (docs/benchmarks.md says which table each regenerates):
+#   accuracy  bench/rig_accuracy over seeds 0..9: joint and pairwise x point_to_plane and gicp
+#             on the default rig, noise 0, the --bare rig and the wide start (yaw 3 deg, 10 cm).
+#             Runs under nice: accuracy does not depend on the load.
+#   speed     whole-process rigfit refine on rigfit simulate captures, wall time and peak RSS
+#             (/usr/bin/time) and the stage times of _meta.icp_refined.timings_s, median of
+#             5 runs (stage breakdown, 4 cameras) or 3 runs (2/4/8/16 cameras at 640x360;
+#             320x180/640x360/1280x720 with 4 cameras), and one run of 16 cameras at 1280x720.
+#             Not niced; the 1-minute load average at the start of each case is recorded.
+#   real      bench/tum_rig (TUM fr1/xyz frames as a 5-camera rig, against motion capture) and
+#             bench/bunny_rig (the Stanford bunny's 10 scans imported with rigfit import-ply,
+#             checked against bun.conf, then registered from perturbed starts).
+#   micro     the Google Benchmark programs io_bench, knn_bench and residuals_bench (capture
+#             I/O, nearest-neighbour backends and preprocessing, residuals analytic vs
+#             autodiff), median of 5 repetitions. Not niced.
+set -euo pipefail
+
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build="$root/build"
+out=""
+quick=0
+sections=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --quick) quick=1 ;;
+    --build) build="$2"; shift ;;
+    --out) out="$2"; shift ;;
+    accuracy | speed | real | micro) sections+=("$1") ;;
+    -h | --help) sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
+  esac
+  shift
+done
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy speed real micro)
+build="$(cd "$build" && pwd)"
+out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
+mkdir -p "$out/raw"
+out="$(cd "$out" && pwd)"
+rigfit="$build/cli/rigfit"
+for tool in "$rigfit" "$build/bench/rig_accuracy" "$build/bench/tum_rig" "$build/bench/bunny_rig"; do
+  [ -x "$tool" ] || { echo "bench/run.sh: $tool is missing: build it first" >&2; exit 2; }
+done
+for tool in /usr/bin/time python3; do
+  command -v "$tool" >/dev/null || { echo "bench/run.sh: needs $tool" >&2; exit 2; }
+done
+
+load1() { cut -d' ' -f1 /proc/loadavg; }
+
+# The section's markdown file starts with what was run, where and when.
+header() {
+  local file="$out/$1.md"
+  {
+    echo "<!-- bench/run.sh $1$([ $quick = 1 ] && echo ' --quick') -->"
+    echo "Measured $(date '+%Y-%m-%d %H:%M %Z') at commit \`$(git -C "$root" describe --always --dirty)\`,"
+    echo "$(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')),"
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the start."
+    echo
+  } >"$file"
+  echo "$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# accuracy
+
+# Markdown per-seed table of one rig_accuracy output, then its summary row appended to $2.
+accuracy_tables() {
+  local raw="$1" summary="$2" rig="$3" mode="$4" method="$5" file="$6"
+  {
+    echo "#### $rig, $mode, $method"
+    echo
+    echo "| seed | before rot deg | before trans mm | before tilt deg | after rot deg | after trans mm | after tilt deg | worst pair mm | leveling s | preprocessing s | registration s | result |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+    # Rows "seed | before x3 | after x4 | times x3 | result", the result a free-text message.
+    awk -F'|' '/^ *[0-9]+ \|/ {
+      n = split($1 " " $2 " " $3 " " $4, f, " ")
+      row = "|"; for (i = 1; i <= n; ++i) row = row " " f[i] " |"
+      result = substr($0, index($0, $5)); sub(/^ +/, "", result)
+      print row " " result " |" }' "$raw"
+    echo
+  } >>"$file"
+  # RMS over the seeds of the per-seed "before" RMS; seeds whose worst pair is under 50 mm.
+  awk -F'|' -v rig="$rig" -v mode="$mode" -v method="$method" '
+    /^ *[0-9]+ \|/ { split($2, b, " "); split($3, a, " "); r += b[1]^2; t += b[2]^2; s += b[3]^2
+                     n++; if (a[4] < 50) ok++ }
+    /^summary/ { line = $0 }
+    END {
+      match(line, /rotation [0-9.]+/); rot = substr(line, RSTART + 9, RLENGTH - 9)
+      match(line, /translation [0-9.]+/); tr = substr(line, RSTART + 12, RLENGTH - 12)
+      match(line, /worst pair [0-9.]+/); wp = substr(line, RSTART + 11, RLENGTH - 11)
+      match(line, /tilt [0-9.]+/); tilt = substr(line, RSTART + 5, RLENGTH - 5)
+      match(line, /[0-9]+ runs not/); fail = substr(line, RSTART, RLENGTH - 9)
+      printf "| %s | %s | %s | %.3f / %.1f / %.3f | %s | %s | %s | %s | %d of %d | %s |\n",
+        rig, mode, method, sqrt(r / n), sqrt(t / n), sqrt(s / n), rot, tr, wp, tilt, ok, n, fail
+    }' "$raw" >>"$summary"
+}
+
+run_accuracy() {
+  local file seeds=10 size=() summary="$out/raw/accuracy-summary.md"
+  file="$(header accuracy)"
+  if [ $quick = 1 ]; then seeds=1; size=(--width 320 --height 180); fi
+  : >"$summary"
+  local cases=(
+    "default rig|joint|point_to_plane|"
+    "default rig|joint|gicp|"
+    "default rig|pairwise|point_to_plane|"
+    "default rig|pairwise|gicp|"
+    "noise 0|joint|point_to_plane|--noise 0"
+    "noise 0|pairwise|point_to_plane|--noise 0"
+    "bare room|joint|point_to_plane|--bare"
+    "bare room|pairwise|point_to_plane|--bare"
+    "wide start (yaw 3 deg, 10 cm)|joint|point_to_plane|--perturb-yaw-deg 3 --perturb-xz-m 0.1"
+    "wide start (yaw 3 deg, 10 cm)|pairwise|point_to_plane|--perturb-yaw-deg 3 --perturb-xz-m 0.1"
+  )
+  local details="$out/raw/accuracy-details.md"
+  : >"$details"
+  for c in "${cases[@]}"; do
+    IFS='|' read -r rig mode method extra <<<"$c"
+    local raw="$out/raw/accuracy-${rig%% *}-$mode-$method.txt"
+    # shellcheck disable=SC2086 # extra holds several flags
+    echo "+ rig_accuracy --mode $mode --method $method --seeds $seeds ${size[*]} $extra" | tee "$raw" >&2
+    # shellcheck disable=SC2086
+    nice "$build/bench/rig_accuracy" --mode "$mode" --method "$method" --seeds "$seeds" \
+      "${size[@]}" $extra >>"$raw"
+    accuracy_tables "$raw" "$summary" "$rig" "$mode" "$method" "$details"
+  done
+  {
+    echo "Command per row: \`bench/rig_accuracy --mode M --method X --seeds $seeds ${size[*]}\` plus the"
+    echo "rig's flags (\`--noise 0\`, \`--bare\`, \`--perturb-yaw-deg 3 --perturb-xz-m 0.1\`), seeds 0..$((seeds - 1)),"
+    echo "4 cameras$([ $quick = 1 ] && echo ' 320x180' || echo ' 640x360'), default config. Errors are gauge-free (core/evaluate.h); \"start\" is"
+    echo "the RMS over the seeds of each seed's RMS before refinement (rotation deg / translation mm /"
+    echo "tilt deg); the others are RMS over every pair (tilt: every camera) of every seed."
+    echo
+    echo "| rig | mode | method | start | RMS rel. rotation deg | RMS rel. translation mm | worst pair mm | RMS tilt deg | seeds with worst pair < 50 mm | runs not successful |"
+    echo "|---|---|---|---|---|---|---|---|---|---|"
+    cat "$summary"
+    echo
+    echo "### Per seed"
+    echo
+    cat "$details"
+  } >>"$file"
+  echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end." >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# speed
+
+# One speed case: `runs` whole-process runs of rigfit refine; appends one row of medians.
+speed_case() {
+  local capture_dir="$1" mode="$2" runs="$3" table="$4" label="$5"
+  local tsv load
+  tsv="$out/raw/speed-$(basename "$capture_dir")-$mode.tsv"
+  load="$(load1)"
+  : >"$tsv"
+  for ((run = 1; run <= runs; ++run)); do
+    local res="$out/raw/time.txt" code=0
+    rm -f "$capture_dir/out-$mode.json"
+    /usr/bin/time -f "%e %M" -o "$res" "$rigfit" refine --capture "$capture_dir/capture.h5" \
+      --extrinsics "$capture_dir/init.json" --out "$capture_dir/out-$mode.json" --mode "$mode" \
+      --quiet >>"$out/raw/speed-refine.log" 2>&1 || code=$?
+    # /usr/bin/time's last line holds "wall_s maxrss_kb" (earlier lines: a signal or exit note).
+    echo "$(tail -n1 "$res") $code $(python3 -c '
+import json, sys
+t = json.load(open(sys.argv[1]))["_meta"]["icp_refined"].get("timings_s", {})
+print(" ".join(str(t.get(k, "nan")) for k in
+      ["load", "leveling", "preprocessing", "correspondences", "solve", "registration",
+       "pose_graph", "output"]))' "$capture_dir/out-$mode.json" 2>/dev/null || echo "nan nan nan nan nan nan nan nan")" >>"$tsv"
+    echo "  $label $mode run $run: $(tail -n1 "$tsv")" >&2
+  done
+  python3 - "$tsv" "$label" "$mode" "$runs" "$load" >>"$table" <<'EOF'
+import statistics, sys
+rows = [line.split() for line in open(sys.argv[1]) if line.strip()]
+def median(i, scale=1.0, digits=2):
+    values = [float(r[i]) * scale for r in rows if r[i] != "nan"]
+    return f"{statistics.median(values):.{digits}f}" if values else "-"
+codes = ",".join(sorted({r[2] for r in rows}))
+cells = [sys.argv[2], sys.argv[3], sys.argv[4], median(0), median(1, 1 / 1024, 0)]
+cells += [median(i, digits=3) for i in range(3, 11)]
+cells += [codes, sys.argv[5]]
+print("| " + " | ".join(cells) + " |")
+EOF
+}
+
+simulate() {
+  local dir="$1"; shift
+  [ -f "$dir/capture.h5" ] || "$rigfit" simulate --out "$dir" "$@" >/dev/null
+}
+
+speed_table_header() {
+  echo "| case | mode | runs | wall s | peak RSS MB | load s | leveling s | preprocessing s | correspondences s | solve s | registration s | pose graph s | output s | exit codes | load avg at start |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+}
+
+run_speed() {
+  local file runs=3 breakdown_runs=5 cams=(2 4 8 16) sizes=(320x180 640x360 1280x720)
+  file="$(header speed)"
+  [ $quick = 1 ] && { runs=1; breakdown_runs=1; cams=(2 4); sizes=(320x180); }
+  local data="$out/raw/captures"
+  mkdir -p "$data"
+  {
+    echo "Whole-process \`rigfit refine --capture capture.h5 --extrinsics init.json --out out.json --mode M --quiet\`"
+    echo "(default config, 2 threads) under \`/usr/bin/time -f \"%e %M\"\` on \`rigfit simulate --seed 0\` captures"
+    echo "(default noise and perturbation). Wall time and peak RSS of the whole process; stage times from"
+    echo "\`_meta.icp_refined.timings_s\` (correspondences and solve are the joint mode's part of registration;"
+    echo "pose graph is the pairwise mode's). Each cell is the median over the runs. The machine is"
+    echo "shared with other engineers' jobs while measuring: the load average column says how busy it was."
+    echo
+    echo "#### Stage breakdown: 4 cameras, 640x360, $breakdown_runs runs"
+    echo
+    speed_table_header
+  } >>"$file"
+  simulate "$data/c4-640x360" --cameras 4 --width 640 --height 360
+  for mode in joint pairwise; do
+    speed_case "$data/c4-640x360" "$mode" "$breakdown_runs" "$file" "4 cameras 640x360"
+  done
+  { echo; echo "#### Scaling with the number of cameras: 640x360, $runs runs"; echo; speed_table_header; } >>"$file"
+  for c in "${cams[@]}"; do
+    simulate "$data/c$c-640x360" --cameras "$c" --width 640 --height 360
+    for mode in joint pairwise; do
+      speed_case "$data/c$c-640x360" "$mode" "$runs" "$file" "$c cameras 640x360"
+    done
+  done
+  { echo; echo "#### Scaling with resolution: 4 cameras, $runs runs"; echo; speed_table_header; } >>"$file"
+  for s in "${sizes[@]}"; do
+    simulate "$data/c4-$s" --cameras 4 --width "${s%x*}" --height "${s#*x}"
+    for mode in joint pairwise; do
+      speed_case "$data/c4-$s" "$mode" "$runs" "$file" "4 cameras $s"
+    done
+  done
+  if [ $quick = 0 ]; then
+    { echo; echo "#### Largest case: 16 cameras at 1280x720, one run"; echo; speed_table_header; } >>"$file"
+    simulate "$data/c16-1280x720" --cameras 16 --width 1280 --height 720
+    speed_case "$data/c16-1280x720" joint 1 "$file" "16 cameras 1280x720"
+  fi
+  { echo; echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."; } >>"$file"
+  rm -rf "$data"
+}
+
+# ---------------------------------------------------------------------------------------------
+# micro
+
+# One Google Benchmark program: median real and CPU time of each benchmark over the
+# repetitions, as a markdown table.
+micro_table() {
+  local name="$1" file="$2"; shift 2
+  local csv="$out/raw/$name.csv"
+  echo "+ $name $*" >&2
+  "$build/bench/$name" --benchmark_report_aggregates_only=true --benchmark_format=csv "$@" \
+    >"$csv" 2>"$out/raw/$name.log"
+  {
+    echo "#### \`bench/$name $*\`"
+    echo
+    echo "| benchmark | real time | CPU time | unit |"
+    echo "|---|---|---|---|"
+    python3 - "$csv" <<'EOF_PY'
+import csv, sys
+lines = open(sys.argv[1]).read().splitlines()
+start = next(i for i, line in enumerate(lines) if line.startswith("name,"))
+for row in csv.DictReader(lines[start:]):
+    if row["name"].endswith("_median"):
+        print(f"| {row['name'][:-len('_median')]} | {float(row['real_time']):.4g} | "
+              f"{float(row['cpu_time']):.4g} | {row['time_unit']} |")
+EOF_PY
+    echo
+  } >>"$file"
+}
+
+run_micro() {
+  local file reps=5 min_time=0.2
+  file="$(header micro)"
+  [ $quick = 1 ] && { reps=1; min_time=0.01; }
+  for tool in io_bench knn_bench residuals_bench; do
+    [ -x "$build/bench/$tool" ] || { echo "bench/run.sh: $build/bench/$tool is missing" >&2; exit 2; }
+  done
+  {
+    echo "Google Benchmark programs (Release), median of $reps repetitions. CPU time counts only"
+    echo "this process; wall (real) time is inflated when the machine is shared."
+    echo
+  } >>"$file"
+  micro_table io_bench "$file" --benchmark_repetitions="$reps"
+  micro_table knn_bench "$file" --benchmark_repetitions="$reps" --benchmark_min_time="$min_time"
+  micro_table residuals_bench "$file" --benchmark_repetitions="$reps"
+  echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end." >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# real
+
+run_real() {
+  local file seeds=5
+  file="$(header real)"
+  [ $quick = 1 ] && seeds=1
+  local tum="$out/raw/tum.txt" tum_gt="$out/raw/tum-from-mocap.txt"
+  echo "+ tum_rig --seeds $seeds" >&2
+  nice "$build/bench/tum_rig" --seeds "$seeds" >"$tum"
+  nice "$build/bench/tum_rig" --seeds 1 --perturb-deg 0 --perturb-m 0 >"$tum_gt"
+
+  local bunny_dir="$root/../shared/data/stanford_bunny/data" scans=() capture="$out/raw/bunny.h5"
+  for ply in "$bunny_dir"/*.ply; do
+    local name
+    name="$(basename "$ply" .ply)"
+    scans+=("$name=$ply")
+  done
+  "$rigfit" import-ply --force --out "$capture" "${scans[@]}" >"$out/raw/bunny-import.txt"
+  echo "+ bunny_rig --check-gt, --seeds $seeds (point_to_plane, gicp)" >&2
+  nice "$build/bench/bunny_rig" --capture "$capture" --check-gt >"$out/raw/bunny-check.txt"
+  nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" >"$out/raw/bunny-p2p.txt"
+  nice "$build/bench/bunny_rig" --capture "$capture" --seeds 1 --perturb-deg 0 --perturb-m 0 \
+    >"$out/raw/bunny-from-conf.txt"
+  [ $quick = 1 ] || nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" \
+    --method gicp >"$out/raw/bunny-gicp.txt"
+  {
+    echo "#### TUM fr1/xyz frames 0, 9, 18, 27, 36 as a rig: \`bench/tum_rig --seeds $seeds\`"
+    echo
+    echo "Errors: RMS relative rotation deg / RMS relative translation mm / worst pair mm against"
+    echo "the motion capture."
+    echo
+    cat "$tum"
+    echo
+    echo "Started at the motion-capture poses (\`--perturb-deg 0 --perturb-m 0 --seeds 1\`):"
+    echo
+    tail -n +3 "$tum_gt"
+    echo
+    echo "#### Stanford bunny, 10 scans: \`rigfit import-ply\` then \`bench/bunny_rig\`"
+    echo
+    echo '```'
+    cat "$out/raw/bunny-import.txt"
+    echo '```'
+    echo
+    echo "bun.conf checked (\`bunny_rig --check-gt\`): each scan against the union of the other nine at"
+    echo "the bun.conf poses, under both readings of the quaternion."
+    cat "$out/raw/bunny-check.txt"
+    echo
+    cat "$out/raw/bunny-p2p.txt"
+    echo
+    echo "Started at the bun.conf poses (\`--perturb-deg 0 --perturb-m 0 --seeds 1\`):"
+    echo
+    tail -n +3 "$out/raw/bunny-from-conf.txt"
+    if [ $quick = 0 ]; then
+      echo
+      cat "$out/raw/bunny-gicp.txt"
+    fi
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
+}
+
+for section in "${sections[@]}"; do
+  echo "== $section ($(date '+%H:%M:%S'))" >&2
+  "run_$section"
+  echo "== $section done ($(date '+%H:%M:%S')): $out/$section.md" >&2
+done
