@@ -205,9 +205,9 @@ speed_table_header() {
 }
 
 run_speed() {
-  local file runs=3 breakdown_runs=5 cams=(2 4 8 16) sizes=(320x180 640x360 1280x720)
+  local file runs=3 breakdown_runs=5 cams=(2 4 8 16) sizes=(320x180 640x360 1280x720) base=640x360
   file="$(header speed)"
-  [ $quick = 1 ] && { runs=1; breakdown_runs=1; cams=(2 4); sizes=(320x180); }
+  [ $quick = 1 ] && { runs=1; breakdown_runs=1; cams=(2 3); sizes=(320x180); base=320x180; }
   local data="$out/raw/captures"
   mkdir -p "$data"
   {
@@ -218,19 +218,19 @@ run_speed() {
     echo "pose graph is the pairwise mode's). Each cell is the median over the runs. The machine is"
     echo "shared with other engineers' jobs while measuring: the load average column says how busy it was."
     echo
-    echo "#### Stage breakdown: 4 cameras, 640x360, $breakdown_runs runs"
+    echo "#### Stage breakdown: 4 cameras, $base, $breakdown_runs runs"
     echo
     speed_table_header
   } >>"$file"
-  simulate "$data/c4-640x360" --cameras 4 --width 640 --height 360
+  simulate "$data/c4-$base" --cameras 4 --width "${base%x*}" --height "${base#*x}"
   for mode in joint pairwise; do
-    speed_case "$data/c4-640x360" "$mode" "$breakdown_runs" "$file" "4 cameras 640x360"
+    speed_case "$data/c4-$base" "$mode" "$breakdown_runs" "$file" "4 cameras $base"
   done
-  { echo; echo "#### Scaling with the number of cameras: 640x360, $runs runs"; echo; speed_table_header; } >>"$file"
+  { echo; echo "#### Scaling with the number of cameras: $base, $runs runs"; echo; speed_table_header; } >>"$file"
   for c in "${cams[@]}"; do
-    simulate "$data/c$c-640x360" --cameras "$c" --width 640 --height 360
+    simulate "$data/c$c-$base" --cameras "$c" --width "${base%x*}" --height "${base#*x}"
     for mode in joint pairwise; do
-      speed_case "$data/c$c-640x360" "$mode" "$runs" "$file" "$c cameras 640x360"
+      speed_case "$data/c$c-$base" "$mode" "$runs" "$file" "$c cameras $base"
     done
   done
   { echo; echo "#### Scaling with resolution: 4 cameras, $runs runs"; echo; speed_table_header; } >>"$file"
@@ -256,23 +256,20 @@ run_speed() {
 # repetitions, as a markdown table.
 micro_table() {
   local name="$1" file="$2"; shift 2
-  local csv="$out/raw/$name.csv"
+  local json="$out/raw/$name.json"
   echo "+ $name $*" >&2
-  "$build/bench/$name" --benchmark_report_aggregates_only=true --benchmark_format=csv "$@" \
-    >"$csv" 2>"$out/raw/$name.log"
+  "$build/bench/$name" --benchmark_report_aggregates_only=true --benchmark_format=json "$@" \
+    >"$json" 2>"$out/raw/$name.log"
   {
     echo "#### \`bench/$name $*\`"
     echo
     echo "| benchmark | real time | CPU time | unit |"
     echo "|---|---|---|---|"
-    python3 - "$csv" <<'EOF_PY'
-import csv, sys
-lines = open(sys.argv[1]).read().splitlines()
-start = next(i for i, line in enumerate(lines) if line.startswith("name,"))
-for row in csv.DictReader(lines[start:]):
-    if row["name"].endswith("_median"):
-        print(f"| {row['name'][:-len('_median')]} | {float(row['real_time']):.4g} | "
-              f"{float(row['cpu_time']):.4g} | {row['time_unit']} |")
+    python3 - "$json" <<'EOF_PY'
+import json, sys
+for b in json.load(open(sys.argv[1]))["benchmarks"]:
+    if b.get("aggregate_name") == "median":
+        print(f"| {b['run_name']} | {b['real_time']:.4g} | {b['cpu_time']:.4g} | {b['time_unit']} |")
 EOF_PY
     echo
   } >>"$file"
@@ -281,7 +278,7 @@ EOF_PY
 run_micro() {
   local file reps=5 min_time=0.2
   file="$(header micro)"
-  [ $quick = 1 ] && { reps=1; min_time=0.01; }
+  [ $quick = 1 ] && { reps=2; min_time=0.01; }  # medians need two repetitions
   for tool in io_bench knn_bench residuals_bench; do
     [ -x "$build/bench/$tool" ] || { echo "bench/run.sh: $build/bench/$tool is missing" >&2; exit 2; }
   done
