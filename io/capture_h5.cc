@@ -28,6 +28,12 @@ constexpr hsize_t kMaxElements = hsize_t{1} << 28;
 constexpr hsize_t kChunkElements = hsize_t{1} << 18;
 /// Skew and last-row tolerance of K, relative to fx (exact zeros are expected).
 constexpr double kIntrinsicsTolerance = 1e-9;
+/// Smallest focal length accepted, pixels: below it a pixel spans more than 45 degrees, and
+/// unprojection (x = z (u - cx) / fx) would blow up towards infinity.
+constexpr double kMinFocalPx = 1.0;
+/// Depths and point distances beyond this are no measurement of a depth camera but a unit
+/// mistake (millimetres as metres, a wrong depth_scale) or a damaged file.
+constexpr double kMaxRangeM = 1000.0;
 
 /// Owns one HDF5 identifier and closes it with its own close function.
 class H5Id {
@@ -256,6 +262,11 @@ std::string IntrinsicsProblem(const Mat3& K, int width, int height) {
     problem << "fx and fy must be > 0, got " << K(0, 0) << " and " << K(1, 1);
     return problem.str();
   }
+  if (K(0, 0) < kMinFocalPx || K(1, 1) < kMinFocalPx) {
+    problem << "fx and fy must be at least " << kMinFocalPx << " pixel, got " << K(0, 0) << " and "
+            << K(1, 1);
+    return problem.str();
+  }
   const double tolerance = kIntrinsicsTolerance * std::max(K(0, 0), K(1, 1));
   if (std::abs(K(0, 1)) > tolerance || std::abs(K(1, 0)) > tolerance) {
     return "skew must be 0 (K[0][1] and K[1][0])";
@@ -321,16 +332,38 @@ double ReadDepthScale(const Dataset& depth, const Context& where) {
   return scale;
 }
 
+/// A depth sample in metres as float: NaN where invalid (NaN, +-inf, <= 0). Values beyond the
+/// float range (possible in float64 or scaled uint16) become the largest float rather than an
+/// undefined conversion; CheckDepthRange rejects them.
+float DepthSample(double z) {
+  if (!(z > 0.0 && std::isfinite(z))) return std::numeric_limits<float>::quiet_NaN();
+  return static_cast<float>(std::min<double>(z, std::numeric_limits<float>::max()));
+}
+
 /// Depth samples in metres, NaN where invalid (NaN, +-inf, <= 0).
 template <typename T>
 std::vector<float> ReadFloatDepth(const Dataset& depth, hid_t memory_type, const Context& where) {
   const std::vector<T> raw = ReadAll<T>(depth, memory_type, where);
   std::vector<float> metres(raw.size());
-  for (size_t i = 0; i < raw.size(); ++i) {
-    const float z = static_cast<float>(raw[i]);
-    metres[i] = (z > 0.0f && std::isfinite(z)) ? z : std::numeric_limits<float>::quiet_NaN();
-  }
+  for (size_t i = 0; i < raw.size(); ++i) metres[i] = DepthSample(raw[i]);
   return metres;
+}
+
+/// Fails on the first depth beyond kMaxRangeM, naming its pixel (and frame of a burst).
+void CheckDepthRange(const std::vector<float>& metres, const CameraCapture& camera,
+                     size_t num_frames, const Context& where) {
+  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  for (size_t i = 0; i < metres.size(); ++i) {
+    if (!(metres[i] > kMaxRangeM)) continue;  // NaN (invalid) passes
+    const size_t pixel = i % pixels;
+    std::ostringstream what;
+    what << "value " << metres[i] << " m at pixel (u " << pixel % camera.width << ", v "
+         << pixel / camera.width << ")";
+    if (num_frames > 1) what << " of frame " << i / pixels;
+    what << " is beyond " << kMaxRangeM
+         << " m: depth must be float metres, or uint16 with depth_scale in metres per unit";
+    where.Fail("depth", what.str());
+  }
 }
 
 void ReadDepth(hid_t group, CameraCapture& camera, const Context& where) {
@@ -355,15 +388,13 @@ void ReadDepth(hid_t group, CameraCapture& camera, const Context& where) {
     const double scale = ReadDepthScale(depth, where);
     const std::vector<std::uint16_t> raw = ReadAll<std::uint16_t>(depth, H5T_NATIVE_UINT16, where);
     metres.resize(raw.size());
-    for (size_t i = 0; i < raw.size(); ++i) {
-      metres[i] = raw[i] == 0 ? std::numeric_limits<float>::quiet_NaN()
-                              : static_cast<float>(raw[i] * scale);
-    }
+    for (size_t i = 0; i < raw.size(); ++i) metres[i] = DepthSample(raw[i] * scale);  // 0: NaN
   } else {
     where.Fail("depth",
                "expected float32, float64 or uint16, got " + DescribeType(depth.type.get()));
   }
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  CheckDepthRange(metres, camera, num_frames, where);
   camera.depth_m = num_frames == 1 ? std::move(metres) : BurstMedian(metres, num_frames, pixels);
 }
 
@@ -384,8 +415,9 @@ void ReadIntrinsics(hid_t group, CameraCapture& camera, const Context& where) {
   camera.intrinsics = {K(0, 0), K(1, 1), K(0, 2), K(1, 2)};
 }
 
-/// An [N, 3] float dataset of finite values (points, normals).
-PointCloud ReadVectors(hid_t group, const std::string& name, const Context& where) {
+/// An [N, 3] float dataset of finite values (points, normals), each no longer than max_norm.
+PointCloud ReadVectors(hid_t group, const std::string& name, double max_norm,
+                       const Context& where) {
   const Dataset d = OpenDataset(group, name, where);
   ExpectFloat(d, where);
   ExpectRank(d, 2, where);
@@ -395,6 +427,12 @@ PointCloud ReadVectors(hid_t group, const std::string& name, const Context& wher
   for (size_t i = 0; i < vectors.size(); ++i) {
     vectors[i] = Vec3(raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]);
     if (!vectors[i].allFinite()) where.Fail(name, "row " + std::to_string(i) + " is not finite");
+    if (vectors[i].norm() > max_norm) {
+      std::ostringstream what;
+      what << "row " << i << " has length " << vectors[i].norm() << ", beyond " << max_norm
+           << (name == "points" ? " m from the camera: points must be in metres" : "");
+      where.Fail(name, what.str());
+    }
   }
   return vectors;
 }
@@ -461,9 +499,10 @@ CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::st
     if (has("confidence")) ReadConfidence(group.get(), camera, where);
     if (has("color")) ReadColor(group.get(), camera, where);
   } else {
-    camera.points = ReadVectors(group.get(), "points", where);
+    camera.points = ReadVectors(group.get(), "points", kMaxRangeM, where);
     if (has("normals")) {
-      camera.normals = ReadVectors(group.get(), "normals", where);
+      camera.normals =
+          ReadVectors(group.get(), "normals", std::numeric_limits<double>::infinity(), where);
       if (camera.normals.size() != camera.points.size()) {
         where.Fail("normals", std::to_string(camera.normals.size()) + " rows for " +
                                   std::to_string(camera.points.size()) + " points");

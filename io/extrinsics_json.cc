@@ -3,6 +3,7 @@
 #include <Eigen/SVD>
 #include <cmath>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -86,6 +87,38 @@ std::string ParseErrorText(const Json::exception& e) {
   return end == std::string::npos ? what : what.substr(end + 2);
 }
 
+/// Json::parse, except that a key repeated within one object is an error: nlohmann would keep
+/// the last value silently, and a duplicated serial (or T_world_camera) is ambiguous.
+Json ParseRejectingDuplicateKeys(const std::string& text, const std::string& path) {
+  std::vector<std::set<std::string>> open_objects;  // the keys seen so far in each
+  std::vector<std::string> object_names;            // the key each open object is under
+  std::string last_key;
+  const Json::parser_callback_t check = [&](int depth, Json::parse_event_t event, Json& parsed) {
+    switch (event) {
+      case Json::parse_event_t::object_start:
+        open_objects.emplace_back();
+        object_names.push_back(depth == 0 ? "" : last_key);
+        break;
+      case Json::parse_event_t::object_end:
+        open_objects.pop_back();
+        object_names.pop_back();
+        break;
+      case Json::parse_event_t::key:
+        last_key = parsed.get<std::string>();
+        if (!open_objects.back().insert(last_key).second) {
+          throw InputError(path + ": duplicate key \"" + last_key + "\"" +
+                           (open_objects.size() == 1 ? " (camera serials must be unique)"
+                                                     : " in \"" + object_names.back() + "\""));
+        }
+        break;
+      default:
+        break;
+    }
+    return true;
+  };
+  return Json::parse(text, check);
+}
+
 }  // namespace
 
 Json PoseToJson(const Pose& T_world_camera) {
@@ -97,9 +130,13 @@ Json PoseToJson(const Pose& T_world_camera) {
 }
 
 ExtrinsicsDocument ReadExtrinsics(const std::string& path) {
+  return ParseExtrinsics(ReadWholeFile(path), path);
+}
+
+ExtrinsicsDocument ParseExtrinsics(const std::string& json_text, const std::string& path) {
   ExtrinsicsDocument result;
   try {
-    result.document = Json::parse(ReadWholeFile(path));
+    result.document = ParseRejectingDuplicateKeys(json_text, path);
   } catch (const Json::exception& e) {  // parse_error, or out_of_range for 1e999
     throw InputError(path + ": malformed JSON: " + ParseErrorText(e));
   }

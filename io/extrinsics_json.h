@@ -26,11 +26,15 @@ struct ExtrinsicsDocument {
 
 /// Reads an extrinsics file. Throws InputError naming the file (and the serial and field) on:
 /// unreadable file, malformed JSON (with the parse position), a top level that is not an
-/// object, an empty serial, a camera value that is not an object or lacks T_world_camera, a
-/// matrix that is not 4x4 finite numbers, a last row other than [0, 0, 0, 1], and a rotation
-/// block R with ||R^T R - I||_F > 1e-6 or det(R) <= 0. Smaller deviations are removed by
-/// projecting R onto SO(3) (SVD) and reported in `warnings`.
+/// object, a key repeated within an object (a duplicated serial), an empty serial, a camera value
+/// that is not an object or lacks T_world_camera, a matrix that is not 4x4 finite numbers, a last
+/// row other than [0, 0, 0, 1], and a rotation block R with ||R^T R - I||_F > 1e-6 or det(R) <= 0.
+/// Smaller deviations are removed by projecting R onto SO(3) (SVD) and reported in `warnings`.
 ExtrinsicsDocument ReadExtrinsics(const std::string& path);
+
+/// ReadExtrinsics from text (e.g. a file already in memory, or a fuzzer's bytes); path stands
+/// for the file name in messages.
+ExtrinsicsDocument ParseExtrinsics(const std::string& json_text, const std::string& path);
 
 /// The JSON value of a pose: 4x4 row-major nested arrays, last row exactly [0, 0, 0, 1].
 nlohmann::json PoseToJson(const Pose& T_world_camera);

@@ -333,13 +333,13 @@ TEST_F(CaptureTest, AcceptsFloat64DepthIntegerConfidenceAndVariableLengthFormat)
     H5Builder h5(path);
     h5.Root("rig-capture", 1, /*variable_length=*/true);
     h5.Dataset("/cameras/cam/depth", H5T_IEEE_F64LE, {2, 2},
-               std::vector<double>{1.25, -3.0, 0.0, 1e300});
+               std::vector<double>{1.25, -3.0, 0.0, HUGE_VAL});
     h5.Intrinsics("cam", {5.0, 0.0, 1.0, 0.0, 5.0, 1.0, 0.0, 0.0, 1.0});
     h5.Dataset("/cameras/cam/confidence", H5T_STD_I32LE, {2, 2},
                std::vector<std::int32_t>{0, 1, 2, 100});
   }
   const RigCapture capture = ReadCapture(path);
-  // <= 0 is invalid; 1e300 m is infinite as float: invalid.
+  // <= 0 and infinity are invalid (a finite depth beyond 1 km would be an error).
   ExpectSameDepth(capture.cameras[0].depth_m, {1.25f, kNaN, kNaN, kNaN}, 0.0);
   EXPECT_EQ(capture.cameras[0].confidence, (std::vector<float>{0, 1, 2, 100}));
 }

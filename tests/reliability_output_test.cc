@@ -1,0 +1,123 @@
+// Issue 7, outputs: `rigfit refine` writes byte-identical JSON for the same input and config
+// whatever --threads is, in both modes; and a run killed before it finishes leaves the previous
+// output file intact. The writer's own atomicity (temporary file + rename, a failing writer
+// leaves the old file and no temporary) is tests/io_atomic_file_test.cc's job.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "cli_test_util.h"
+
+namespace rigfit {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+using namespace cli_test;  // NOLINT: RunRigfit and friends
+
+class ReliabilityOutputTest : public ::testing::Test {
+ protected:
+  /// One small simulated rig with the simulator's default noise and perturbation.
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("rigfit_reliability_output_" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    const RunResult sim = RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras",
+                                     "3", "--width", "240", "--height", "135"},
+                                    root_);
+    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+  void SetUp() override { ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed"; }
+
+  static fs::path root_;
+  static std::string simulate_error_;
+};
+
+fs::path ReliabilityOutputTest::root_;
+std::string ReliabilityOutputTest::simulate_error_;
+
+TEST_F(ReliabilityOutputTest, SameOutputBytesWhateverTheThreadCount) {
+  for (const std::string mode : {"joint", "pairwise"}) {
+    std::string first;
+    for (const std::string threads : {"1", "2", "4"}) {
+      SCOPED_TRACE(mode + " with " + threads + " threads");
+      const fs::path out = root_ / (mode + "_" + threads + ".json");
+      const RunResult r =
+          RunRigfit({"refine", "--capture", (root_ / "rig" / "capture.h5").string(), "--extrinsics",
+                     (root_ / "rig" / "init.json").string(), "--out", out.string(), "--mode", mode,
+                     "--threads", threads, "--no-timings", "--quiet"},
+                    root_);
+      ASSERT_EQ(r.exit_code, 0) << Describe(r);
+      const std::string bytes = ReadText(out);
+      ASSERT_EQ(Json::parse(bytes)["_meta"]["icp_refined"]["mode"], mode);
+      if (first.empty()) {
+        first = bytes;
+      } else {
+        EXPECT_EQ(bytes, first) << "differs from the run with 1 thread";
+      }
+    }
+  }
+}
+
+TEST_F(ReliabilityOutputTest, KilledRunLeavesThePreviousOutputIntact) {
+  const fs::path dir = root_ / "killed";
+  fs::create_directories(dir);
+  const fs::path out = dir / "out.json";
+  const std::string previous = "{\"previous\": \"run\"}\n";
+  std::ofstream(out) << previous;
+  const fs::path err = dir / "stderr.txt";
+
+  // rigfit refine in the background; SIGKILL (nothing can be cleaned up) as soon as it reports
+  // that it has loaded the inputs, i.e. while it refines, long before it writes.
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    const std::string capture = (root_ / "rig" / "capture.h5").string();
+    const std::string init = (root_ / "rig" / "init.json").string();
+    std::freopen(err.c_str(), "w", stderr);
+    std::freopen("/dev/null", "w", stdout);
+    ::execl(RIGFIT_CLI_PATH, RIGFIT_CLI_PATH, "refine", "--capture", capture.c_str(),
+            "--extrinsics", init.c_str(), "--out", out.c_str(), "--mode", "pairwise", "--threads",
+            "1", static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (ReadText(err).find("refine: loaded ") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  const std::string log = ReadText(err);
+  ASSERT_NE(log.find("refine: loaded "), std::string::npos) << log;
+
+  if (WIFSIGNALED(status)) {
+    // Killed mid-run: the previous file is untouched, byte for byte.
+    EXPECT_EQ(ReadText(out), previous) << log;
+  } else {
+    // The run beat the kill (a very fast machine): then the file is the complete new output.
+    ADD_FAILURE() << "the run finished before it was killed; the test did not interrupt it";
+    EXPECT_TRUE(Json::parse(ReadText(out))["_meta"].contains("icp_refined"));
+  }
+  // The only other files may be a temporary that the kill stopped, never a half-written out.json.
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    const std::string name = entry.path().filename().string();
+    EXPECT_TRUE(name == "out.json" || name == "stderr.txt" || name.rfind(".out.json.tmp-", 0) == 0)
+        << name;
+  }
+}
+
+}  // namespace
+}  // namespace rigfit
