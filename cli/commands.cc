@@ -11,8 +11,8 @@ std::vector<Command>& Registry() {
 }  // namespace
 
 void RegisterCommands(CLI::App& app) {
-  Registry() = {AddSimulateCommand(app), AddRefineCommand(app), AddEvaluateCommand(app),
-                AddImportPlyCommand(app)};
+  Registry() = {AddSimulateCommand(app),  AddRefineCommand(app),  AddEvaluateCommand(app),
+                AddImportPlyCommand(app), AddCompareCommand(app), AddExportPlyCommand(app)};
 }
 
 int RunSelected(const CLI::App& app) {

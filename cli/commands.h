@@ -29,6 +29,11 @@ Command AddEvaluateCommand(CLI::App& app);
 /// `rigfit import-ply`: a rig capture (points layout) from one PLY cloud per camera.
 Command AddImportPlyCommand(CLI::App& app);
 
+/// `rigfit compare`: the pairwise and the joint mode side by side on one capture.
+Command AddCompareCommand(CLI::App& app);
+/// `rigfit export-ply`: every camera's points in the world, coloured per camera (PLY).
+Command AddExportPlyCommand(CLI::App& app);
+
 /// Adds every subcommand to app.
 void RegisterCommands(CLI::App& app);
 /// Runs the subcommand that was parsed; returns its exit code.

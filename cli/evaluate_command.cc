@@ -3,13 +3,13 @@
 // A table on stdout, and optionally the same numbers as JSON (docs/usage.md).
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/json_output.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
 #include "io/atomic_file.h"
@@ -52,12 +52,6 @@ CameraSets CompareCameras(const PoseMap& est, const PoseMap& gt) {
   return sets;
 }
 
-/// {"rms": ..., "max": ...}, null for both when there is nothing to summarise.
-Json RmsMax(bool defined, double rms, double max) {
-  if (!defined) return {{"rms", nullptr}, {"max", nullptr}};
-  return {{"rms", rms}, {"max", max}};
-}
-
 Json ErrorsJson(const RigErrors& e, const EvaluateArgs& a, const CameraSets& sets) {
   Json pairs = Json::array();
   for (const PairError& p : e.pairs) {
@@ -70,28 +64,12 @@ Json ErrorsJson(const RigErrors& e, const EvaluateArgs& a, const CameraSets& set
   for (const auto& [serial, tilt] : e.tilt_rad) {
     cameras.push_back({{"serial", serial}, {"tilt_deg", tilt * kRadToDeg}});
   }
-  const bool has_pairs = !e.pairs.empty();
   return {{"estimate", a.estimate_path},
           {"ground_truth", a.ground_truth_path},
           {"ignored_cameras", sets.ignored},
           {"cameras", cameras},
           {"pairs", pairs},
-          {"summary",
-           {{"rotation_deg",
-             RmsMax(has_pairs, e.rms_rotation_rad * kRadToDeg, e.max_rotation_rad * kRadToDeg)},
-            {"translation_mm",
-             RmsMax(has_pairs, e.rms_translation_m * kMToMm, e.max_translation_m * kMToMm)},
-            {"tilt_deg", RmsMax(true, e.rms_tilt_rad * kRadToDeg, e.max_tilt_rad * kRadToDeg)}}}};
-}
-
-void WriteJson(const std::string& path, const Json& report) {
-  const std::string text = report.dump(2) + "\n";
-  WriteFileAtomically(path, [&](const std::string& tmp_path) {
-    std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw InputError(path + ": write error");
-  });
+          {"summary", RigErrorsSummaryJson(e)}};
 }
 
 void PrintTable(const RigErrors& e, const EvaluateArgs& a) {
@@ -144,7 +122,7 @@ int RunEvaluate(const EvaluateArgs& a) {
                  Join(sets.ignored).c_str(), a.estimate_path.c_str(), a.ground_truth_path.c_str());
   }
   const RigErrors errors = EvaluateRig(est.poses, gt.poses);
-  if (!a.json_path.empty()) WriteJson(a.json_path, ErrorsJson(errors, a, sets));
+  if (!a.json_path.empty()) WriteJsonFile(a.json_path, ErrorsJson(errors, a, sets));
   PrintTable(errors, a);
   return kExitOk;
 }

@@ -23,6 +23,7 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
+#include "report/refine_report.h"
 #include "solver/refine.h"
 
 namespace rigfit::cli {
@@ -41,6 +42,7 @@ struct RefineArgs {
   std::string extrinsics_path;
   std::string out_path;
   std::string config_path;
+  std::string report_dir;  ///< empty: no report
   // Overrides of the config; applied only when given (see the options below).
   std::string mode;
   std::string method;
@@ -423,6 +425,7 @@ int RunRefine(const RefineArgs& a) {
                                         : Verbosity::kNormal);
   CheckFlags(a);
   CheckOutputPath(a);
+  if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "refine: --report");
   const RefineOptions options = EffectiveOptions(a);
   log.Info("loading " + a.capture_path + " and " + a.extrinsics_path);
   const RigCapture capture = ReadCapture(a.capture_path);
@@ -467,6 +470,13 @@ int RunRefine(const RefineArgs& a) {
   timings.output_s = SecondsSince(output_start);
   timings.total_s = SecondsSince(start);
   PrintSummary(result, options, a, timings);
+  if (!a.report_dir.empty()) {
+    log.Info("writing the report to " + a.report_dir);
+    for (const std::string& file :
+         WriteRefineReport(a.report_dir, capture, result, poses, options, a.threads)) {
+      std::printf("report: %s\n", file.c_str());
+    }
+  }
   return result.success ? kExitOk : kExitNotApplied;
 }
 
@@ -512,6 +522,10 @@ Command AddRefineCommand(CLI::App& app) {
   a.reference_option = sub->add_option(
       "--reference", a.reference,
       "Serial of the camera held fixed; overrides icp.reference (default: the first serial)");
+  sub->add_option("--report", a.report_dir,
+                  "Also write pictures of the result to this directory (created if missing; "
+                  "its parent must exist): the near-floor band from above before and after, "
+                  "and a histogram of the correspondence residuals (docs/usage.md)");
   sub->add_flag("--no-ground", a.no_ground, "Skip ground leveling (sets ground.enabled false)");
   sub->add_flag("--no-icp", a.no_icp, "Stop after ground leveling (no registration)");
   sub->add_flag("--no-timings", a.no_timings,

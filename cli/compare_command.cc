@@ -1,0 +1,671 @@
+// `rigfit compare`: runs the pairwise and the joint mode (each with the configured method)
+// on the same capture and initial extrinsics, and prints them side by side: each camera's
+// change and (with --gt) its error, each pair's fit before and after (solver/diagnostics.h),
+// the joint mode's 1-sigma, wall time and peak memory, and a verdict from these numbers.
+// Each mode runs in a forked child process, so that its peak memory is its own
+// (docs/usage.md, `rigfit compare`).
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "cli/json_output.h"
+#include "core/errors.h"
+#include "core/evaluate.h"
+#include "core/format.h"
+#include "core/stopwatch.h"
+#include "io/atomic_file.h"
+#include "io/capture_h5.h"
+#include "io/config_yaml.h"
+#include "io/extrinsics_json.h"
+#include "solver/diagnostics.h"
+#include "solver/refine.h"
+
+namespace rigfit::cli {
+namespace {
+
+using Json = nlohmann::json;
+
+constexpr double kRadToDeg = 180.0 / M_PI;
+constexpr double kMToMm = 1e3;
+constexpr int kMaxThreads = 256;
+/// Two numbers closer than this fraction of the larger one are called even in the verdict.
+constexpr double kEvenFraction = 0.05;
+
+struct CompareArgs {
+  std::string capture_path;
+  std::string extrinsics_path;
+  std::string gt_path;      ///< empty: no ground truth
+  std::string config_path;  ///< empty: defaults
+  std::string json_path;    ///< empty: no JSON output
+  int threads = 2;
+  bool quiet = false;
+};
+
+/// One camera's outcome in one mode, as the child process reports it.
+struct CameraOutcome {
+  bool reference = false;
+  bool accepted = false;
+  std::string message;
+  bool has_covariance = false;
+  Mat6 covariance = Mat6::Zero();
+};
+
+/// One mode's run.
+struct ModeRun {
+  std::string name;  ///< "pairwise" or "joint"
+  bool success = false;
+  std::string message;
+  std::vector<std::string> warnings;
+  PoseMap output;  ///< what `rigfit refine` would write: refined, or leveled when not applied
+  std::vector<CameraOutcome> cameras;  ///< capture order
+  double wall_s = 0.0;                 ///< the Refine call, in the child
+  double peak_rss_mb = 0.0;            ///< the child's ru_maxrss
+  std::vector<PairDiagnostics> fit;    ///< at `output`
+};
+
+std::string ModeName(RefineMode mode) {
+  RefineOptions options;
+  options.icp.mode = mode;
+  return ConfigToJson(options)["icp"]["mode"];
+}
+
+Log StderrLog(const std::string& prefix, bool quiet) {
+  Log log;
+  log.sink = [prefix, quiet](LogLevel level, const std::string& message) {
+    if (level == LogLevel::kWarning) {
+      std::fprintf(stderr, "%swarning: %s\n", prefix.c_str(), message.c_str());
+    } else if (level == LogLevel::kInfo && !quiet) {
+      std::fprintf(stderr, "%s%s\n", prefix.c_str(), message.c_str());
+    }
+  };
+  return log;
+}
+
+/// Resident set size of this process now (VmRSS of /proc/self/status), MB; 0 if unknown.
+double CurrentRssMb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  }
+  return 0.0;
+}
+
+// --- The child's report, as JSON through a pipe. Matrices go as row-major arrays of 16 or
+// 36 numbers (nlohmann writes doubles with enough digits to read back exactly), a non-finite
+// number as null.
+
+Json MatrixJson(const Eigen::MatrixXd& m) {
+  Json values = Json::array();
+  for (int r = 0; r < m.rows(); ++r) {
+    for (int c = 0; c < m.cols(); ++c) {
+      values.push_back(std::isfinite(m(r, c)) ? Json(m(r, c)) : Json());
+    }
+  }
+  return values;
+}
+
+template <int Rows, int Cols>
+Eigen::Matrix<double, Rows, Cols> MatrixFromJson(const Json& values) {
+  Eigen::Matrix<double, Rows, Cols> m;
+  for (int r = 0; r < Rows; ++r) {
+    for (int c = 0; c < Cols; ++c) {
+      const Json& v = values.at(r * Cols + c);
+      m(r, c) = v.is_null() ? NAN : v.get<double>();
+    }
+  }
+  return m;
+}
+
+Json RunReportJson(const RefineResult& result, double wall_s) {
+  const PoseMap& output = result.success ? result.refined : result.leveled;
+  Json poses = Json::object();
+  for (const auto& [serial, T] : output) poses[serial] = MatrixJson(T.matrix());
+  Json cameras = Json::array();
+  for (const CameraReport& c : result.cameras) {
+    cameras.push_back({{"reference", c.reference},
+                       {"accepted", c.accepted},
+                       {"message", c.message},
+                       {"has_covariance", c.has_covariance},
+                       {"covariance", MatrixJson(c.covariance)}});
+  }
+  return {{"success", result.success}, {"message", result.message}, {"warnings", result.warnings},
+          {"output", poses},           {"cameras", cameras},        {"wall_s", wall_s}};
+}
+
+void ReadRunReport(const Json& j, ModeRun* run) {
+  run->success = j.at("success");
+  run->message = j.at("message");
+  run->warnings = j.at("warnings").get<std::vector<std::string>>();
+  for (const auto& [serial, matrix] : j.at("output").items()) {
+    run->output[serial] = Pose(MatrixFromJson<4, 4>(matrix));
+  }
+  for (const Json& c : j.at("cameras")) {
+    run->cameras.push_back({c.at("reference"), c.at("accepted"), c.at("message"),
+                            c.at("has_covariance"), MatrixFromJson<6, 6>(c.at("covariance"))});
+  }
+  run->wall_s = j.at("wall_s");
+}
+
+/// Writes all of text to fd; false on error.
+bool WriteAll(int fd, const std::string& text) {
+  size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += static_cast<size_t>(n);
+  }
+  return true;
+}
+
+/// Runs Refine in one mode in a forked child process: the child writes its report to a pipe
+/// and exits; the parent reads it and the child's peak resident memory (wait4's
+/// ru_maxrss: the high-water mark of a process that starts as a copy of this one, so it
+/// includes the capture already loaded here).
+ModeRun RunMode(RefineMode mode, const RigCapture& capture, const PoseMap& initial,
+                RefineOptions options, const CompareArgs& a) {
+  ModeRun run;
+  run.name = ModeName(mode);
+  options.icp.mode = mode;
+  int fds[2];
+  if (::pipe(fds) != 0) throw std::runtime_error("compare: pipe: " + std::string(strerror(errno)));
+  std::fflush(stdout);
+  std::fflush(stderr);
+  const pid_t pid = ::fork();
+  if (pid < 0) throw std::runtime_error("compare: fork: " + std::string(strerror(errno)));
+  if (pid == 0) {
+    ::close(fds[0]);
+    int code = 0;
+    Json report;
+    try {
+      const auto start = std::chrono::steady_clock::now();
+      const RefineResult result = Refine(capture, initial, options, true, a.threads,
+                                         StderrLog("compare: " + run.name + ": ", a.quiet));
+      report = RunReportJson(result, SecondsSince(start));
+    } catch (const std::exception& e) {
+      report = {{"error", e.what()}};
+      code = 1;
+    }
+    std::fflush(stderr);
+    ::_exit(WriteAll(fds[1], report.dump()) ? code : 1);
+  }
+  ::close(fds[1]);
+  std::string text;
+  char buffer[1 << 16];
+  for (;;) {
+    const ssize_t n = ::read(fds[0], buffer, sizeof(buffer));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    text.append(buffer, static_cast<size_t>(n));
+  }
+  ::close(fds[0]);
+  int status = 0;
+  struct rusage usage {};
+  while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
+  }
+  if (!WIFEXITED(status)) {
+    throw std::runtime_error("compare: the " + run.name + " run ended abnormally" +
+                             (WIFSIGNALED(status)
+                                  ? " (signal " + std::to_string(WTERMSIG(status)) + ")"
+                                  : std::string()));
+  }
+  const Json report = Json::parse(text, nullptr, false);
+  if (report.is_discarded()) {
+    throw std::runtime_error("compare: the " + run.name + " run sent no report");
+  }
+  if (report.contains("error")) {
+    throw std::runtime_error("compare: " + run.name + ": " + report["error"].get<std::string>());
+  }
+  ReadRunReport(report, &run);
+  run.peak_rss_mb = usage.ru_maxrss / 1024.0;  // Linux: kilobytes
+  return run;
+}
+
+// --- What the tables and the JSON show.
+
+/// All pairs pooled: RMS residual and inlier fraction.
+struct PooledFit {
+  double rmse_m = 0.0;
+  double inlier_fraction = 0.0;
+  int correspondences = 0;
+};
+
+PooledFit Pool(const std::vector<PairDiagnostics>& pairs) {
+  PooledFit pooled;
+  double sum_squares = 0.0;
+  int points = 0;
+  for (const PairDiagnostics& p : pairs) {
+    sum_squares += p.rmse_m * p.rmse_m * p.correspondences;
+    pooled.correspondences += p.correspondences;
+    points += p.points;
+  }
+  if (pooled.correspondences > 0) pooled.rmse_m = std::sqrt(sum_squares / pooled.correspondences);
+  if (points > 0) pooled.inlier_fraction = static_cast<double>(pooled.correspondences) / points;
+  return pooled;
+}
+
+/// The change a mode made to a camera, from the leveled pose.
+struct Change {
+  double rotation_deg = 0.0;
+  double translation_mm = 0.0;
+};
+
+Change ChangeOf(const PoseMap& leveled, const PoseMap& output, const std::string& serial) {
+  const Vec6 d = PoseDifference(leveled.at(serial), output.at(serial));
+  return {d.head<3>().norm() * kRadToDeg, d.tail<3>().norm() * kMToMm};
+}
+
+/// A camera's gauge-free error: its pose relative to the reference camera against the
+/// truth (the pair (reference, camera) of EvaluateRig), and its tilt.
+struct CameraError {
+  bool has_relative = false;  ///< false for the reference itself
+  double rotation_deg = 0.0;
+  double translation_mm = 0.0;
+  double tilt_deg = 0.0;
+};
+
+CameraError CameraErrorOf(const RigErrors& e, const std::string& serial,
+                          const std::string& reference) {
+  CameraError out;
+  for (const PairError& p : e.pairs) {
+    if ((p.serial_i == reference && p.serial_j == serial) ||
+        (p.serial_j == reference && p.serial_i == serial)) {
+      out = {true, p.error.rotation_rad * kRadToDeg, p.error.translation_m * kMToMm, 0.0};
+    }
+  }
+  for (const auto& [s, tilt] : e.tilt_rad) {
+    if (s == serial) out.tilt_deg = tilt * kRadToDeg;
+  }
+  return out;
+}
+
+std::string Result(const ModeRun& run, size_t cameras) {
+  if (!run.success) return "not applied: " + run.message;
+  int refined = 0;
+  for (const CameraOutcome& c : run.cameras) refined += !c.reference && c.accepted ? 1 : 0;
+  return "refined " + std::to_string(refined) + " of " + std::to_string(cameras - 1) +
+         " non-reference cameras";
+}
+
+/// "a" when a is lower by more than kEvenFraction of the larger, "b" the other way, ""
+/// when even.
+std::string Lower(double a, double b, const std::string& name_a, const std::string& name_b) {
+  if (std::abs(a - b) <= kEvenFraction * std::max(std::abs(a), std::abs(b))) return "";
+  return a < b ? name_a : name_b;
+}
+
+/// One line naming the better mode and the measured numbers behind it.
+std::string Verdict(const ModeRun& p, const ModeRun& j, const RigErrors* e_p,
+                    const RigErrors* e_j) {
+  if (!p.success && !j.success) return "neither mode refined the rig";
+  if (!p.success) return "joint: the pairwise refinement was not applied (" + p.message + ")";
+  if (!j.success) return "pairwise: the joint refinement was not applied (" + j.message + ")";
+  struct Metric {
+    std::string what;
+    double pairwise, joint;
+    int digits;
+    std::string unit;
+    bool higher_is_better;
+  };
+  std::vector<Metric> metrics;
+  std::string basis;
+  if (e_p != nullptr) {
+    basis = "against the ground truth";
+    metrics = {{"RMS relative translation error", e_p->rms_translation_m * kMToMm,
+                e_j->rms_translation_m * kMToMm, 2, " mm", false},
+               {"RMS relative rotation error", e_p->rms_rotation_rad * kRadToDeg,
+                e_j->rms_rotation_rad * kRadToDeg, 3, " deg", false}};
+  } else {
+    basis = "no ground truth: judged by the fit of the pairs";
+    const PooledFit f_p = Pool(p.fit), f_j = Pool(j.fit);
+    metrics = {{"RMS pair residual", f_p.rmse_m * kMToMm, f_j.rmse_m * kMToMm, 2, " mm", false},
+               {"inlier fraction", f_p.inlier_fraction, f_j.inlier_fraction, 3, "", true}};
+  }
+  std::vector<std::string> favour_p, favour_j, even;
+  for (const Metric& m : metrics) {
+    const std::string numbers = m.what + " " + Fixed(m.pairwise, m.digits) + m.unit +
+                                " (pairwise) vs " + Fixed(m.joint, m.digits) + m.unit + " (joint)";
+    const std::string lower = m.higher_is_better ? Lower(-m.pairwise, -m.joint, "p", "j")
+                                                 : Lower(m.pairwise, m.joint, "p", "j");
+    (lower == "p" ? favour_p : lower == "j" ? favour_j : even).push_back(numbers);
+  }
+  const auto join = [](const std::vector<std::string>& items) {
+    std::string text;
+    for (const std::string& item : items) text += (text.empty() ? "" : "; ") + item;
+    return text;
+  };
+  const std::string even_note = even.empty() ? "" : "; even: " + join(even);
+  if (!favour_p.empty() && favour_j.empty()) {
+    return "pairwise is better (" + basis + "): " + join(favour_p) + even_note;
+  }
+  if (!favour_j.empty() && favour_p.empty()) {
+    return "joint is better (" + basis + "): " + join(favour_j) + even_note;
+  }
+  if (favour_p.empty()) {
+    return "no clear winner (" + basis + ", within " + Fixed(kEvenFraction * 100.0, 0) +
+           "%): " + join(even);
+  }
+  return "mixed (" + basis + "): pairwise better on " + join(favour_p) + "; joint better on " +
+         join(favour_j);
+}
+
+/// `value` with digits decimals, or "-".
+std::string Cell(bool shown, double value, int digits) {
+  return shown ? Fixed(value, digits) : "-";
+}
+
+struct Comparison {
+  const CompareArgs* args = nullptr;
+  const RigCapture* capture = nullptr;
+  std::string method;
+  std::string reference;
+  PoseMap initial;
+  PoseMap leveled;
+  std::vector<PairDiagnostics> fit_before;  ///< at the leveled poses
+  const DiagnosticRig* rig = nullptr;
+  ModeRun runs[2];  ///< pairwise, joint
+  bool has_gt = false;
+  RigErrors errors_initial, errors_leveled, errors[2];
+  double baseline_rss_mb = 0.0;
+  std::string verdict;
+};
+
+void PrintTables(const Comparison& c) {
+  const ModeRun* runs = c.runs;
+  std::printf("\ncompare: %s, %zu cameras, method %s, reference %s\n", c.args->capture_path.c_str(),
+              c.capture->cameras.size(), c.method.c_str(), c.reference.c_str());
+  std::printf(
+      "Both modes start from the same leveled poses; \"change\" is each mode's move from "
+      "there%s.\n",
+      c.has_gt ? ", \"error\" the camera's pose relative to the reference against the truth "
+                 "(and its tilt)"
+               : "");
+
+  // Per camera.
+  std::printf("\n%-16s", "");
+  for (const ModeRun& run : c.runs) {
+    std::printf(" | %-*s", c.has_gt ? 36 : 14, run.name.c_str());
+  }
+  std::printf(" | %s\n", "joint 1-sigma");
+  std::printf("%-16s", "");
+  for (int m = 0; m < 2; ++m) {
+    std::printf(" | %-14s", "change");
+    if (c.has_gt) std::printf(" %-21s", "error vs gt");
+  }
+  std::printf(" |\n%-16s", "camera");
+  for (int m = 0; m < 2; ++m) {
+    std::printf(" | %6s %7s", "deg", "mm");
+    if (c.has_gt) std::printf(" %6s %7s %6s", "deg", "mm", "tilt");
+  }
+  std::printf(" | %7s %8s %6s %6s %6s\n", "yaw deg", "tilt deg", "x mm", "y mm", "z mm");
+  for (size_t i = 0; i < c.capture->cameras.size(); ++i) {
+    const std::string& serial = c.capture->cameras[i].serial;
+    std::printf("%-16s", serial.c_str());
+    for (int m = 0; m < 2; ++m) {
+      const Change change = ChangeOf(c.leveled, runs[m].output, serial);
+      std::printf(" | %6s %7s", Fixed(change.rotation_deg, 3).c_str(),
+                  Fixed(change.translation_mm, 1).c_str());
+      if (c.has_gt) {
+        const CameraError e = CameraErrorOf(c.errors[m], serial, c.reference);
+        std::printf(" %6s %7s %6s", Cell(e.has_relative, e.rotation_deg, 3).c_str(),
+                    Cell(e.has_relative, e.translation_mm, 1).c_str(),
+                    Fixed(e.tilt_deg, 3).c_str());
+      }
+    }
+    const CameraOutcome& joint = runs[1].cameras[i];
+    const PoseSigma s = SigmaOf(joint.covariance);
+    const bool shown = joint.has_covariance;
+    std::printf(" | %7s %8s %6s %6s %6s%s\n", Cell(shown, s.yaw_deg, 3).c_str(),
+                Cell(shown, s.tilt_deg, 3).c_str(), Cell(shown, s.x_mm, 2).c_str(),
+                Cell(shown, s.y_mm, 2).c_str(), Cell(shown, s.z_mm, 2).c_str(),
+                joint.reference ? "  (reference)" : "");
+  }
+
+  // Per pair.
+  std::printf("\n%-35s | %-16s | %-16s | %-16s\n", "pair fit (finest scale, both ways)", "before",
+              runs[0].name.c_str(), runs[1].name.c_str());
+  std::printf("%-35s | %7s %8s | %7s %8s | %7s %8s\n", "pair", "RMSE mm", "inliers", "RMSE mm",
+              "inliers", "RMSE mm", "inliers");
+  for (size_t k = 0; k < c.fit_before.size(); ++k) {
+    const PairDiagnostics* fits[3] = {&c.fit_before[k], &runs[0].fit[k], &runs[1].fit[k]};
+    const std::string name = c.rig->serials[fits[0]->a] + " - " + c.rig->serials[fits[0]->b];
+    std::printf("%-35s", name.c_str());
+    for (const PairDiagnostics* f : fits) {
+      std::printf(" | %7s %8s", Fixed(f->rmse_m * kMToMm, 2).c_str(),
+                  Fixed(f->inlier_fraction, 3).c_str());
+    }
+    std::printf("\n");
+  }
+  if (c.fit_before.empty()) {
+    std::printf("(no candidate pairs)\n");
+  } else {
+    std::printf("%-35s", "all pairs");
+    for (const std::vector<PairDiagnostics>* fits : {&c.fit_before, &runs[0].fit, &runs[1].fit}) {
+      const PooledFit f = Pool(*fits);
+      std::printf(" | %7s %8s", Fixed(f.rmse_m * kMToMm, 2).c_str(),
+                  Fixed(f.inlier_fraction, 3).c_str());
+    }
+    std::printf("\n");
+  }
+
+  // Against the truth.
+  if (c.has_gt) {
+    std::printf("\n%-35s | %9s %9s | %9s %9s | %9s\n", "errors vs gt (gauge-free)", "rot RMS",
+                "rot max", "trans RMS", "trans max", "tilt RMS");
+    std::printf("%-35s | %9s %9s | %9s %9s | %9s\n", "", "deg", "deg", "mm", "mm", "deg");
+    const std::pair<std::string, const RigErrors*> rows[] = {{"input", &c.errors_initial},
+                                                             {"leveled", &c.errors_leveled},
+                                                             {runs[0].name, &c.errors[0]},
+                                                             {runs[1].name, &c.errors[1]}};
+    for (const auto& [name, e] : rows) {
+      const bool pairs = !e->pairs.empty();
+      std::printf("%-35s | %9s %9s | %9s %9s | %9s\n", name.c_str(),
+                  Cell(pairs, e->rms_rotation_rad * kRadToDeg, 3).c_str(),
+                  Cell(pairs, e->max_rotation_rad * kRadToDeg, 3).c_str(),
+                  Cell(pairs, e->rms_translation_m * kMToMm, 2).c_str(),
+                  Cell(pairs, e->max_translation_m * kMToMm, 2).c_str(),
+                  Fixed(e->rms_tilt_rad * kRadToDeg, 3).c_str());
+    }
+  }
+
+  // Resources and results.
+  std::printf("\n%-10s %8s %12s  %s\n", "mode", "wall s", "peak RSS MB", "result");
+  for (const ModeRun& run : c.runs) {
+    std::printf("%-10s %8s %12s  %s\n", run.name.c_str(), Fixed(run.wall_s, 2).c_str(),
+                Fixed(run.peak_rss_mb, 0).c_str(), Result(run, c.capture->cameras.size()).c_str());
+  }
+  std::printf(
+      "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of a "
+      "process holding the loaded capture, %s MB before the runs, running that mode alone)\n",
+      Fixed(c.baseline_rss_mb, 0).c_str());
+  std::printf("\nverdict: %s\n", c.verdict.c_str());
+}
+
+Json FitJson(const std::vector<PairDiagnostics>& fits, const DiagnosticRig& rig) {
+  Json pairs = Json::array();
+  for (const PairDiagnostics& f : fits) {
+    pairs.push_back({{"serial_a", rig.serials[f.a]},
+                     {"serial_b", rig.serials[f.b]},
+                     {"rmse_mm", f.rmse_m * kMToMm},
+                     {"inlier_fraction", f.inlier_fraction},
+                     {"correspondences", f.correspondences}});
+  }
+  const PooledFit all = Pool(fits);
+  return {{"pairs", pairs},
+          {"all_pairs",
+           {{"rmse_mm", all.rmse_m * kMToMm},
+            {"inlier_fraction", all.inlier_fraction},
+            {"correspondences", all.correspondences}}}};
+}
+
+Json ComparisonJson(const Comparison& c) {
+  Json modes = Json::object();
+  for (int m = 0; m < 2; ++m) {
+    const ModeRun& run = c.runs[m];
+    Json cameras = Json::object();
+    for (size_t i = 0; i < c.capture->cameras.size(); ++i) {
+      const std::string& serial = c.capture->cameras[i].serial;
+      const CameraOutcome& outcome = run.cameras[i];
+      const Change change = ChangeOf(c.leveled, run.output, serial);
+      Json camera = {{"reference", outcome.reference},
+                     {"accepted", outcome.accepted},
+                     {"message", outcome.message},
+                     {"change_rotation_deg", change.rotation_deg},
+                     {"change_translation_mm", change.translation_mm},
+                     {"T_world_camera", PoseToJson(run.output.at(serial))}};
+      if (c.has_gt) {
+        const CameraError e = CameraErrorOf(c.errors[m], serial, c.reference);
+        camera["error"] = {
+            {"rotation_to_reference_deg", e.has_relative ? Json(e.rotation_deg) : Json()},
+            {"translation_to_reference_mm", e.has_relative ? Json(e.translation_mm) : Json()},
+            {"tilt_deg", e.tilt_deg}};
+      }
+      if (outcome.has_covariance) {
+        const PoseSigma s = SigmaOf(outcome.covariance);
+        camera["sigma"] = {{"yaw_deg", s.yaw_deg},
+                           {"tilt_deg", s.tilt_deg},
+                           {"x_mm", s.x_mm},
+                           {"y_mm", s.y_mm},
+                           {"z_mm", s.z_mm}};
+      }
+      cameras[serial] = camera;
+    }
+    modes[run.name] = {{"success", run.success},
+                       {"message", run.message},
+                       {"warnings", run.warnings},
+                       {"wall_s", run.wall_s},
+                       {"peak_rss_mb", run.peak_rss_mb},
+                       {"cameras", cameras},
+                       {"fit", FitJson(run.fit, *c.rig)},
+                       {"errors", c.has_gt ? RigErrorsSummaryJson(c.errors[m]) : Json()}};
+  }
+  return {{"capture", c.args->capture_path},
+          {"extrinsics", c.args->extrinsics_path},
+          {"ground_truth", c.has_gt ? Json(c.args->gt_path) : Json()},
+          {"config", c.args->config_path.empty() ? Json() : Json(c.args->config_path)},
+          {"method", c.method},
+          {"reference", c.reference},
+          {"before",
+           {{"fit", FitJson(c.fit_before, *c.rig)},
+            {"errors_input", c.has_gt ? RigErrorsSummaryJson(c.errors_initial) : Json()},
+            {"errors_leveled", c.has_gt ? RigErrorsSummaryJson(c.errors_leveled) : Json()}}},
+          {"modes", modes},
+          {"baseline_rss_mb", c.baseline_rss_mb},
+          {"verdict", c.verdict}};
+}
+
+/// Every capture camera needs an initial pose (and a true one with --gt).
+void CheckPoses(const RigCapture& capture, const PoseMap& poses, const std::string& path) {
+  for (const CameraCapture& camera : capture.cameras) {
+    if (poses.count(camera.serial) == 0) {
+      throw InputError("compare: " + path + " has no pose for camera " + camera.serial + " of " +
+                       "the capture");
+    }
+  }
+}
+
+int RunCompare(const CompareArgs& a) {
+  if (a.threads < 1 || a.threads > kMaxThreads) {
+    throw InputError("compare: --threads must be in [1, " + std::to_string(kMaxThreads) +
+                     "], got " + std::to_string(a.threads));
+  }
+  std::vector<std::string> inputs = {a.capture_path, a.extrinsics_path};
+  for (const std::string* path : {&a.gt_path, &a.config_path}) {
+    if (!path->empty()) inputs.push_back(*path);
+  }
+  if (!a.json_path.empty()) RefuseToOverwriteInputs(a.json_path, inputs, "compare: --json");
+  const RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
+  const RigCapture capture = ReadCapture(a.capture_path);
+  const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
+  CheckPoses(capture, initial.poses, a.extrinsics_path);
+  PoseMap gt;
+  if (!a.gt_path.empty()) {
+    gt = ReadExtrinsics(a.gt_path).poses;
+    CheckPoses(capture, gt, a.gt_path);
+  }
+  if (capture.cameras.size() < 2) {
+    throw InputError("compare: " + a.capture_path + " holds one camera: nothing to register");
+  }
+  const std::string& reference = options.icp.reference;
+  if (!reference.empty() && initial.poses.count(reference) == 0) {
+    throw InputError("compare: icp.reference '" + reference + "' is not a camera of " +
+                     a.capture_path);
+  }
+
+  Comparison c;
+  c.args = &a;
+  c.capture = &capture;
+  c.method = ConfigToJson(options)["icp"]["method"];
+  c.initial = initial.poses;
+  c.baseline_rss_mb = CurrentRssMb();
+  c.runs[0] = RunMode(RefineMode::kPairwise, capture, initial.poses, options, a);
+  c.runs[1] = RunMode(RefineMode::kJoint, capture, initial.poses, options, a);
+
+  // The shared start: leveling alone, as both modes ran it.
+  const RefineResult leveling =
+      Refine(capture, initial.poses, options, false, a.threads, StderrLog("compare: ", true));
+  c.leveled = leveling.leveled;
+  c.reference = leveling.reference;
+  const DiagnosticRig rig = PrepareDiagnostics(capture, leveling, options, a.threads);
+  c.rig = &rig;
+  c.fit_before = Diagnose(rig, c.leveled, options.icp, a.threads);
+  for (ModeRun& run : c.runs) run.fit = Diagnose(rig, run.output, options.icp, a.threads);
+  c.has_gt = !gt.empty();
+  if (c.has_gt) {
+    PoseMap truth;  // the capture's cameras only
+    for (const CameraCapture& camera : capture.cameras) truth[camera.serial] = gt.at(camera.serial);
+    c.errors_initial = EvaluateRig(c.initial, truth);
+    c.errors_leveled = EvaluateRig(c.leveled, truth);
+    for (int m = 0; m < 2; ++m) c.errors[m] = EvaluateRig(c.runs[m].output, truth);
+  }
+  c.verdict = Verdict(c.runs[0], c.runs[1], c.has_gt ? &c.errors[0] : nullptr,
+                      c.has_gt ? &c.errors[1] : nullptr);
+  if (!a.json_path.empty()) WriteJsonFile(a.json_path, ComparisonJson(c));
+  PrintTables(c);
+  return kExitOk;
+}
+
+}  // namespace
+
+Command AddCompareCommand(CLI::App& app) {
+  auto args = std::make_shared<CompareArgs>();
+  CompareArgs& a = *args;
+  CLI::App* sub = app.add_subcommand(
+      "compare",
+      "Run the pairwise and the joint mode (each with the configured method) on the same "
+      "capture and initial extrinsics and print them side by side: each camera's change and "
+      "(with --gt) its error, each pair's residual RMSE and inlier fraction before and after, "
+      "the joint 1-sigma, wall time and peak memory, and which mode did better. Writes no "
+      "extrinsics. Exit codes: 0 done; 2 bad input or usage (nothing written); 1 internal "
+      "error.");
+  sub->add_option("--capture", a.capture_path, "Rig capture (HDF5)")->required();
+  sub->add_option("--extrinsics", a.extrinsics_path,
+                  "Initial extrinsics (JSON): a pose for every camera of the capture")
+      ->required();
+  sub->add_option("--gt", a.gt_path,
+                  "Ground-truth extrinsics (JSON): adds each mode's gauge-free errors");
+  sub->add_option("--config", a.config_path,
+                  "Options (YAML, docs/config.md); icp.mode is ignored (both modes run)");
+  sub->add_option("--json", a.json_path,
+                  "Also write the comparison to this JSON file (replaced atomically; must not "
+                  "be an input)");
+  sub->add_option("--threads", a.threads, "Worker threads")->capture_default_str();
+  sub->add_flag("--quiet,-q", a.quiet, "Progress off: stderr shows only warnings and errors");
+  return {sub, [args] { return RunCompare(*args); }};
+}
+
+}  // namespace rigfit::cli

@@ -1,0 +1,292 @@
+#include "report/plots.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "core/format.h"
+#include "solver/region.h"
+
+namespace rigfit {
+namespace {
+
+constexpr Rgb kGrid{225, 225, 225};
+constexpr Rgb kAxis{60, 60, 60};
+constexpr Rgb kMuted{90, 90, 90};
+constexpr int kTitleScale = 3;
+constexpr int kTextScale = 2;
+
+/// A tick spacing of 1, 2 or 5 times a power of ten giving at most max_ticks intervals
+/// over span.
+double NiceStep(double span, int max_ticks) {
+  const double raw = span / max_ticks;
+  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
+  for (double m : {1.0, 2.0, 5.0}) {
+    if (m * magnitude >= raw) return m * magnitude;
+  }
+  return 10.0 * magnitude;
+}
+
+/// A tick value with as many decimals as the step needs.
+std::string TickLabel(double value, double step) {
+  const int digits = std::max(0, static_cast<int>(std::ceil(-std::log10(step) - 1e-9)));
+  return Fixed(std::abs(value) < 0.5 * step ? 0.0 : value, digits);
+}
+
+/// The multiples of step in [lo, hi].
+std::vector<double> Ticks(double lo, double hi, double step) {
+  std::vector<double> ticks;
+  for (double k = std::ceil(lo / step - 1e-9); k * step <= hi + 1e-9 * step; k += 1.0) {
+    ticks.push_back(k * step);
+  }
+  return ticks;
+}
+
+/// A pixel rectangle [x0, x1) x [y0, y1).
+struct Rect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  bool Contains(int x, int y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
+};
+
+void DrawFrame(Image* image, const Rect& r, const Rgb& color) {
+  DrawLine(image, r.x0, r.y0, r.x1 - 1, r.y0, color);
+  DrawLine(image, r.x0, r.y1 - 1, r.x1 - 1, r.y1 - 1, color);
+  DrawLine(image, r.x0, r.y0, r.x0, r.y1 - 1, color);
+  DrawLine(image, r.x1 - 1, r.y0, r.x1 - 1, r.y1 - 1, color);
+}
+
+void DrawTitles(Image* image, const std::string& title, const std::string& subtitle) {
+  DrawText(image, 20, 16, title, kBlack, kTitleScale);
+  DrawText(image, 20, 24 + TextHeight(kTitleScale), subtitle, kMuted, kTextScale);
+}
+
+/// A legend swatch and its text, one row at (x, y); returns the next row's y.
+int LegendRow(Image* image, int x, int y, const Rgb& color, const std::string& text) {
+  const int size = TextHeight(kTextScale) + 2;
+  FillRect(image, x, y, x + size, y + size, color);
+  DrawText(image, x + size + 10, y + 2, text, kBlack, kTextScale);
+  return y + size + 10;
+}
+
+}  // namespace
+
+GroundWindow FitGroundWindow(const std::vector<const std::vector<TopDownCamera>*>& views) {
+  constexpr double kMarginFraction = 0.05;
+  double min_x = INFINITY, max_x = -INFINITY, min_z = INFINITY, max_z = -INFINITY;
+  const auto include = [&](double x0, double x1, double z0, double z1) {
+    min_x = std::min(min_x, x0);
+    max_x = std::max(max_x, x1);
+    min_z = std::min(min_z, z0);
+    max_z = std::max(max_z, z1);
+  };
+  for (const std::vector<TopDownCamera>* view : views) {
+    for (const TopDownCamera& camera : *view) {
+      const GroundBox box = RobustGroundBox(camera.points_world);
+      if (!box.empty) include(box.min_x, box.max_x, box.min_z, box.max_z);
+      const Vec3& c = camera.T_world_camera.translation();
+      include(c.x(), c.x(), c.z(), c.z());
+    }
+  }
+  GroundWindow window;
+  if (!(min_x <= max_x && min_z <= max_z)) return window;
+  const double margin = kMarginFraction * std::max({max_x - min_x, max_z - min_z, 1.0});
+  return {min_x - margin, max_x + margin, min_z - margin, max_z + margin};
+}
+
+Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow& window,
+                  double point_size_m, const std::string& title, const std::string& subtitle) {
+  Image image(kTopDownWidth, kTopDownHeight, kWhite);
+  DrawTitles(&image, title, subtitle);
+  constexpr int kLegendWidth = 260;
+  const Rect available{90, 110, kTopDownWidth - kLegendWidth - 20, kTopDownHeight - 80};
+  const double span_x = window.max_x - window.min_x;
+  const double span_z = window.max_z - window.min_z;
+  const double px_per_m =
+      std::min((available.x1 - available.x0) / span_x, (available.y1 - available.y0) / span_z);
+  const int width = static_cast<int>(span_x * px_per_m);
+  const int height = static_cast<int>(span_z * px_per_m);
+  const Rect plot{available.x0, available.y0, available.x0 + width, available.y0 + height};
+  const auto column = [&](double x) { return plot.x0 + (x - window.min_x) * px_per_m; };
+  const auto row = [&](double z) { return plot.y0 + (z - window.min_z) * px_per_m; };
+
+  // Grid and tick labels, in metres.
+  const double step = NiceStep(std::max(span_x, span_z), 10);
+  for (double x : Ticks(window.min_x, window.max_x, step)) {
+    const int c = static_cast<int>(std::lround(column(x)));
+    DrawLine(&image, c, plot.y0, c, plot.y1 - 1, kGrid);
+    const std::string label = TickLabel(x, step);
+    DrawText(&image, c - TextWidth(label, kTextScale) / 2, plot.y1 + 8, label, kAxis);
+  }
+  for (double z : Ticks(window.min_z, window.max_z, step)) {
+    const int r = static_cast<int>(std::lround(row(z)));
+    DrawLine(&image, plot.x0, r, plot.x1 - 1, r, kGrid);
+    const std::string label = TickLabel(z, step);
+    DrawText(&image, plot.x0 - 10 - TextWidth(label, kTextScale), r - TextHeight(kTextScale) / 2,
+             label, kAxis);
+  }
+  const std::string x_label = "x (m)";
+  DrawText(&image, (plot.x0 + plot.x1 - TextWidth(x_label, kTextScale)) / 2,
+           plot.y1 + 16 + TextHeight(kTextScale), x_label, kBlack);
+  DrawText(&image, 10, plot.y0 - 8 - TextHeight(kTextScale), "z (m)", kBlack);
+
+  // Point density per camera and pixel, then one colour per pixel.
+  const size_t n = cameras.size();
+  const int splat = std::max(1, static_cast<int>(std::lround(point_size_m * px_per_m)));
+  std::vector<std::uint16_t> counts(static_cast<size_t>(width) * height * n, 0);
+  for (size_t k = 0; k < n; ++k) {
+    for (const Vec3& p : cameras[k].points_world) {
+      const int c0 = static_cast<int>(std::floor(column(p.x()) - 0.5 * splat)) - plot.x0;
+      const int r0 = static_cast<int>(std::floor(row(p.z()) - 0.5 * splat)) - plot.y0;
+      for (int r = std::max(r0, 0); r < std::min(r0 + splat, height); ++r) {
+        for (int c = std::max(c0, 0); c < std::min(c0 + splat, width); ++c) {
+          std::uint16_t& count = counts[(static_cast<size_t>(r) * width + c) * n + k];
+          if (count < UINT16_MAX) ++count;
+        }
+      }
+    }
+  }
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) {
+      const std::uint16_t* pixel = &counts[(static_cast<size_t>(r) * width + c) * n];
+      double total = 0.0, red = 0.0, green = 0.0, blue = 0.0;
+      for (size_t k = 0; k < n; ++k) {
+        total += pixel[k];
+        red += pixel[k] * cameras[k].color.r;
+        green += pixel[k] * cameras[k].color.g;
+        blue += pixel[k] * cameras[k].color.b;
+      }
+      if (total == 0.0) continue;
+      const Rgb mixed{static_cast<std::uint8_t>(std::lround(red / total)),
+                      static_cast<std::uint8_t>(std::lround(green / total)),
+                      static_cast<std::uint8_t>(std::lround(blue / total))};
+      image.Set(plot.x0 + c, plot.y0 + r,
+                Mix(image.At(plot.x0 + c, plot.y0 + r), mixed, total / kSaturationPoints));
+    }
+  }
+
+  // Camera centres and viewing directions (the camera z axis on the ground).
+  constexpr double kHeadingPx = 45.0;
+  for (const TopDownCamera& camera : cameras) {
+    const Vec3& centre = camera.T_world_camera.translation();
+    const Vec3 forward = camera.T_world_camera.linear().col(2);
+    const double cx = column(centre.x()), cy = row(centre.z());
+    const double norm = std::hypot(forward.x(), forward.z());
+    if (norm > 1e-9) {
+      DrawLine(&image, cx, cy, cx + kHeadingPx * forward.x() / norm,
+               cy + kHeadingPx * forward.z() / norm, kBlack, 3);
+    }
+    FillDisc(&image, cx, cy, 10.0, kBlack);
+    FillDisc(&image, cx, cy, 7.0, camera.color);
+  }
+  DrawFrame(&image, plot, kAxis);
+
+  // Scale bar in the lower left corner of the plot.
+  const double bar_m = NiceStep(span_x, 5);
+  const int bar_px = static_cast<int>(std::lround(bar_m * px_per_m));
+  const int bar_x = plot.x0 + 20, bar_y = plot.y1 - 24;
+  FillRect(&image, bar_x, bar_y, bar_x + bar_px, bar_y + 5, kBlack);
+  for (int end : {bar_x, bar_x + bar_px - 2})
+    FillRect(&image, end, bar_y - 8, end + 2, bar_y + 5, kBlack);
+  const std::string bar_label = TickLabel(bar_m, bar_m) + " m";
+  DrawText(&image, bar_x + (bar_px - TextWidth(bar_label, kTextScale)) / 2,
+           bar_y - 12 - TextHeight(kTextScale), bar_label, kBlack);
+
+  // Legend.
+  const int legend_x = kTopDownWidth - kLegendWidth + 10;
+  int y = available.y0;
+  DrawText(&image, legend_x, y, "cameras", kBlack, kTextScale);
+  y += TextHeight(kTextScale) + 14;
+  for (const TopDownCamera& camera : cameras)
+    y = LegendRow(&image, legend_x, y, camera.color, camera.label);
+  y += 16;
+  for (const char* line : {"disc: camera centre", "line: viewing direction", "pale: floor points",
+                           "strong: walls, objects", "(many points over", " one spot)"}) {
+    DrawText(&image, legend_x, y, line, kMuted, kTextScale);
+    y += TextHeight(kTextScale) + 8;
+  }
+  return image;
+}
+
+Image DrawHistogram(const std::vector<HistogramSeries>& series, double half_range, double bin_width,
+                    const std::string& title, const std::string& x_label,
+                    const std::string& y_label) {
+  Image image(kHistogramWidth, kHistogramHeight, kWhite);
+  DrawTitles(&image, title, "");
+  const Rect plot{110, 90, kHistogramWidth - 330, kHistogramHeight - 80};
+  const int bins = std::max(1, static_cast<int>(std::lround(2.0 * half_range / bin_width)));
+  std::vector<std::vector<int>> counts(series.size(), std::vector<int>(bins, 0));
+  int highest = 1;
+  for (size_t s = 0; s < series.size(); ++s) {
+    for (double v : series[s].values) {
+      const int b = static_cast<int>(std::floor((v + half_range) / bin_width));
+      if (b < 0 || b >= bins) continue;
+      highest = std::max(highest, ++counts[s][b]);
+    }
+  }
+  const double y_step = NiceStep(highest, 6);
+  const double y_max = std::ceil(highest / y_step) * y_step;
+  const auto column = [&](double v) {
+    return plot.x0 + (v + half_range) / (2.0 * half_range) * (plot.x1 - plot.x0);
+  };
+  const auto row = [&](double count) {
+    return plot.y1 - 1 - count / y_max * (plot.y1 - plot.y0 - 1);
+  };
+  const double x_step = NiceStep(2.0 * half_range, 10);
+  for (double v : Ticks(-half_range, half_range, x_step)) {
+    const int c = static_cast<int>(std::lround(column(v)));
+    DrawLine(&image, c, plot.y0, c, plot.y1 - 1, kGrid);
+    const std::string label = TickLabel(v, x_step);
+    DrawText(&image, c - TextWidth(label, kTextScale) / 2, plot.y1 + 8, label, kAxis);
+  }
+  for (double count : Ticks(0.0, y_max, y_step)) {
+    const int r = static_cast<int>(std::lround(row(count)));
+    DrawLine(&image, plot.x0, r, plot.x1 - 1, r, kGrid);
+    const std::string label = TickLabel(count, std::max(1.0, y_step));
+    DrawText(&image, plot.x0 - 10 - TextWidth(label, kTextScale), r - TextHeight(kTextScale) / 2,
+             label, kAxis);
+  }
+  DrawText(&image, (plot.x0 + plot.x1 - TextWidth(x_label, kTextScale)) / 2,
+           plot.y1 + 16 + TextHeight(kTextScale), x_label, kBlack);
+  DrawText(&image, 10, plot.y0 - 8 - TextHeight(kTextScale), y_label, kBlack);
+  for (size_t s = 0; s < series.size(); ++s) {
+    const Rgb& color = series[s].color;
+    double previous = row(0.0);
+    for (int b = 0; b < bins; ++b) {
+      const double left = column(-half_range + b * bin_width);
+      const double right = column(-half_range + (b + 1) * bin_width);
+      const double top = row(counts[s][b]);
+      if (s == 0) {
+        FillRect(&image, static_cast<int>(std::lround(left)), static_cast<int>(std::lround(top)),
+                 static_cast<int>(std::lround(right)), plot.y1, Mix(kWhite, color, 0.45));
+      } else {
+        DrawLine(&image, left, previous, left, top, color, 3);
+        DrawLine(&image, left, top, right, top, color, 3);
+      }
+      previous = top;
+    }
+    if (s > 0)
+      DrawLine(&image, column(half_range), previous, column(half_range), row(0.0), color, 3);
+  }
+  DrawFrame(&image, plot, kAxis);
+  int y = plot.y0;
+  for (size_t s = 0; s < series.size(); ++s) {
+    const Rgb swatch = s == 0 ? Mix(kWhite, series[s].color, 0.45) : series[s].color;
+    size_t start = 0;
+    // Multi-line labels: the first line beside the swatch, the others under it.
+    for (size_t end = series[s].label.find('\n');; end = series[s].label.find('\n', start)) {
+      const std::string line = series[s].label.substr(start, end - start);
+      if (start == 0) {
+        y = LegendRow(&image, plot.x1 + 20, y, swatch, line);
+      } else {
+        DrawText(&image, plot.x1 + 20 + TextHeight(kTextScale) + 12, y - 4, line, kMuted);
+        y += TextHeight(kTextScale) + 8;
+      }
+      if (end == std::string::npos) break;
+      start = end + 1;
+    }
+    y += 14;
+  }
+  return image;
+}
+
+}  // namespace rigfit

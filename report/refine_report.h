@@ -1,0 +1,36 @@
+// The report of `rigfit refine --report DIR`: pictures a person reads at a glance to judge
+// a refinement (docs/usage.md, "Reading the report").
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "solver/options.h"
+#include "solver/refine.h"
+
+namespace rigfit {
+
+/// The report's files, in DIR.
+inline constexpr const char* kTopDownBeforeFile = "topdown_before.png";
+inline constexpr const char* kTopDownAfterFile = "topdown_after.png";
+inline constexpr const char* kResidualsFile = "residuals.png";
+
+/// Throws InputError (naming `what`, e.g. "refine: --report") unless dir is an existing
+/// directory or can be created as one: its parent exists and nothing else has its name.
+void CheckReportDirectory(const std::string& dir, const std::string& what);
+
+/// Writes the report of a refine run into dir, creating dir if missing (its parent must
+/// exist):
+/// - kTopDownBeforeFile, kTopDownAfterFile: the near-floor band of every camera at the
+///   finest voxel (solver/diagnostics.h), seen from above, coloured per camera
+///   (report/palette.h), at the leveled poses (before registration) and at `after`;
+/// - kResidualsFile: the histogram of the point-to-plane residuals of the finest-scale
+///   correspondences of every candidate pair, at the leveled poses and at `after`.
+/// `after` holds the poses written as the result (every camera of the capture). Returns
+/// the paths written. Throws InputError when a file cannot be written.
+std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
+                                           const RefineResult& result, const PoseMap& after,
+                                           const RefineOptions& options, int num_threads);
+
+}  // namespace rigfit
