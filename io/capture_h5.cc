@@ -24,6 +24,11 @@ constexpr long long kVersion = 1;
 /// Largest dataset read, in elements (1 GiB of float32): bounds the memory a damaged or
 /// hostile file can make rigfit allocate.
 constexpr hsize_t kMaxElements = hsize_t{1} << 28;
+/// Deflate expands data at most about 1032:1, so a dataset that declares more than this many
+/// times the bytes the file stores of it was never (fully) written, or the file is damaged:
+/// its missing part would be fill values, and a small hostile file could make rigfit allocate
+/// up to kMaxElements values.
+constexpr hsize_t kMaxExpansion = 4096;
 /// Chunks of about this many elements (1 MiB of float32) when compressing.
 constexpr hsize_t kChunkElements = hsize_t{1} << 18;
 /// Skew and last-row tolerance of K, relative to fx (exact zeros are expected).
@@ -177,9 +182,17 @@ void ExpectFloat(const Dataset& d, const Context& where) {
   }
 }
 
-/// Every element, converted by HDF5 to the memory type.
+/// Every element, converted by HDF5 to the memory type. A dataset whose declared size is more
+/// than kMaxExpansion times what the file stores of it is rejected before anything is allocated.
 template <typename T>
 std::vector<T> ReadAll(const Dataset& d, hid_t memory_type, const Context& where) {
+  const hsize_t declared = d.Elements() * H5Tget_size(d.type.get());
+  const hsize_t stored = H5Dget_storage_size(d.id.get());
+  if (declared > kMaxExpansion * std::max<hsize_t>(stored, 1)) {
+    where.Fail(d.name, "declares " + DescribeDims(d.dims) + " (" + std::to_string(declared) +
+                           " bytes) but the file stores " + std::to_string(stored) +
+                           " bytes of it: damaged, or never written");
+  }
   std::vector<T> values(d.Elements());
   if (H5Dread(d.id.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0) {
     where.Fail(d.name, "cannot read its data (damaged, or compressed with an unavailable filter)");
@@ -758,7 +771,10 @@ RigCapture ReadCaptureFromMemory(const void* data, std::size_t size, const std::
       H5Pset_file_image(fapl.get(), const_cast<void*>(data), size) < 0) {
     throw InputError(name + ": cannot set up the in-memory HDF5 file");
   }
-  const H5Id file(H5Fopen(name.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose);
+  // The core driver refuses to open an image under the name of a file that exists on disk,
+  // so `name` (for messages only) is not given to HDF5: nothing can exist below /dev/null.
+  const H5Id file(H5Fopen("/dev/null/rigfit-in-memory-image", H5F_ACC_RDONLY, fapl.get()),
+                  H5Fclose);
   if (!file.valid()) throw InputError(name + ": not an HDF5 file (or damaged)");
   return ReadOpenFile(file.get(), name);
 }
