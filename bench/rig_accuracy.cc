@@ -10,6 +10,7 @@
 #include "core/evaluate.h"
 #include "io/config_yaml.h"
 #include "sim/simulate_rig.h"
+#include "solver/crlb.h"
 #include "solver/refine.h"
 
 namespace {
@@ -40,7 +41,9 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads);
   std::string config;
   app.add_option("--config", config, "refine options (YAML); --mode and --method override");
-  bool verbose = false, from_gt = false, verbose_sigma = false;
+  bool verbose = false, from_gt = false, verbose_sigma = false, crlb = false;
+  app.add_flag("--crlb", crlb,
+               "also the Cramer-Rao bound of each seed (solver/crlb.h) and RMS of error / bound");
   app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
   app.add_flag("--from-gt", from_gt, "start at the true poses (measures the estimator's bias)");
   app.add_flag("--verbose", verbose, "solver progress to stderr");
@@ -57,6 +60,8 @@ int main(int argc, char** argv) {
               "trans mm", "tilt", "rot deg", "trans mm", "tilt", "max mm", "level", "prep", "solve",
               "result");
   double sum_r2 = 0, sum_t2 = 0, sum_tilt2 = 0, worst_t = 0;
+  double sum_ratio_r2 = 0, sum_ratio_t2 = 0, sum_bound_r2 = 0, sum_bound_t2 = 0;
+  int runs_with_weak = 0;
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
   for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
@@ -78,6 +83,32 @@ int main(int argc, char** argv) {
                 r.times.registration_s + r.times.pose_graph_s,
                 r.success ? "ok" : r.message.c_str());
     failures += r.success ? 0 : 1;
+    int weak = 0;
+    for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
+    runs_with_weak += weak > 0 ? 1 : 0;
+    if (weak > 0) std::printf("       %d weakly constrained directions (held)\n", weak);
+    if (crlb) {
+      // The bound of this seed's rig: the same scene, cameras and noise model, noise-free.
+      SimOptions clean = sim;
+      clean.noise = 0.0;
+      const SimulatedRig truth = SimulateRig(clean);
+      RefineOptions bound_options = options;
+      bound_options.icp.reference = r.reference;
+      const CramerRaoBound b = ComputeCramerRaoBound(truth.capture, truth.gt, bound_options,
+                                                     sim.noise, 2000, sim.seed, threads);
+      if (b.ok) {
+        std::printf("       bound: %.4f deg %.2f mm tilt %.4f deg; error / bound: %.2f %.2f\n",
+                    b.rms_rotation_rad * kRadToDeg, b.rms_translation_m * 1e3,
+                    b.rms_tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms_rotation_rad,
+                    after.rms_translation_m / b.rms_translation_m);
+        sum_ratio_r2 += std::pow(after.rms_rotation_rad / b.rms_rotation_rad, 2);
+        sum_ratio_t2 += std::pow(after.rms_translation_m / b.rms_translation_m, 2);
+        sum_bound_r2 += std::pow(b.rms_rotation_rad, 2);
+        sum_bound_t2 += std::pow(b.rms_translation_m, 2);
+      } else {
+        std::printf("       bound: not available: %s\n", b.message.c_str());
+      }
+    }
     // Errors of each camera relative to the reference against the predicted 1-sigma (joint
     // mode): a reference that does not move makes its covariance that of T_ref^-1 T_i.
     for (const CameraReport& c : r.cameras) {
@@ -113,5 +144,19 @@ int main(int argc, char** argv) {
       "%.2f mm (worst pair %.2f mm), RMS tilt %.4f deg, %d runs not successful\n",
       seeds, std::sqrt(sum_r2 / pairs) * kRadToDeg, std::sqrt(sum_t2 / pairs) * 1e3, worst_t * 1e3,
       std::sqrt(sum_tilt2 / cameras) * kRadToDeg, failures);
+  std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, seeds);
+  if (normalised > 0) {
+    std::printf(
+        "normalised errors (error / predicted 1-sigma, joint covariance): RMS %.2f "
+        "rotation, %.2f translation over %d cameras\n",
+        std::sqrt(sum_nr2 / normalised), std::sqrt(sum_nt2 / normalised), normalised);
+  }
+  if (crlb) {
+    std::printf(
+        "bound: RMS %.4f deg %.2f mm; RMS of error / bound over the seeds: %.2f "
+        "rotation, %.2f translation\n",
+        std::sqrt(sum_bound_r2 / seeds) * kRadToDeg, std::sqrt(sum_bound_t2 / seeds) * 1e3,
+        std::sqrt(sum_ratio_r2 / seeds), std::sqrt(sum_ratio_t2 / seeds));
+  }
   return 0;
 }

@@ -298,6 +298,14 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options, const Ref
                          {"own_translation_m", NumberOrNull(measured, c.own_translation_m)},
                          {"message", c.message}};
     if (c.has_covariance) cameras[c.serial]["sigma"] = SigmaJson(SigmaOf(c.covariance));
+    if (!c.weak_directions.empty()) {
+      Json weak = Json::array();
+      for (const WeakDirection& d : c.weak_directions) {
+        weak.push_back({{"direction", d.name}, {"information_fraction", d.strength},
+                        {"reason", d.reason}});
+      }
+      cameras[c.serial]["weak_directions"] = weak;
+    }
   }
   meta["pairs"] = pairs;
   meta["cameras"] = cameras;

@@ -10,9 +10,12 @@
 
 #include "cli/commands.h"
 #include "core/errors.h"
+#include "core/evaluate.h"
 #include "io/capture_h5.h"
+#include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
 #include "sim/simulate_rig.h"
+#include "solver/crlb.h"
 
 namespace rigfit::cli {
 namespace {
@@ -27,8 +30,45 @@ constexpr const char* kOutputFiles[] = {"capture.h5", "gt.json", "init.json"};
 struct SimulateArgs {
   std::string out_dir;
   bool force = false;
+  bool crlb = false;
+  std::string config_path;  ///< refine options of the bound (defaults when empty)
   SimOptions sim;
 };
+
+/// Draws of the poses for the bound's benchmark errors.
+constexpr int kBoundSamples = 2000;
+
+/// Prints the Cramer-Rao bound of the simulated rig (solver/crlb.h): what an efficient
+/// estimator using the joint problem's data would reach, measured like `rigfit evaluate`.
+void PrintBound(const SimulateArgs& a) {
+  if (a.sim.noise <= 0.0) {
+    std::printf("Cramer-Rao bound: 0 (noise-free capture)\n");
+    return;
+  }
+  const RefineOptions options = a.config_path.empty() ? RefineOptions() : LoadConfig(a.config_path);
+  SimOptions clean = a.sim;
+  clean.noise = 0.0;
+  const SimulatedRig truth = SimulateRig(clean);
+  const CramerRaoBound b = ComputeCramerRaoBound(truth.capture, truth.gt, options, a.sim.noise,
+                                                 kBoundSamples, a.sim.seed, 2);
+  if (!b.ok) {
+    std::printf("Cramer-Rao bound: not available: %s\n", b.message.c_str());
+    return;
+  }
+  constexpr double kRadToDeg = 180.0 / M_PI;
+  std::printf(
+      "Cramer-Rao bound (joint problem at the true poses, noise %g, %d draws): RMS relative "
+      "rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",
+      a.sim.noise, b.samples, b.rms_rotation_rad * kRadToDeg, b.rms_translation_m * 1e3,
+      b.rms_tilt_rad * kRadToDeg);
+  std::printf("  1-sigma against reference %s:   yaw deg  tilt deg     x mm     y mm     z mm\n",
+              b.reference.c_str());
+  for (size_t k = 0; k < b.serials.size(); ++k) {
+    const PoseSigma s = SigmaOf(b.covariance.block<6, 6>(6 * k, 6 * k));
+    std::printf("  %-30s %9.4f %9.4f %8.2f %8.2f %8.2f\n", b.serials[k].c_str(), s.yaw_deg,
+                s.tilt_deg, s.x_mm, s.y_mm, s.z_mm);
+  }
+}
 
 void CheckArgs(const SimulateArgs& a) {
   const SimOptions& o = a.sim;
@@ -105,6 +145,7 @@ nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
 
 int RunSimulate(const SimulateArgs& a) {
   CheckArgs(a);
+  if (!a.config_path.empty()) LoadConfig(a.config_path);  // bad config: exit 2 before writing
   PrepareOutputDir(a);
   const SimulatedRig rig = SimulateRig(a.sim);
   const fs::path dir(a.out_dir);
@@ -123,6 +164,7 @@ int RunSimulate(const SimulateArgs& a) {
     std::printf("  %s  position (%6.3f, %6.3f, %6.3f) m  %zu points\n", camera.serial.c_str(),
                 p.x(), p.y(), p.z(), valid);
   }
+  if (a.crlb) PrintBound(a);
   return kExitOk;
 }
 
@@ -164,6 +206,11 @@ Command AddSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_flag("--bare", o.bare, "Floor and walls only (the planar-degenerate case)");
   sub->add_flag("--force", args->force, "Overwrite capture.h5, gt.json, init.json in DIR");
+  sub->add_flag("--crlb", args->crlb,
+                "Also print the Cramer-Rao bound of the rig: the errors an efficient estimator "
+                "of the joint problem would show at this noise (docs/residuals.md)");
+  sub->add_option("--config", args->config_path,
+                  "With --crlb: refine options (YAML) of the bound's joint problem");
   return {sub, [args] { return RunSimulate(*args); }};
 }
 

@@ -2,6 +2,7 @@
 
 #include <ceres/crs_matrix.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
 
@@ -48,6 +49,20 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
   return out;
 }
 
+double PointToPlaneVariance(const CameraView& source, const CameraView& target,
+                            const Correspondence& c, double min_noise_m) {
+  const Vec3& p = source.level->points[c.source];
+  const Vec3& q = target.level->points[c.target];
+  const Vec3& n_t = target.level->geometry.normals[c.target];
+  // The target normal in the source frame: R_s^T R_t n_t.
+  const double np =
+      (source.T_world_camera.linear().transpose() * (target.T_world_camera.linear() * n_t)).dot(p);
+  const double nq = n_t.dot(q);
+  const double k_s = source.depth_noise * p.z() * np;
+  const double k_t = target.depth_noise * q.z() * nq;
+  return k_s * k_s + k_t * k_t + min_noise_m * min_noise_m;
+}
+
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options) {
   const double scale = options.robust_loss_scale;
   switch (options.robust_loss) {
@@ -63,18 +78,15 @@ ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options) {
   return nullptr;
 }
 
-void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
-                            const CameraView& source, const CameraView& target,
-                            const std::vector<Correspondence>& correspondences,
-                            ceres::LossFunction* loss) {
+ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
+                                              const CameraView& source, const CameraView& target,
+                                              const std::vector<Correspondence>& correspondences,
+                                              ceres::LossFunction* loss) {
   const ScaleLevel& src = *source.level;
   const ScaleLevel& tgt = *target.level;
   const double k_s2 = source.depth_noise * source.depth_noise;
   const double k_t2 = target.depth_noise * target.depth_noise;
   const double floor2 = options.min_noise_m * options.min_noise_m;
-  // Target normals seen from the source frame: R_s^T R_t.
-  const Mat3 R_source_target =
-      source.T_world_camera.linear().transpose() * target.T_world_camera.linear();
   // GICP shapes are plane-regularised, V diag(1, 1, eps) V^T (m^2): the in-plane freedom
   // stays (1 m^2, as in small_gicp), the eps along the normal is replaced by the noise model.
   const auto shape = [](const LocalGeometry& g, int i) {
@@ -96,15 +108,9 @@ void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
       cost = GicpCost::Create(p, q, C_p, C_q, source.T_world_camera.linear(),
                               target.T_world_camera.linear());
     } else {
-      // Variance of r = n . (T_s p - T_t q): each point's depth noise projected on the
-      // normal, (k z (n . p))^2, plus the floor. r is linear in n, so a normal scaled by
-      // 1 / sigma whitens it.
-      const Vec3& n_t = tgt.geometry.normals[c.target];
-      const double np = (R_source_target * n_t).dot(p);
-      const double nq = n_t.dot(q);
-      const double variance =
-          k_s2 * p.z() * p.z() * np * np + k_t2 * q.z() * q.z() * nq * nq + floor2;
-      cost = PointToPlaneCost::Create(p, q, n_t / std::sqrt(variance));
+      // r is linear in n, so a normal scaled by 1 / sigma whitens it.
+      const double variance = PointToPlaneVariance(source, target, c, options.min_noise_m);
+      cost = PointToPlaneCost::Create(p, q, tgt.geometry.normals[c.target] / std::sqrt(variance));
     }
     double r[3];
     cost->Evaluate(parameters, r, nullptr);
@@ -112,9 +118,9 @@ void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
   }
   if (stacked->size() == 0) {
     delete stacked;
-    return;
+    return nullptr;
   }
-  problem->AddResidualBlock(stacked, nullptr, source.pose_block, target.pose_block);
+  return problem->AddResidualBlock(stacked, nullptr, source.pose_block, target.pose_block);
 }
 
 std::unique_ptr<ceres::Problem> NewProblem() {
@@ -146,8 +152,13 @@ OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
   return stats;
 }
 
-Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
-                            const std::vector<ceres::ResidualBlockId>& residual_blocks) {
+namespace {
+
+/// The Jacobian (PoseManifold tangents of `blocks`, in order) and residuals of the given
+/// residual blocks, loss functions not applied; constant blocks are evaluated as variables.
+void EvaluateJacobian(ceres::Problem* problem, const std::vector<double*>& blocks,
+                      const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                      std::vector<double>* residuals, ceres::CRSMatrix* J) {
   ceres::Problem::EvaluateOptions eval;
   eval.parameter_blocks = blocks;
   eval.residual_blocks = residual_blocks;
@@ -158,12 +169,13 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
     problem->SetParameterBlockVariable(block);
     made_variable.push_back(block);
   }
-  std::vector<double> residuals;
-  ceres::CRSMatrix J;
-  problem->Evaluate(eval, nullptr, &residuals, nullptr, &J);
+  problem->Evaluate(eval, nullptr, residuals, nullptr, J);
   for (double* block : made_variable) problem->SetParameterBlockConstant(block);
-  const int n = J.num_cols;
-  Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(n, n);
+}
+
+/// J^T J of a sparse Jacobian (dense, J.num_cols square).
+Eigen::MatrixXd Gram(const ceres::CRSMatrix& J) {
+  Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(J.num_cols, J.num_cols);
   for (int row = 0; row < J.num_rows; ++row) {
     for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
       for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
@@ -171,11 +183,56 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
       }
     }
   }
+  return JtJ;
+}
+
+}  // namespace
+
+Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
+                            const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                            bool scale_by_residuals) {
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
+  const Eigen::MatrixXd JtJ = Gram(J);
+  if (!scale_by_residuals) return JtJ;
   double sum_sq = 0.0;
   for (double r : residuals) sum_sq += r * r;
-  const double dof = static_cast<double>(residuals.size()) - n;
+  const double dof = static_cast<double>(residuals.size()) - J.num_cols;
   if (dof <= 0.0 || sum_sq <= 0.0) return JtJ;
   return JtJ / (sum_sq / dof);
+}
+
+Eigen::MatrixXd ClusterRobustCovariance(ceres::Problem* problem, const std::vector<double*>& blocks,
+                                        const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                                        const std::vector<int>& row_cluster) {
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
+  if (J.num_rows != static_cast<int>(row_cluster.size()) || J.num_cols == 0) return {};
+  const Eigen::MatrixXd H = Gram(J);
+  if (!H.allFinite()) return {};
+  const int clusters = *std::max_element(row_cluster.begin(), row_cluster.end()) + 1;
+  if (clusters < 2) return {};
+  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(J.num_cols, clusters);
+  for (int row = 0; row < J.num_rows; ++row) {
+    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+      g(J.cols[a], row_cluster[row]) += J.values[a] * residuals[row];
+    }
+  }
+  const Eigen::MatrixXd meat = g * g.transpose() * (clusters / (clusters - 1.0));
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  if (!(lambda.maxCoeff() > 0.0)) return {};
+  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(lambda.size());
+  for (int k = 0; k < lambda.size(); ++k) {
+    if (lambda(k) > 1e-12 * lambda.maxCoeff()) inverse(k) = 1.0 / lambda(k);
+  }
+  const Eigen::MatrixXd H_plus =
+      eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
+  Eigen::MatrixXd covariance = H_plus * meat * H_plus;
+  if (!covariance.allFinite()) return {};
+  return covariance;
 }
 
 double CorrespondenceRmse(const std::vector<Correspondence>& correspondences) {

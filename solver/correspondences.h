@@ -41,6 +41,12 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
                                                 double max_distance, double max_normal_angle_deg,
                                                 int num_threads);
 
+/// Variance (m^2) of the point-to-plane residual n . (T_s p - T_t q) of a correspondence
+/// under the depth noise model of both views (docs/residuals.md, "Weights"): each point's
+/// depth noise projected on the target normal, (k z (n . p))^2, plus min_noise_m^2.
+double PointToPlaneVariance(const CameraView& source, const CameraView& target,
+                            const Correspondence& c, double min_noise_m);
+
 /// The robust loss of the options on whitened residuals (nullptr for none).
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
 
@@ -51,11 +57,13 @@ ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
 /// k^2 z^2 p p^T in its camera frame, plus min_noise_m^2 per residual. GICP weights use
 /// the poses of the views. All of them go into ONE residual block (StackedCost), `loss`
 /// entering as iteratively reweighted least squares at the current values of the pose
-/// blocks. The problem owns the cost functions, the caller `loss`.
-void AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
-                            const CameraView& source, const CameraView& target,
-                            const std::vector<Correspondence>& correspondences,
-                            ceres::LossFunction* loss);
+/// blocks. The problem owns the cost functions, the caller `loss`. Returns the residual
+/// block (nullptr when there are no correspondences); its residuals are those of the
+/// correspondences in order, 1 (point-to-plane) or 3 (GICP) each.
+ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
+                                              const CameraView& source, const CameraView& target,
+                                              const std::vector<Correspondence>& correspondences,
+                                              ceres::LossFunction* loss);
 
 /// A problem that does not own loss functions or manifolds (they are shared by many
 /// blocks and owned by the caller), but owns cost functions.
@@ -79,9 +87,25 @@ OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
 
 /// Information of the given pose blocks (PoseManifold tangents, in the order given,
 /// 6 per block) from the given residual blocks: J^T J / sigma^2 with sigma^2 = sum r^2 /
-/// (m - 6 k), loss functions not applied; the other blocks are held at their values.
+/// (m - 6 k) when scale_by_residuals, else J^T J (residuals already whitened by a known
+/// noise model); loss functions not applied; the other blocks are held at their values.
 Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
-                            const std::vector<ceres::ResidualBlockId>& residual_blocks);
+                            const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                            bool scale_by_residuals = true);
+
+/// Cluster-robust ("sandwich") covariance of the given pose blocks (PoseManifold tangents,
+/// 6 per block, in the order given) from the given residual blocks, each residual row
+/// belonging to the cluster row_cluster[row] (rows in the order of residual_blocks):
+///   C = H^+ (G / (G - 1) sum_c g_c g_c^T) H^+,  H = J^T J,  g_c = sum_{rows in c} J_row^T r_row,
+/// with G clusters. Unlike (J^T J / sigma^2)^-1 it does not assume independent residuals of
+/// the modelled variance: errors shared by the rows of a cluster (a patch of surface whose
+/// noisy points, normals and correspondences err together) count once per cluster, not
+/// once per row. Directions with information below 1e-12 of the largest are left out of
+/// H^+. Loss functions are not applied. Returns an empty matrix when the problem gives no
+/// finite covariance.
+Eigen::MatrixXd ClusterRobustCovariance(ceres::Problem* problem, const std::vector<double*>& blocks,
+                                        const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                                        const std::vector<int>& row_cluster);
 
 /// Root mean square of the correspondence distances (m); 0 when there are none.
 double CorrespondenceRmse(const std::vector<Correspondence>& correspondences);

@@ -6,13 +6,16 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <sstream>
 
 #include "core/geometry.h"
 #include "core/stopwatch.h"
 #include "residuals/gravity_prior.h"
+#include "residuals/relative_pose.h"
 #include "solver/correspondences.h"
+#include "solver/degeneracy.h"
 #include "solver/pose_graph.h"
 
 namespace rigfit {
@@ -27,12 +30,68 @@ constexpr int kSolverIterationsPerStep = 3;
 
 using PoseBlock = std::array<double, kPoseAmbientSize>;
 
-/// Covariance of every free pose block (tangent space): the inverse of the joint
-/// information over the free blocks (Information: whitened residuals, scaled by their
-/// measured variance), eigenvalues below 1e-12 of the largest treated as unconstrained
-/// (pseudo-inverse). Returns false when the information is empty or not finite.
+/// Standard deviation of the prior that holds a weakly constrained direction at the start
+/// pose (m; rotations as arc length at the radius of the camera's matched points).
+constexpr double kHoldSigmaM = 1e-4;
+
+/// Per camera, the constraint rows of the correspondences it is the source of (world
+/// points and the target normals they are matched against, weighted by the inverse
+/// variance of their residual), for the stability analysis.
+std::vector<StabilityAccumulator> Stability(const std::vector<CameraView>& views,
+                                            const std::vector<CandidatePair>& pairs,
+                                            const std::vector<std::vector<Correspondence>>& matches,
+                                            const IcpOptions& options) {
+  std::vector<StabilityAccumulator> stability(views.size());
+  for (size_t k = 0; k < matches.size(); ++k) {
+    const int source = k % 2 == 0 ? pairs[k / 2].a : pairs[k / 2].b;
+    const int target = k % 2 == 0 ? pairs[k / 2].b : pairs[k / 2].a;
+    const CameraView& s = views[source];
+    const CameraView& t = views[target];
+    for (const Correspondence& c : matches[k]) {
+      stability[source].Add(s.T_world_camera * s.level->points[c.source],
+                            t.T_world_camera.linear() * t.level->geometry.normals[c.target],
+                            1.0 / PointToPlaneVariance(s, t, c, options.min_noise_m));
+    }
+  }
+  return stability;
+}
+
+/// Side of the world cells that group correspondences into clusters for the covariance (m).
+constexpr double kClusterCellM = 0.5;
+
+/// The cluster (world cell of side kClusterCellM) of every residual row of the
+/// correspondence terms, in the order the terms were added.
+class RowClusters {
+ public:
+  void AddCorrespondences(const CameraView& source, const std::vector<Correspondence>& matches,
+                          int rows_per_correspondence) {
+    for (const Correspondence& c : matches) {
+      const Vec3 p = source.T_world_camera * source.level->points[c.source];
+      const std::array<int64_t, 3> key = {static_cast<int64_t>(std::floor(p.x() / kClusterCellM)),
+                                          static_cast<int64_t>(std::floor(p.y() / kClusterCellM)),
+                                          static_cast<int64_t>(std::floor(p.z() / kClusterCellM))};
+      const int id = ids_.emplace(key, static_cast<int>(ids_.size())).first->second;
+      rows_.insert(rows_.end(), rows_per_correspondence, id);
+    }
+  }
+  /// Rows that form a cluster of their own (a prior).
+  void AddOwnCluster(int rows) {
+    rows_.insert(rows_.end(), rows, static_cast<int>(ids_.size()) + own_++);
+  }
+  const std::vector<int>& rows() const { return rows_; }
+
+ private:
+  std::map<std::array<int64_t, 3>, int> ids_;
+  std::vector<int> rows_;
+  int own_ = 0;
+};
+
+/// Covariance of every free pose block (tangent space) from the cluster-robust estimator
+/// over the given residual blocks. Returns false when it is not available.
 bool PoseCovariances(ceres::Problem* problem, std::vector<PoseBlock>& blocks,
-                     const std::vector<bool>& free, std::vector<Mat6>* out) {
+                     const std::vector<bool>& free,
+                     const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                     const std::vector<int>& row_cluster, std::vector<Mat6>* out) {
   std::vector<double*> free_blocks;
   std::vector<size_t> index;
   for (size_t i = 0; i < blocks.size(); ++i) {
@@ -41,19 +100,9 @@ bool PoseCovariances(ceres::Problem* problem, std::vector<PoseBlock>& blocks,
     index.push_back(i);
   }
   if (free_blocks.empty()) return false;
-  std::vector<ceres::ResidualBlockId> residual_blocks;
-  problem->GetResidualBlocks(&residual_blocks);
-  const Eigen::MatrixXd information = Information(problem, free_blocks, residual_blocks);
-  if (!information.allFinite()) return false;
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
-  const Eigen::VectorXd& lambda = eig.eigenvalues();
-  if (!(lambda.maxCoeff() > 0.0)) return false;
-  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(lambda.size());
-  for (int k = 0; k < lambda.size(); ++k) {
-    if (lambda(k) > 1e-12 * lambda.maxCoeff()) inverse(k) = 1.0 / lambda(k);
-  }
   const Eigen::MatrixXd covariance =
-      eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
+      ClusterRobustCovariance(problem, free_blocks, residual_blocks, row_cluster);
+  if (covariance.size() == 0) return false;
   out->assign(blocks.size(), Mat6::Zero());
   for (size_t k = 0; k < index.size(); ++k) {
     (*out)[index[k]] = covariance.block<6, 6>(6 * k, 6 * k);
@@ -73,11 +122,14 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   result.connected.assign(n, false);
   result.pair_correspondences.assign(pairs.size(), 0);
   result.covariance.assign(n, Mat6::Zero());
+  result.weak.assign(n, {});
   if (n == 0 || cameras[0].pyramid == nullptr) return result;
   const size_t levels = cameras[0].pyramid->levels.size();
 
   std::vector<PoseBlock> blocks(n);
   for (size_t i = 0; i < n; ++i) PoseToParameters(cameras[i].T_world_camera, blocks[i].data());
+  const std::vector<PoseBlock> initial_blocks = blocks;  // copied into each problem, constant
+  std::vector<PoseBlock> start_blocks;
   const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
@@ -86,6 +138,8 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   solver_options.logging_type = ceres::SILENT;
 
   std::unique_ptr<ceres::Problem> problem;
+  std::vector<ceres::ResidualBlockId> residual_blocks;  // of the last problem, for the covariance
+  RowClusters clusters;
   for (size_t s = 0; s < levels; ++s) {
     const double max_distance =
         options.max_correspondence_distance_factor * cameras[0].pyramid->levels[s].voxel_size;
@@ -116,28 +170,56 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
       for (PoseBlock& b : blocks) {
         problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
       }
+      start_blocks = initial_blocks;
+      for (PoseBlock& b : start_blocks) {
+        problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+        problem->SetParameterBlockConstant(b.data());
+      }
       size_t total = 0;
       std::vector<std::pair<int, int>> links;
+      residual_blocks.clear();
+      clusters = RowClusters();
+      const int rows = options.method == RegistrationMethod::kGicp ? 3 : 1;
+      const auto add_terms = [&](const CameraView& source, const CameraView& target,
+                                 const std::vector<Correspondence>& m) {
+        const ceres::ResidualBlockId id =
+            AddCorrespondenceTerms(problem.get(), options, source, target, m, loss.get());
+        if (id == nullptr) return;
+        residual_blocks.push_back(id);
+        clusters.AddCorrespondences(source, m, rows);
+      };
       for (size_t k = 0; k < pairs.size(); ++k) {
         const size_t count = result.pair_correspondences[k];
         if (count < kMinPairCorrespondences) continue;
         links.emplace_back(pairs[k].a, pairs[k].b);
-        AddCorrespondenceTerms(problem.get(), options, views[pairs[k].a], views[pairs[k].b],
-                               matches[2 * k], loss.get());
-        AddCorrespondenceTerms(problem.get(), options, views[pairs[k].b], views[pairs[k].a],
-                               matches[2 * k + 1], loss.get());
+        add_terms(views[pairs[k].a], views[pairs[k].b], matches[2 * k]);
+        add_terms(views[pairs[k].b], views[pairs[k].a], matches[2 * k + 1]);
         total += count;
       }
       result.connected = ConnectedTo(reference, n, links);
+      const std::vector<StabilityAccumulator> stability = Stability(views, pairs, matches, options);
       for (size_t i = 0; i < n; ++i) {
         if (!result.connected[i]) {
           problem->SetParameterBlockConstant(blocks[i].data());
           continue;
         }
-        if (static_cast<int>(i) != reference && options.gravity_weight > 0.0) {
+        result.weak[i] =
+            stability[i].WeakDirections(current[i].translation(), options.degeneracy_threshold);
+        if (static_cast<int>(i) != reference && !result.weak[i].empty()) {
+          // Hold what the data barely constrain at the start pose (not counted in the
+          // covariance, which reports what the data alone determine).
           problem->AddResidualBlock(
-              GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
-              nullptr, blocks[i].data());
+              RelativePoseCost::Create(
+                  Pose::Identity(),
+                  EdgeInformationFromTangentInformation(
+                      HoldInformation(result.weak[i], kHoldSigmaM), cameras[i].T_world_camera)),
+              nullptr, start_blocks[i].data(), blocks[i].data());
+        }
+        if (static_cast<int>(i) != reference && options.gravity_weight > 0.0) {
+          ceres::CostFunction* prior =
+              GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight);
+          residual_blocks.push_back(problem->AddResidualBlock(prior, nullptr, blocks[i].data()));
+          clusters.AddOwnCluster(prior->num_residuals());
         }
       }
       problem->SetParameterBlockConstant(blocks[reference].data());
@@ -170,9 +252,53 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   if (problem != nullptr) {
     std::vector<bool> free = result.connected;
     free[reference] = false;
-    result.covariance_ok = PoseCovariances(problem.get(), blocks, free, &result.covariance);
+    result.covariance_ok = PoseCovariances(problem.get(), blocks, free, residual_blocks,
+                                           clusters.rows(), &result.covariance);
   }
   return result;
+}
+
+Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
+                                 const std::vector<CandidatePair>& pairs, int reference,
+                                 const IcpOptions& options, int num_threads) {
+  const size_t n = cameras.size();
+  if (n < 2 || cameras[0].pyramid == nullptr || cameras[0].pyramid->levels.empty()) return {};
+  const size_t finest = cameras[0].pyramid->levels.size() - 1;
+  const double max_distance =
+      options.max_correspondence_distance_factor * cameras[0].pyramid->levels[finest].voxel_size;
+  std::vector<PoseBlock> blocks(n);
+  std::vector<CameraView> views(n);
+  const std::unique_ptr<ceres::Problem> problem = NewProblem();
+  for (size_t i = 0; i < n; ++i) {
+    PoseToParameters(cameras[i].T_world_camera, blocks[i].data());
+    problem->AddParameterBlock(blocks[i].data(), kPoseAmbientSize, SharedPoseManifold());
+    views[i] = {&cameras[i].pyramid->levels[finest], cameras[i].T_world_camera, blocks[i].data(),
+                cameras[i].depth_noise};
+  }
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  const auto add_terms = [&](const CameraView& source, const CameraView& target) {
+    const std::vector<Correspondence> matches = FindCorrespondences(
+        source, target, max_distance, options.max_normal_angle_deg, num_threads);
+    const ceres::ResidualBlockId id =
+        AddCorrespondenceTerms(problem.get(), options, source, target, matches, nullptr);
+    if (id != nullptr) residual_blocks.push_back(id);
+  };
+  for (const CandidatePair& pair : pairs) {
+    add_terms(views[pair.a], views[pair.b]);
+    add_terms(views[pair.b], views[pair.a]);
+  }
+  std::vector<double*> free_blocks;
+  for (size_t i = 0; i < n; ++i) {
+    if (static_cast<int>(i) == reference) continue;
+    free_blocks.push_back(blocks[i].data());
+    if (options.gravity_weight > 0.0) {
+      residual_blocks.push_back(problem->AddResidualBlock(
+          GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
+          nullptr, blocks[i].data()));
+    }
+  }
+  if (residual_blocks.empty()) return {};
+  return Information(problem.get(), free_blocks, residual_blocks, /*scale_by_residuals=*/false);
 }
 
 }  // namespace rigfit

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/types.h"
+#include "solver/degeneracy.h"
 #include "solver/log.h"
 #include "solver/options.h"
 #include "solver/pairwise.h"
@@ -31,6 +32,9 @@ struct JointResult {
   /// scaled by the measured variance of the whitened residuals. Zero when unavailable.
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
+  /// Per camera, the directions its correspondences barely constrain at the end
+  /// (solver/degeneracy.h); a non-reference camera's are held at its start pose.
+  std::vector<std::vector<WeakDirection>> weak;
   double correspondences_s = 0.0;  ///< time spent searching correspondences
   double solve_s = 0.0;            ///< time spent building and solving problems
   double covariance_s = 0.0;       ///< time spent on the covariance
@@ -40,5 +44,15 @@ struct JointResult {
 JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
                           const std::vector<CandidatePair>& pairs, int reference,
                           const IcpOptions& options, int num_threads, const Log& log);
+
+/// The information of the joint problem at the cameras' poses (PoseManifold tangents of
+/// every camera but the reference, in camera order, 6 each): correspondences of every
+/// pair in both directions at the finest scale, whitened by the depth noise model and not
+/// rescaled by the residuals, no robust loss, plus the gravity prior. With noise-free
+/// clouds at the true poses this is the Fisher information of the estimator's model, whose
+/// inverse is the Cramer-Rao bound (solver/crlb.h).
+Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
+                                 const std::vector<CandidatePair>& pairs, int reference,
+                                 const IcpOptions& options, int num_threads);
 
 }  // namespace rigfit

@@ -93,6 +93,8 @@ void CheckIcp(const IcpOptions& o, ProblemList& p) {
   // The noise floor divides every residual (whitening), so it cannot be 0.
   p.Require(Positive(o.min_noise_m), "icp.min_noise_m", "> 0", o.min_noise_m);
   p.Require(NonNegative(o.gravity_weight), "icp.gravity_weight", ">= 0", o.gravity_weight);
+  p.Require(o.degeneracy_threshold >= 0.0 && o.degeneracy_threshold < 1.0,
+            "icp.degeneracy_threshold", "in [0, 1)", o.degeneracy_threshold);
   p.Require(Positive(o.robust_loss_scale), "icp.robust_loss_scale", "> 0", o.robust_loss_scale);
   p.Require(o.min_fitness >= 0.0 && o.min_fitness <= 1.0, "icp.min_fitness", "in [0, 1]",
             o.min_fitness);

@@ -67,6 +67,11 @@ struct IcpOptions {
   /// Weight of the pitch/roll gravity prior, 1 / sigma_tilt in 1/rad against residuals
   /// whitened by the noise model (500: sigma_tilt = 0.11 deg); 0 disables it.
   double gravity_weight = 500.0;
+  /// Joint mode: a direction of a camera's pose whose information is below this fraction
+  /// of the best-constrained direction's (eigenvalues of the noise-weighted constraint
+  /// matrix, solver/degeneracy.h) is reported as weakly constrained and held at the
+  /// leveled pose; 0 turns the analysis off.
+  double degeneracy_threshold = 0.002;
   RobustLoss robust_loss = RobustLoss::kHuber;
   /// Scale of the robust loss on whitened residuals, in standard deviations.
   double robust_loss_scale = 2.0;

@@ -150,6 +150,15 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
     report.connected = joint.connected[i];
     report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference;
     report.covariance = joint.covariance[i];
+    if (report.reference) continue;
+    report.weak_directions = joint.weak[i];
+    for (const WeakDirection& d : joint.weak[i]) {
+      result->warnings.push_back("camera " + report.serial + ": " + d.name +
+                                 " weakly constrained (" + Fixed(100.0 * d.strength, 2) +
+                                 "% against the best-constrained direction, threshold " +
+                                 Fixed(100.0 * options.degeneracy_threshold, 2) +
+                                 "%): " + d.reason + "; held at its leveled pose");
+    }
   }
   for (size_t k = 0; k < candidates.size(); ++k) {
     PairReport& report = result->pairs[k];
@@ -173,6 +182,34 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
 }
 
 }  // namespace
+
+PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
+                                const std::vector<Pose>& leveled,
+                                const std::vector<bool>& floor_leveled,
+                                const std::vector<double>& depth_noise,
+                                const RefineOptions& options, int num_threads) {
+  const size_t n = points.size();
+  std::vector<double> voxel_sizes;
+  for (double s : options.icp.scales) voxel_sizes.push_back(s * options.icp.voxel_size);
+  PreparedRig rig;
+  rig.pyramids.resize(n);
+  rig.band_points.resize(n);
+  std::vector<GroundBox> boxes(n);
+  for (size_t i = 0; i < n; ++i) {
+    const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
+    rig.band_points[i] = static_cast<int>(band.size());
+    boxes[i] = RobustGroundBox(Transform(leveled[i], band));
+    rig.pyramids[i] =
+        BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(), num_threads);
+    if (floor_leveled[i]) {
+      SnapFloorNormals(&rig.pyramids[i],
+                       FloorModel{leveled[i], depth_noise[i], options.ground.ransac_distance_m});
+    }
+  }
+  rig.candidates =
+      FindCandidatePairs(boxes, options.icp.overlap_margin, options.icp.min_overlap_area);
+  return rig;
+}
 
 RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
                     bool run_icp, int num_threads, const Log& log) {
@@ -237,33 +274,29 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
 
   // Near-floor band, preprocessing and candidate pairs.
   start = std::chrono::steady_clock::now();
-  std::vector<double> voxel_sizes;
-  for (double s : options.icp.scales) voxel_sizes.push_back(s * options.icp.voxel_size);
-  std::vector<CloudPyramid> pyramids(n);
-  std::vector<GroundBox> boxes(n);
+  std::vector<bool> floor_leveled(n);
+  std::vector<double> depth_noise(n);
   for (size_t i = 0; i < n; ++i) {
-    const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
-    result.cameras[i].band_points = static_cast<int>(band.size());
-    boxes[i] = RobustGroundBox(Transform(leveled[i], band));
-    const GroundResult& ground = result.cameras[i].ground;
-    const FloorModel floor{leveled[i], DepthNoise(options.icp, capture.cameras[i], ground),
-                           options.ground.ransac_distance_m};
-    pyramids[i] =
-        BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(), num_threads);
-    if (ground.accepted) SnapFloorNormals(&pyramids[i], floor);
-    log.Info("camera " + capture.cameras[i].serial + ": " + std::to_string(band.size()) +
-             " band points, " + std::to_string(pyramids[i].levels.back().points.size()) +
-             " at the finest voxel");
+    floor_leveled[i] = result.cameras[i].ground.accepted;
+    depth_noise[i] = DepthNoise(options.icp, capture.cameras[i], result.cameras[i].ground);
   }
-  const std::vector<CandidatePair> candidates =
-      FindCandidatePairs(boxes, options.icp.overlap_margin, options.icp.min_overlap_area);
+  const PreparedRig prepared =
+      PrepareRegistration(points, leveled, floor_leveled, depth_noise, options, num_threads);
+  const std::vector<CloudPyramid>& pyramids = prepared.pyramids;
+  const std::vector<CandidatePair>& candidates = prepared.candidates;
+  for (size_t i = 0; i < n; ++i) {
+    result.cameras[i].band_points = prepared.band_points[i];
+    log.Info("camera " + capture.cameras[i].serial + ": " +
+             std::to_string(prepared.band_points[i]) + " band points, " +
+             std::to_string(pyramids[i].levels.back().points.size()) + " at the finest voxel");
+  }
   result.times.preprocessing_s = SecondsSince(start);
   log.Info(std::to_string(candidates.size()) + " candidate pairs");
 
   std::vector<RegistrationCamera> cameras(n);
   for (size_t i = 0; i < n; ++i) {
     const GroundResult& ground = result.cameras[i].ground;
-    cameras[i] = {&pyramids[i], leveled[i], DepthNoise(options.icp, capture.cameras[i], ground)};
+    cameras[i] = {&pyramids[i], leveled[i], depth_noise[i]};
     log.Info("camera " + capture.cameras[i].serial +
              ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
              (!capture.cameras[i].HasDepth()  ? " (points camera: noise floor only)"

@@ -7,9 +7,12 @@
 #include <vector>
 
 #include "core/types.h"
+#include "solver/degeneracy.h"
 #include "solver/ground.h"
 #include "solver/log.h"
 #include "solver/options.h"
+#include "solver/preprocess.h"
+#include "solver/region.h"
 
 namespace rigfit {
 
@@ -32,6 +35,9 @@ struct CameraReport {
   /// rotation vector, world translation), gauge fixed by the reference.
   bool has_covariance = false;
   Mat6 covariance = Mat6::Zero();
+  /// Joint mode: directions the correspondences barely constrain (held at the leveled
+  /// pose, and reported as a warning).
+  std::vector<WeakDirection> weak_directions;
 };
 
 struct PairReport {
@@ -70,6 +76,20 @@ struct RefineResult {
   std::vector<PairReport> pairs;
   StageTimes times;
 };
+
+/// The registration inputs of a rig at its leveled poses: each camera's near-floor band
+/// (NearFloorBand), its voxel pyramid (floor normals snapped to the leveled floor where
+/// floor_leveled, SnapFloorNormals) and the candidate pairs (FindCandidatePairs).
+struct PreparedRig {
+  std::vector<CloudPyramid> pyramids;
+  std::vector<int> band_points;
+  std::vector<CandidatePair> candidates;
+};
+PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
+                                const std::vector<Pose>& leveled,
+                                const std::vector<bool>& floor_leveled,
+                                const std::vector<double>& depth_noise,
+                                const RefineOptions& options, int num_threads);
 
 /// Runs the pipeline. Every camera of the capture must have a pose in `initial` (the CLI
 /// checks this). `run_icp` false stops after leveling. Never throws on bad geometry: the

@@ -54,6 +54,7 @@ RefineOptions NonDefaultOptions() {
   o.icp.depth_noise = 0.0025;
   o.icp.min_noise_m = 0.002;
   o.icp.gravity_weight = 0.0;
+  o.icp.degeneracy_threshold = 0.01;
   o.icp.robust_loss = RobustLoss::kTukey;
   o.icp.robust_loss_scale = 4.685;
   o.icp.min_fitness = 1.0;
@@ -249,6 +250,8 @@ TEST(OptionProblems, DefaultsAreValidAndEachRuleNamesItsKey) {
               ElementsAre("icp.min_fitness must be in [0, 1], got 1.5"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.gravity_weight = -1.0; }),
               ElementsAre("icp.gravity_weight must be >= 0, got -1"));
+  EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.degeneracy_threshold = 1.0; }),
+              ElementsAre("icp.degeneracy_threshold must be in [0, 1), got 1"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.ground.max_normal_angle_deg = 95.0; }),
               ElementsAre("ground.max_normal_angle_deg must be in (0, 90], got 95"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.max_rotation_deg = 0.0; }),

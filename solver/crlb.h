@@ -1,0 +1,44 @@
+// The Cramer-Rao bound of a rig: the covariance of the best unbiased estimate of the camera
+// poses that the joint problem's data could give, and the errors such an estimator would
+// show when measured like the benchmarks measure rigfit (core/evaluate.h).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/evaluate.h"
+#include "core/types.h"
+#include "solver/options.h"
+
+namespace rigfit {
+
+struct CramerRaoBound {
+  bool ok = false;
+  std::string message;  ///< why there is no bound
+  std::string reference;
+  /// Serials of the free cameras (every camera but the reference), in capture order.
+  std::vector<std::string> serials;
+  /// Joint covariance of the free cameras' poses (PoseManifold tangents, 6 each, in the
+  /// order of serials): the inverse of the Fisher information.
+  Eigen::MatrixXd covariance;
+  /// RMS over the samples of the benchmark errors (RMS over camera pairs of the relative
+  /// rotation and translation errors, RMS tilt) of poses drawn from the bound.
+  double rms_rotation_rad = 0.0;
+  double rms_translation_m = 0.0;
+  double rms_tilt_rad = 0.0;
+  int samples = 0;
+};
+
+/// The bound for a capture of noise-free depth taken at the true poses T_true, sensor noise
+/// sigma_z = depth_noise z^2 along each ray: the information of the joint problem
+/// (JointInformation: the estimator's near-floor band, finest voxel scale, correspondences
+/// in both directions, noise weights with options.icp.min_noise_m, gravity prior) at the
+/// true poses, inverted, then `samples` draws of the poses from N(T_true, covariance)
+/// (seeded, deterministic) measured with EvaluateRig. The reference is options.icp.reference
+/// or the first serial. Never throws on bad geometry: ok false with a message.
+CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap& T_true,
+                                     const RefineOptions& options, double depth_noise, int samples,
+                                     std::uint64_t seed, int num_threads);
+
+}  // namespace rigfit
