@@ -114,7 +114,9 @@ std::vector<Section> Schema(RefineOptions& o) {
             "Pitch/roll gravity prior weight, 1 / sigma_tilt in 1/rad; 0 disables it (>= 0)."},
            {"degeneracy_threshold", &i.degeneracy_threshold,
             "Joint: pose directions with less than this fraction of the information of the "
-            "best-constrained one are reported and held; 0 = off [0, 1)."},
+            "best-constrained one are reported; 0 = off [0, 1)."},
+           {"hold_weak_directions", &i.hold_weak_directions,
+            "Joint: hold weakly constrained directions at the leveled pose (true/false)."},
            {"robust_loss", &i.robust_loss, "huber, cauchy, tukey or none."},
            {"robust_loss_scale", &i.robust_loss_scale,
             "Robust loss scale on whitened residuals, in standard deviations (> 0)."},

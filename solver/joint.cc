@@ -205,7 +205,8 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
         }
         result.weak[i] =
             stability[i].WeakDirections(current[i].translation(), options.degeneracy_threshold);
-        if (static_cast<int>(i) != reference && !result.weak[i].empty()) {
+        if (options.hold_weak_directions && static_cast<int>(i) != reference &&
+            !result.weak[i].empty()) {
           // Hold what the data barely constrain at the start pose (not counted in the
           // covariance, which reports what the data alone determine).
           problem->AddResidualBlock(

@@ -33,7 +33,8 @@ struct JointResult {
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
   /// Per camera, the directions its correspondences barely constrain at the end
-  /// (solver/degeneracy.h); a non-reference camera's are held at its start pose.
+  /// (solver/degeneracy.h); with options.hold_weak_directions a non-reference camera's
+  /// are held at its start pose.
   std::vector<std::vector<WeakDirection>> weak;
   double correspondences_s = 0.0;  ///< time spent searching correspondences
   double solve_s = 0.0;            ///< time spent building and solving problems

@@ -69,9 +69,13 @@ struct IcpOptions {
   double gravity_weight = 500.0;
   /// Joint mode: a direction of a camera's pose whose information is below this fraction
   /// of the best-constrained direction's (eigenvalues of the noise-weighted constraint
-  /// matrix, solver/degeneracy.h) is reported as weakly constrained and held at the
-  /// leveled pose; 0 turns the analysis off.
+  /// matrix, solver/degeneracy.h) is reported as weakly constrained; 0 turns the analysis
+  /// off.
   double degeneracy_threshold = 0.002;
+  /// Joint mode: hold weakly constrained directions at the leveled pose (a 0.1 mm prior)
+  /// instead of letting the weak data move them. Off by default: on the bare simulated
+  /// room it kept more of the start error than it prevented (docs/benchmarks.md).
+  bool hold_weak_directions = false;
   RobustLoss robust_loss = RobustLoss::kHuber;
   /// Scale of the robust loss on whitened residuals, in standard deviations.
   double robust_loss_scale = 2.0;

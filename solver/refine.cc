@@ -153,11 +153,11 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
     if (report.reference) continue;
     report.weak_directions = joint.weak[i];
     for (const WeakDirection& d : joint.weak[i]) {
-      result->warnings.push_back("camera " + report.serial + ": " + d.name +
-                                 " weakly constrained (" + Fixed(100.0 * d.strength, 2) +
-                                 "% against the best-constrained direction, threshold " +
-                                 Fixed(100.0 * options.degeneracy_threshold, 2) +
-                                 "%): " + d.reason + "; held at its leveled pose");
+      result->warnings.push_back(
+          "camera " + report.serial + ": " + d.name + " weakly constrained (" +
+          Fixed(100.0 * d.strength, 2) + "% against the best-constrained direction, threshold " +
+          Fixed(100.0 * options.degeneracy_threshold, 2) + "%): " + d.reason +
+          (options.hold_weak_directions ? "; held at its leveled pose" : ""));
     }
   }
   for (size_t k = 0; k < candidates.size(); ++k) {

@@ -35,8 +35,8 @@ struct CameraReport {
   /// rotation vector, world translation), gauge fixed by the reference.
   bool has_covariance = false;
   Mat6 covariance = Mat6::Zero();
-  /// Joint mode: directions the correspondences barely constrain (held at the leveled
-  /// pose, and reported as a warning).
+  /// Joint mode: directions the correspondences barely constrain (reported as a warning;
+  /// held at the leveled pose with icp.hold_weak_directions).
   std::vector<WeakDirection> weak_directions;
 };
 

@@ -55,6 +55,7 @@ RefineOptions NonDefaultOptions() {
   o.icp.min_noise_m = 0.002;
   o.icp.gravity_weight = 0.0;
   o.icp.degeneracy_threshold = 0.01;
+  o.icp.hold_weak_directions = true;
   o.icp.robust_loss = RobustLoss::kTukey;
   o.icp.robust_loss_scale = 4.685;
   o.icp.min_fitness = 1.0;

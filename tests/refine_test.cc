@@ -148,13 +148,14 @@ std::vector<std::string> DegeneracyWarnings(const RefineResult& r) {
   return found;
 }
 
-TEST(JointRefine, DegeneracyIsReportedOnABareRoomAndHeld) {
+TEST(JointRefine, DegeneracyIsReportedOnABareRoomAndHeldOnRequest) {
   SimOptions sim;
   sim.width = 320;
   sim.height = 180;
   sim.bare = true;
   const SimulatedRig bare = SimulateRig(sim);
-  const RefineOptions options;
+  RefineOptions options;
+  options.icp.hold_weak_directions = true;
   const RefineResult r = Refine(bare.capture, bare.init, options, true, 2, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_FALSE(DegeneracyWarnings(r).empty());
