@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
     int weak = 0;
     for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
     runs_with_weak += weak > 0 ? 1 : 0;
-    if (weak > 0) std::printf("       %d weakly constrained directions (held)\n", weak);
+    if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
     if (crlb) {
       // The bound of this seed's rig: the same scene, cameras and noise model, noise-free.
       SimOptions clean = sim;
