@@ -53,17 +53,6 @@ double MaxPoseDifference(const PoseMap& a, const PoseMap& b) {
   return worst;
 }
 
-/// Every number in the document is finite (JSON has no NaN; a null would stand for one).
-bool AllNumbersFinite(const Json& j) {
-  if (j.is_number()) return std::isfinite(j.get<double>());
-  if (j.is_structured()) {
-    for (const Json& item : j) {
-      if (!AllNumbersFinite(item)) return false;
-    }
-  }
-  return true;
-}
-
 class CliRefineTest : public ::testing::Test {
  protected:
   /// One small simulated rig shared by every test: 3 cameras, 320 x 180, noise-free depth (the

@@ -3,10 +3,12 @@
 
 #include <sys/wait.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -47,6 +49,17 @@ inline RunResult RunRigfit(const std::vector<std::string>& args, const fs::path&
   fs::remove(out);
   fs::remove(err);
   return result;
+}
+
+/// Every number in a JSON document is finite (an output of rigfit holds no NaN or infinity).
+inline bool AllNumbersFinite(const nlohmann::json& j) {
+  if (j.is_number()) return std::isfinite(j.get<double>());
+  if (j.is_structured()) {
+    for (const nlohmann::json& item : j) {
+      if (!AllNumbersFinite(item)) return false;
+    }
+  }
+  return true;
 }
 
 inline std::string Describe(const RunResult& r) {

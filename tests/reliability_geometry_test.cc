@@ -69,17 +69,6 @@ std::vector<float> RenderDepth(const Scene& scene, const Pose& T_world_camera) {
   return depth;
 }
 
-/// Every number in the document is finite.
-bool AllNumbersFinite(const Json& j) {
-  if (j.is_number()) return std::isfinite(j.get<double>());
-  if (j.is_structured()) {
-    for (const Json& item : j) {
-      if (!AllNumbersFinite(item)) return false;
-    }
-  }
-  return true;
-}
-
 Pose PoseFromJson(const Json& rows) {
   Pose T = Pose::Identity();
   for (int r = 0; r < 3; ++r) {

@@ -300,31 +300,28 @@ TEST_F(ReliabilityInputTest, NonRigidMatricesAreRejected) {
 
 // --- Config. -----------------------------------------------------------------------------------
 
-TEST_F(ReliabilityInputTest, ConfigWithAWrongTypeIsRejected) {
-  for (const auto& [yaml, key] : std::vector<std::pair<std::string, std::string>>{
-           {"icp:\n  voxel_size: fine\n", "icp.voxel_size"},
-           {"region:\n  pixel_stride: 1.5\n", "region.pixel_stride"},
-           {"ground:\n  enabled: [true]\n", "ground.enabled"},
-           {"icp:\n  scales: 4\n", "icp.scales"},
-           {"icp: 0.02\n", "icp"}}) {
-    SCOPED_TRACE(yaml);
-    const std::string config = Config("type.yaml", yaml);
-    ExpectRejected(Refine(Capture(), Init(), {"--config", config}), {config + ":", key});
-  }
-}
-
-TEST_F(ReliabilityInputTest, ConfigValuesOutOfRangeAreRejected) {
-  for (const auto& [yaml, key] : std::vector<std::pair<std::string, std::string>>{
-           {"icp:\n  voxel_size: -0.02\n", "icp.voxel_size must be > 0"},
-           {"region:\n  band_height: -0.1\n", "region.band_height must be >= 0"},
-           {"icp:\n  gravity_weight: -500\n", "icp.gravity_weight must be >= 0"},
-           {"icp:\n  robust_loss_scale: 0\n", "icp.robust_loss_scale must be > 0"},
-           {"icp:\n  min_fitness: 1.5\n", "icp.min_fitness must be in [0, 1]"},
-           {"ground:\n  max_rotation_deg: .inf\n", "ground.max_rotation_deg"}}) {
-    SCOPED_TRACE(yaml);
-    const std::string config = Config("range.yaml", yaml);
-    // The line of the key is named, so the message points at what to fix.
-    ExpectRejected(Refine(Capture(), Init(), {"--config", config}), {config + ":2: ", key});
+TEST_F(ReliabilityInputTest, ConfigOfTheWrongTypeOrOutOfRangeIsRejected) {
+  struct Case {
+    std::string yaml;
+    std::string line;  ///< the message names the line of the key, to point at what to fix
+    std::string what;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"icp:\n  voxel_size: fine\n", "2", "icp.voxel_size: expected a number"},
+           {"region:\n  pixel_stride: 1.5\n", "2", "region.pixel_stride: expected an integer"},
+           {"ground:\n  enabled: [true]\n", "2", "ground.enabled: expected true or false"},
+           {"icp:\n  scales: 4\n", "2", "icp.scales: expected a list"},
+           {"icp: 0.02\n", "1", "icp: expected a map"},
+           {"icp:\n  voxel_size: -0.02\n", "2", "icp.voxel_size must be > 0"},
+           {"region:\n  band_height: -0.1\n", "2", "region.band_height must be >= 0"},
+           {"icp:\n  gravity_weight: -500\n", "2", "icp.gravity_weight must be >= 0"},
+           {"icp:\n  robust_loss_scale: 0\n", "2", "icp.robust_loss_scale must be > 0"},
+           {"icp:\n  min_fitness: 1.5\n", "2", "icp.min_fitness must be in [0, 1]"},
+           {"ground:\n  max_rotation_deg: .inf\n", "2", "ground.max_rotation_deg"}}) {
+    SCOPED_TRACE(c.yaml);
+    const std::string config = Config("config.yaml", c.yaml);
+    ExpectRejected(Refine(Capture(), Init(), {"--config", config}),
+                   {config + ":" + c.line + ": ", c.what});
   }
 }
 

@@ -27,14 +27,15 @@ using namespace cli_test;  // NOLINT: RunRigfit and friends
 
 class ReliabilityOutputTest : public ::testing::Test {
  protected:
-  /// One small simulated rig with the simulator's default noise and perturbation.
+  /// One small simulated rig with the simulator's default noise, perturbed within the bounds.
   static void SetUpTestSuite() {
     root_ = fs::temp_directory_path() / ("rigfit_reliability_output_" + std::to_string(::getpid()));
     fs::remove_all(root_);
     fs::create_directories(root_);
-    const RunResult sim = RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras",
-                                     "3", "--width", "240", "--height", "135"},
-                                    root_);
+    const RunResult sim =
+        RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras", "3", "--width",
+                   "160", "--height", "90", "--perturb-yaw-deg", "0.5", "--perturb-xz-m", "0.02"},
+                  root_);
     simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
   }
   static void TearDownTestSuite() { fs::remove_all(root_); }
