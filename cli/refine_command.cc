@@ -301,8 +301,8 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options, const Ref
     if (!c.weak_directions.empty()) {
       Json weak = Json::array();
       for (const WeakDirection& d : c.weak_directions) {
-        weak.push_back({{"direction", d.name}, {"information_fraction", d.strength},
-                        {"reason", d.reason}});
+        weak.push_back(
+            {{"direction", d.name}, {"information_fraction", d.strength}, {"reason", d.reason}});
       }
       cameras[c.serial]["weak_directions"] = weak;
     }
