@@ -138,22 +138,34 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   solver_options.logging_type = ceres::SILENT;
 
   std::unique_ptr<ceres::Problem> problem;
-  std::vector<ceres::ResidualBlockId> residual_blocks;  // of the last problem, for the covariance
+  // Of the last outer iteration: for the covariance and the weak directions.
+  std::vector<ceres::ResidualBlockId> residual_blocks;
   RowClusters clusters;
+  std::vector<CameraView> views(n);
+  std::vector<std::vector<Correspondence>> matches;
+  // The weak directions of the connected cameras at the views' poses.
+  const auto find_weak_directions = [&] {
+    const std::vector<StabilityAccumulator> stability = Stability(views, pairs, matches, options);
+    for (size_t i = 0; i < n; ++i) {
+      result.weak[i] = result.connected[i]
+                           ? stability[i].WeakDirections(views[i].T_world_camera.translation(),
+                                                         options.degeneracy_threshold)
+                           : std::vector<WeakDirection>();
+    }
+  };
   for (size_t s = 0; s < levels; ++s) {
     const double max_distance =
         options.max_correspondence_distance_factor * cameras[0].pyramid->levels[s].voxel_size;
     const int max_iterations = s < options.max_iterations.size() ? options.max_iterations[s] : 0;
     for (int it = 0; it < max_iterations; ++it) {
       std::vector<Pose> current(n);
-      std::vector<CameraView> views(n);
       for (size_t i = 0; i < n; ++i) {
         current[i] = PoseFromParameters(blocks[i].data());
         views[i] = {&cameras[i].pyramid->levels[s], current[i], blocks[i].data(),
                     cameras[i].depth_noise};
       }
       auto start = std::chrono::steady_clock::now();
-      std::vector<std::vector<Correspondence>> matches(2 * pairs.size());
+      matches.assign(2 * pairs.size(), {});
       for (size_t k = 0; k < pairs.size(); ++k) {
         const CameraView& a = views[pairs[k].a];
         const CameraView& b = views[pairs[k].b];
@@ -170,23 +182,25 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
       for (PoseBlock& b : blocks) {
         problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
       }
-      start_blocks = initial_blocks;
-      for (PoseBlock& b : start_blocks) {
-        problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
-        problem->SetParameterBlockConstant(b.data());
+      if (options.hold_weak_directions) {
+        start_blocks = initial_blocks;
+        for (PoseBlock& b : start_blocks) {
+          problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+          problem->SetParameterBlockConstant(b.data());
+        }
       }
       size_t total = 0;
       std::vector<std::pair<int, int>> links;
       residual_blocks.clear();
       clusters = RowClusters();
-      const int rows = options.method == RegistrationMethod::kGicp ? 3 : 1;
       const auto add_terms = [&](const CameraView& source, const CameraView& target,
                                  const std::vector<Correspondence>& m) {
         const ceres::ResidualBlockId id =
             AddCorrespondenceTerms(problem.get(), options, source, target, m, loss.get());
         if (id == nullptr) return;
         residual_blocks.push_back(id);
-        clusters.AddCorrespondences(source, m, rows);
+        const int rows = problem->GetCostFunctionForResidualBlock(id)->num_residuals();
+        clusters.AddCorrespondences(source, m, rows / static_cast<int>(m.size()));
       };
       for (size_t k = 0; k < pairs.size(); ++k) {
         const size_t count = result.pair_correspondences[k];
@@ -197,14 +211,12 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
         total += count;
       }
       result.connected = ConnectedTo(reference, n, links);
-      const std::vector<StabilityAccumulator> stability = Stability(views, pairs, matches, options);
+      if (options.hold_weak_directions) find_weak_directions();
       for (size_t i = 0; i < n; ++i) {
         if (!result.connected[i]) {
           problem->SetParameterBlockConstant(blocks[i].data());
           continue;
         }
-        result.weak[i] =
-            stability[i].WeakDirections(current[i].translation(), options.degeneracy_threshold);
         if (options.hold_weak_directions && static_cast<int>(i) != reference &&
             !result.weak[i].empty()) {
           // Hold what the data barely constrain at the start pose (not counted in the
@@ -251,6 +263,9 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     if (result.connected[i]) result.poses[i] = PoseFromParameters(blocks[i].data());
   }
   if (problem != nullptr) {
+    // Without holding, only the end matters: the analysis runs once, at the last
+    // iteration's correspondences and poses.
+    if (!options.hold_weak_directions) find_weak_directions();
     std::vector<bool> free = result.connected;
     free[reference] = false;
     result.covariance_ok = PoseCovariances(problem.get(), blocks, free, residual_blocks,
