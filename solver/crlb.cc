@@ -5,7 +5,6 @@
 #include <cmath>
 #include <random>
 
-#include "core/geometry.h"
 #include "core/pose.h"
 #include "solver/joint.h"
 #include "solver/refine.h"
@@ -29,8 +28,7 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
   for (size_t i = 0; i < n; ++i) {
     const CameraCapture& camera = noise_free.cameras[i];
     if (camera.serial == bound.reference) reference = static_cast<int>(i);
-    points[i] = CameraPoints(camera, {options.region.pixel_stride, options.region.min_depth_m,
-                                      options.region.max_depth_m});
+    points[i] = RegistrationPoints(camera, options.region);
     poses[i] = T_true.at(camera.serial);
   }
   // At the true poses every floor is exactly y = 0: the estimator snaps floor normals there.

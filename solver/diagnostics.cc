@@ -2,40 +2,35 @@
 
 #include <cmath>
 
-#include "core/geometry.h"
 #include "solver/correspondences.h"
 
 namespace rigfit {
 
 DiagnosticRig PrepareDiagnostics(const RigCapture& capture, const RefineResult& leveling,
                                  const RefineOptions& options, int num_threads) {
-  DiagnosticRig rig;
-  const UnprojectOptions unproject{options.region.pixel_stride, options.region.min_depth_m,
-                                   options.region.max_depth_m};
-  const double finest_voxel = options.icp.scales.back() * options.icp.voxel_size;
-  std::vector<GroundBox> boxes;
-  for (size_t i = 0; i < capture.cameras.size(); ++i) {
+  // The registration's own preparation (solver/refine.h), at the finest voxel only.
+  const size_t n = capture.cameras.size();
+  std::vector<PointCloud> points(n);
+  std::vector<Pose> leveled(n);
+  std::vector<bool> floor_leveled(n, false);
+  std::vector<double> depth_noise(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
     const CameraCapture& camera = capture.cameras[i];
-    const Pose& T_world_camera = leveling.leveled.at(camera.serial);
-    const PointCloud band =
-        NearFloorBand(CameraPoints(camera, unproject), T_world_camera, options.region);
-    boxes.push_back(RobustGroundBox(Transform(T_world_camera, band)));
-    CloudPyramid pyramid =
-        BuildPyramid(band, {finest_voxel}, options.icp.normal_neighbors, Vec3::Zero(), num_threads);
-    // The floor model of the registration (solver/refine.cc): the configured depth noise,
-    // else the one measured on the camera's floor.
-    const GroundResult* ground =
-        i < leveling.cameras.size() ? &leveling.cameras[i].ground : nullptr;
-    if (ground != nullptr && ground->accepted) {
-      const double depth_noise =
-          options.icp.depth_noise > 0.0 ? options.icp.depth_noise : ground->depth_noise;
-      SnapFloorNormals(&pyramid,
-                       FloorModel{T_world_camera, depth_noise, options.ground.ransac_distance_m});
+    points[i] = RegistrationPoints(camera, options.region);
+    leveled[i] = leveling.leveled.at(camera.serial);
+    if (i < leveling.cameras.size()) {
+      floor_leveled[i] = leveling.cameras[i].ground.accepted;
+      depth_noise[i] = CameraDepthNoise(options.icp, camera, leveling.cameras[i].ground);
     }
-    rig.serials.push_back(camera.serial);
-    rig.bands.push_back(std::move(pyramid));
   }
-  rig.pairs = FindCandidatePairs(boxes, options.icp.overlap_margin, options.icp.min_overlap_area);
+  RefineOptions finest = options;
+  finest.icp.scales = {options.icp.scales.back()};
+  PreparedRig prepared =
+      PrepareRegistration(points, leveled, floor_leveled, depth_noise, finest, num_threads);
+  DiagnosticRig rig;
+  for (const CameraCapture& camera : capture.cameras) rig.serials.push_back(camera.serial);
+  rig.bands = std::move(prepared.pyramids);
+  rig.pairs = std::move(prepared.candidates);
   return rig;
 }
 

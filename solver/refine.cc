@@ -21,17 +21,6 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
-/// The depth noise k of a camera: configured, or measured on its floor, or 0. The stereo
-/// model sigma_z = k z^2 along the ray assumes the frame's origin is the sensor and z its
-/// depth, which a points camera (scanner frames, fused fragments) does not promise: its
-/// correspondences use icp.min_noise_m alone (k = 0).
-double DepthNoise(const IcpOptions& options, const CameraCapture& camera,
-                  const GroundResult& ground) {
-  if (!camera.HasDepth()) return 0.0;
-  if (options.depth_noise > 0.0) return options.depth_noise;
-  return ground.found ? ground.depth_noise : 0.0;
-}
-
 /// The rigid motion G that best explains the change of the connected cameras,
 /// refined_i ~ G leveled_i (Gauss-Newton on the tangent residuals PoseDifference(G
 /// leveled_i, refined_i); a few steps suffice for the small motions of a refinement).
@@ -183,6 +172,24 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
 
 }  // namespace
 
+double CameraDepthNoise(const IcpOptions& options, const CameraCapture& camera,
+                        const GroundResult& ground) {
+  if (!camera.HasDepth()) return 0.0;
+  if (options.depth_noise > 0.0) return options.depth_noise;
+  return ground.found ? ground.depth_noise : 0.0;
+}
+
+PointCloud RegistrationPoints(const CameraCapture& camera, const RegionOptions& region) {
+  // The depth range is a depth sensor's; a points camera's frame may have its origin inside
+  // the object (e.g. the Stanford bunny's scans), so it keeps every finite point.
+  const UnprojectOptions unproject =
+      camera.HasDepth()
+          ? UnprojectOptions{region.pixel_stride, region.min_depth_m, region.max_depth_m}
+          : UnprojectOptions{1, -std::numeric_limits<double>::infinity(),
+                             std::numeric_limits<double>::infinity()};
+  return CameraPoints(camera, unproject);
+}
+
 PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
                                 const std::vector<Pose>& leveled,
                                 const std::vector<bool>& floor_leveled,
@@ -221,12 +228,6 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
 
   // Ground leveling.
   auto start = std::chrono::steady_clock::now();
-  const UnprojectOptions unproject{options.region.pixel_stride, options.region.min_depth_m,
-                                   options.region.max_depth_m};
-  // The depth range is a depth sensor's; a points camera's frame may have its origin inside
-  // the object (e.g. the Stanford bunny's scans), so it keeps every finite point.
-  const UnprojectOptions every_point{1, -std::numeric_limits<double>::infinity(),
-                                     std::numeric_limits<double>::infinity()};
   std::vector<PointCloud> points(n);
   std::vector<Pose> leveled(n);
   result.cameras.resize(n);
@@ -235,7 +236,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
     CameraReport& report = result.cameras[i];
     report.serial = camera.serial;
     report.reference = static_cast<int>(i) == reference;
-    points[i] = CameraPoints(camera, camera.HasDepth() ? unproject : every_point);
+    points[i] = RegistrationPoints(camera, options.region);
     report.points = static_cast<int>(points[i].size());
     leveled[i] = initial.at(camera.serial);
     if (options.ground.enabled) {
@@ -278,7 +279,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   std::vector<double> depth_noise(n);
   for (size_t i = 0; i < n; ++i) {
     floor_leveled[i] = result.cameras[i].ground.accepted;
-    depth_noise[i] = DepthNoise(options.icp, capture.cameras[i], result.cameras[i].ground);
+    depth_noise[i] = CameraDepthNoise(options.icp, capture.cameras[i], result.cameras[i].ground);
   }
   const PreparedRig prepared =
       PrepareRegistration(points, leveled, floor_leveled, depth_noise, options, num_threads);

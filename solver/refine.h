@@ -77,6 +77,17 @@ struct RefineResult {
   StageTimes times;
 };
 
+/// The depth noise k of a camera: configured, or measured on its floor, or 0. The stereo
+/// model sigma_z = k z^2 along the ray assumes the frame's origin is the sensor and z its
+/// depth, which a points camera (scanner frames, fused fragments) does not promise: its
+/// correspondences use icp.min_noise_m alone (k = 0).
+double CameraDepthNoise(const IcpOptions& options, const CameraCapture& camera,
+                        const GroundResult& ground);
+
+/// The camera-frame points the pipeline uses: a depth camera's valid pixels at the region's
+/// stride and within its depth range; every finite point of a points camera.
+PointCloud RegistrationPoints(const CameraCapture& camera, const RegionOptions& region);
+
 /// The registration inputs of a rig at its leveled poses: each camera's near-floor band
 /// (NearFloorBand), its voxel pyramid (floor normals snapped to the leveled floor where
 /// floor_leveled, SnapFloorNormals) and the candidate pairs (FindCandidatePairs).
