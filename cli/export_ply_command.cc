@@ -15,6 +15,7 @@
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
 #include "report/palette.h"
+#include "solver/refine.h"
 #include "solver/region.h"
 
 namespace rigfit::cli {
@@ -49,15 +50,14 @@ int RunExport(const ExportArgs& a) {
                        camera.serial + " of " + a.capture_path);
     }
   }
-  const UnprojectOptions unproject{
-      a.stride_option->count() > 0 ? a.stride : options.region.pixel_stride,
-      options.region.min_depth_m, options.region.max_depth_m};
+  RegionOptions region = options.region;
+  if (a.stride_option->count() > 0) region.pixel_stride = a.stride;
   PlyCloud cloud;
   std::printf("%-16s %8s %10s\n", "camera", "colour", "points");
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
     const CameraCapture& camera = capture.cameras[i];
     const Pose& T_world_camera = extrinsics.poses.at(camera.serial);
-    PointCloud points = CameraPoints(camera, unproject);
+    PointCloud points = RegistrationPoints(camera, region);
     if (a.band) points = NearFloorBand(points, T_world_camera, options.region);
     const Rgb color = CameraColor(static_cast<int>(i));
     for (const Vec3& p : points) {
