@@ -237,23 +237,30 @@ ModeRun RunMode(RefineMode mode, const RigCapture& capture, const PoseMap& initi
 
 // --- What the tables and the JSON show.
 
-/// All pairs pooled: RMS residual and inlier fraction.
+/// All pairs pooled: RMS residual (all and off the floor) and inlier fraction.
 struct PooledFit {
   double rmse_m = 0.0;
+  double off_floor_rmse_m = 0.0;
   double inlier_fraction = 0.0;
   int correspondences = 0;
+  int off_floor_correspondences = 0;
 };
 
 PooledFit Pool(const std::vector<PairDiagnostics>& pairs) {
   PooledFit pooled;
-  double sum_squares = 0.0;
+  double sum_squares = 0.0, off_floor_sum_squares = 0.0;
   int points = 0;
   for (const PairDiagnostics& p : pairs) {
     sum_squares += p.rmse_m * p.rmse_m * p.correspondences;
+    off_floor_sum_squares += p.off_floor_rmse_m * p.off_floor_rmse_m * p.off_floor_correspondences;
     pooled.correspondences += p.correspondences;
+    pooled.off_floor_correspondences += p.off_floor_correspondences;
     points += p.points;
   }
   if (pooled.correspondences > 0) pooled.rmse_m = std::sqrt(sum_squares / pooled.correspondences);
+  if (pooled.off_floor_correspondences > 0) {
+    pooled.off_floor_rmse_m = std::sqrt(off_floor_sum_squares / pooled.off_floor_correspondences);
+  }
   if (points > 0) pooled.inlier_fraction = static_cast<double>(pooled.correspondences) / points;
   return pooled;
 }
@@ -332,7 +339,9 @@ std::string Verdict(const ModeRun& p, const ModeRun& j, const RigErrors* e_p,
   } else {
     basis = "no ground truth: judged by the fit of the pairs";
     const PooledFit f_p = Pool(p.fit), f_j = Pool(j.fit);
-    metrics = {{"RMS pair residual", f_p.rmse_m * kMToMm, f_j.rmse_m * kMToMm, 2, " mm", false},
+    metrics = {{"RMS off-floor pair residual", f_p.off_floor_rmse_m * kMToMm,
+                f_j.off_floor_rmse_m * kMToMm, 2, " mm", false},
+               {"RMS pair residual", f_p.rmse_m * kMToMm, f_j.rmse_m * kMToMm, 2, " mm", false},
                {"inlier fraction", f_p.inlier_fraction, f_j.inlier_fraction, 3, "", true}};
   }
   std::vector<std::string> favour_p, favour_j, even;
@@ -436,18 +445,21 @@ void PrintTables(const Comparison& c) {
   }
 
   // Per pair.
-  std::printf("\n%-35s | %-16s | %-16s | %-16s\n", "pair fit (finest scale, both ways)", "before",
+  std::printf("\n%-35s | %-24s | %-24s | %-24s\n", "pair fit (finest scale, both ways)", "before",
               runs[0].name.c_str(), runs[1].name.c_str());
-  std::printf("%-35s | %7s %8s | %7s %8s | %7s %8s\n", "pair", "RMSE mm", "inliers", "RMSE mm",
-              "inliers", "RMSE mm", "inliers");
+  std::printf("%-35s |", "pair: RMSE mm (all, off-floor)");
+  for (int k = 0; k < 3; ++k)
+    std::printf(" %7s %7s %8s%s", "all", "off", "inliers", k < 2 ? " |" : "\n");
+  const auto print_fit = [](double rmse_m, double off_floor_rmse_m, double inlier_fraction) {
+    std::printf(" | %7s %7s %8s", Fixed(rmse_m * kMToMm, 2).c_str(),
+                Fixed(off_floor_rmse_m * kMToMm, 2).c_str(), Fixed(inlier_fraction, 3).c_str());
+  };
   for (size_t k = 0; k < c.fit_before.size(); ++k) {
     const PairDiagnostics* fits[3] = {&c.fit_before[k], &runs[0].fit[k], &runs[1].fit[k]};
     const std::string name = c.rig->serials[fits[0]->a] + " - " + c.rig->serials[fits[0]->b];
     std::printf("%-35s", name.c_str());
-    for (const PairDiagnostics* f : fits) {
-      std::printf(" | %7s %8s", Fixed(f->rmse_m * kMToMm, 2).c_str(),
-                  Fixed(f->inlier_fraction, 3).c_str());
-    }
+    for (const PairDiagnostics* f : fits)
+      print_fit(f->rmse_m, f->off_floor_rmse_m, f->inlier_fraction);
     std::printf("\n");
   }
   if (c.fit_before.empty()) {
@@ -456,8 +468,7 @@ void PrintTables(const Comparison& c) {
     std::printf("%-35s", "all pairs");
     for (const std::vector<PairDiagnostics>* fits : {&c.fit_before, &runs[0].fit, &runs[1].fit}) {
       const PooledFit f = Pool(*fits);
-      std::printf(" | %7s %8s", Fixed(f.rmse_m * kMToMm, 2).c_str(),
-                  Fixed(f.inlier_fraction, 3).c_str());
+      print_fit(f.rmse_m, f.off_floor_rmse_m, f.inlier_fraction);
     }
     std::printf("\n");
   }
@@ -501,15 +512,19 @@ Json FitJson(const std::vector<PairDiagnostics>& fits, const DiagnosticRig& rig)
     pairs.push_back({{"serial_a", rig.serials[f.a]},
                      {"serial_b", rig.serials[f.b]},
                      {"rmse_mm", f.rmse_m * kMToMm},
+                     {"off_floor_rmse_mm", f.off_floor_rmse_m * kMToMm},
                      {"inlier_fraction", f.inlier_fraction},
-                     {"correspondences", f.correspondences}});
+                     {"correspondences", f.correspondences},
+                     {"off_floor_correspondences", f.off_floor_correspondences}});
   }
   const PooledFit all = Pool(fits);
   return {{"pairs", pairs},
           {"all_pairs",
            {{"rmse_mm", all.rmse_m * kMToMm},
+            {"off_floor_rmse_mm", all.off_floor_rmse_m * kMToMm},
             {"inlier_fraction", all.inlier_fraction},
-            {"correspondences", all.correspondences}}}};
+            {"correspondences", all.correspondences},
+            {"off_floor_correspondences", all.off_floor_correspondences}}}};
 }
 
 Json ComparisonJson(const Comparison& c) {

@@ -5,6 +5,12 @@
 #include "solver/correspondences.h"
 
 namespace rigfit {
+namespace {
+
+/// |n_y| below this: the surface's normal is more than 45 deg from vertical (off the floor).
+const double kOffFloorMaxVertical = std::sqrt(0.5);
+
+}  // namespace
 
 DiagnosticRig PrepareDiagnostics(const RigCapture& capture, const RefineResult& leveling,
                                  const RefineOptions& options, int num_threads) {
@@ -41,7 +47,7 @@ std::vector<PairDiagnostics> Diagnose(const DiagnosticRig& rig, const PoseMap& p
     PairDiagnostics& d = out.emplace_back();
     d.a = pair.a;
     d.b = pair.b;
-    double sum_squares = 0.0;
+    double sum_squares = 0.0, off_floor_sum_squares = 0.0;
     for (const auto& [s, t] : {std::pair{pair.a, pair.b}, std::pair{pair.b, pair.a}}) {
       const ScaleLevel& source = rig.bands[s].levels.front();
       const ScaleLevel& target = rig.bands[t].levels.front();
@@ -58,11 +64,18 @@ std::vector<PairDiagnostics> Diagnose(const DiagnosticRig& rig, const PoseMap& p
                                      target_view.T_world_camera * target.points[c.target]);
         d.residuals_m.push_back(r);
         sum_squares += r * r;
+        if (std::abs(n_world.y()) < kOffFloorMaxVertical) {
+          ++d.off_floor_correspondences;
+          off_floor_sum_squares += r * r;
+        }
       }
     }
     d.correspondences = static_cast<int>(d.residuals_m.size());
     if (d.points > 0) d.inlier_fraction = static_cast<double>(d.correspondences) / d.points;
     if (d.correspondences > 0) d.rmse_m = std::sqrt(sum_squares / d.correspondences);
+    if (d.off_floor_correspondences > 0) {
+      d.off_floor_rmse_m = std::sqrt(off_floor_sum_squares / d.off_floor_correspondences);
+    }
   }
   return out;
 }

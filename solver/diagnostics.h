@@ -50,6 +50,12 @@ struct PairDiagnostics {
   std::vector<double> residuals_m;
   /// Root mean square of residuals_m; 0 when there are none.
   double rmse_m = 0.0;
+  /// The correspondences whose target surface is off the floor: world normal more than 45 deg
+  /// from vertical (walls, baseboards, box sides, table legs). The floor dominates rmse_m yet
+  /// says nothing of yaw and horizontal position; these residuals do.
+  int off_floor_correspondences = 0;
+  /// Root mean square of the off-floor residuals; 0 when there are none.
+  double off_floor_rmse_m = 0.0;
 };
 
 /// The fit of every candidate pair of `rig` at `poses` (T_world_camera per serial; every

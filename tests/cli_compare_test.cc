@@ -70,6 +70,9 @@ TEST_F(CliCompareTest, BothModesSideBySideAndJointAgreesWithEvaluate) {
     }
     ASSERT_FALSE(m["fit"]["pairs"].empty());
     EXPECT_GT(m["fit"]["all_pairs"]["correspondences"].get<int>(), 0);
+    // Walls and boxes, doubled at the perturbed start, line up: their residuals shrink.
+    EXPECT_LT(m["fit"]["all_pairs"]["off_floor_rmse_mm"].get<double>(),
+              0.7 * compare["before"]["fit"]["all_pairs"]["off_floor_rmse_mm"].get<double>());
   }
   EXPECT_EQ(compare["before"]["fit"]["pairs"].size(),
             compare["modes"]["joint"]["fit"]["pairs"].size());
@@ -106,6 +109,7 @@ TEST_F(CliCompareTest, WithoutGroundTruthJudgesByTheFit) {
   ASSERT_EQ(r.exit_code, 0) << Describe(r);
   EXPECT_EQ(r.out.find("error vs gt"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("no ground truth"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("RMS off-floor pair residual"), std::string::npos) << r.out;
   const Json compare = Json::parse(ReadText(Scratch("nogt.json")));
   EXPECT_TRUE(compare["ground_truth"].is_null());
   EXPECT_TRUE(compare["modes"]["joint"]["errors"].is_null());

@@ -88,6 +88,32 @@ TEST_F(DiagnosticsTest, MovingOneCameraSpoilsOnlyItsPairs) {
   EXPECT_GT(spoiled, 0);
 }
 
+TEST_F(DiagnosticsTest, AHorizontalSlideShowsInTheOffFloorResiduals) {
+  // 2 cm along the floor (across both horizontal axes, so that walls and box faces of either
+  // orientation see it): the floor's residuals stay zero, the walls' and boxes' do not, so
+  // the off-floor RMSE grows more than the RMSE of all correspondences.
+  const IcpOptions options;
+  const std::vector<PairDiagnostics> truth = Diagnose(*diagnostics_, rig_->gt, options, 2);
+  PoseMap moved = rig_->gt;
+  moved[diagnostics_->serials[2]].translation() += Vec3(0.02, 0.0, 0.02);
+  const std::vector<PairDiagnostics> after = Diagnose(*diagnostics_, moved, options, 2);
+  int slid = 0;
+  for (size_t k = 0; k < truth.size(); ++k) {
+    SCOPED_TRACE(diagnostics_->serials[truth[k].a] + " - " + diagnostics_->serials[truth[k].b]);
+    EXPECT_GT(truth[k].off_floor_correspondences, 50);
+    EXPECT_LT(truth[k].off_floor_correspondences, truth[k].correspondences / 2);
+    EXPECT_LT(truth[k].off_floor_rmse_m, 0.004);
+    if (truth[k].a != 2 && truth[k].b != 2) continue;
+    ++slid;
+    EXPECT_GT(after[k].off_floor_rmse_m, 0.008);
+    // The floor's unchanged residuals dilute the RMSE of all correspondences (by 1.2-1.7
+    // times here, where noise-free floors fit exactly; on noisy depth far more).
+    EXPECT_GT(after[k].off_floor_rmse_m / truth[k].off_floor_rmse_m,
+              1.1 * after[k].rmse_m / truth[k].rmse_m);
+  }
+  EXPECT_GT(slid, 0);
+}
+
 TEST_F(DiagnosticsTest, ResultDoesNotDependOnTheThreads) {
   const std::vector<PairDiagnostics> one = Diagnose(*diagnostics_, rig_->init, IcpOptions{}, 1);
   const std::vector<PairDiagnostics> two = Diagnose(*diagnostics_, rig_->init, IcpOptions{}, 2);
