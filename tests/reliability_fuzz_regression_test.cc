@@ -47,9 +47,13 @@ void LoadEach(const std::vector<fs::path>& files, Expect expect, Load load) {
     const bool bad = file.filename().string().rfind("bad", 0) == 0;
     try {
       load(bytes, file.string());
-      if (expect == Expect::kSeed) EXPECT_FALSE(bad) << "a bad seed loaded";
+      if (expect == Expect::kSeed) {
+        EXPECT_FALSE(bad) << "a bad seed loaded";
+      }
     } catch (const InputError& e) {
-      if (expect == Expect::kSeed) EXPECT_TRUE(bad) << "a seed did not load: " << e.what();
+      if (expect == Expect::kSeed) {
+        EXPECT_TRUE(bad) << "a seed did not load: " << e.what();
+      }
     } catch (const std::exception& e) {
       ADD_FAILURE() << "not an InputError: " << e.what();
     }
