@@ -94,8 +94,9 @@ int main(int argc, char** argv) {
       const SimulatedRig truth = SimulateRig(clean);
       RefineOptions bound_options = options;
       bound_options.icp.reference = r.reference;
-      const CramerRaoBound b = ComputeCramerRaoBound(truth.capture, truth.gt, bound_options,
-                                                     sim.noise, 2000, sim.seed, threads);
+      const CramerRaoBound b =
+          ComputeCramerRaoBound(truth.capture, truth.gt, bound_options, sim.noise,
+                                kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
       if (b.ok) {
         std::printf("       bound: %.4f deg %.2f mm tilt %.4f deg; error / bound: %.2f %.2f\n",
                     b.rms_rotation_rad * kRadToDeg, b.rms_translation_m * 1e3,

@@ -49,8 +49,9 @@ void PrintBound(const SimulateArgs& a) {
   SimOptions clean = a.sim;
   clean.noise = 0.0;
   const SimulatedRig truth = SimulateRig(clean);
-  const CramerRaoBound b = ComputeCramerRaoBound(truth.capture, truth.gt, options, a.sim.noise,
-                                                 kBoundSamples, a.sim.seed, 2);
+  const CramerRaoBound b =
+      ComputeCramerRaoBound(truth.capture, truth.gt, options, a.sim.noise, kCramerRaoNoiseFloorM,
+                            kBoundSamples, a.sim.seed, 2);
   if (!b.ok) {
     std::printf("Cramer-Rao bound: not available: %s\n", b.message.c_str());
     return;

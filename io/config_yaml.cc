@@ -110,6 +110,9 @@ std::vector<Section> Schema(RefineOptions& o) {
             "(>= 0)."},
            {"min_noise_m", &i.min_noise_m,
             "Noise floor of every correspondence residual in metres (> 0)."},
+           {"plane_noise_share", &i.plane_noise_share,
+            "Share of each point's depth noise k z^2 counted whatever the surface's "
+            "orientation: local-plane error of noisy neighbourhoods (>= 0)."},
            {"gravity_weight", &i.gravity_weight,
             "Pitch/roll gravity prior weight, 1 / sigma_tilt in 1/rad; 0 disables it (>= 0)."},
            {"degeneracy_threshold", &i.degeneracy_threshold,

@@ -49,8 +49,15 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
   return out;
 }
 
+bool StepConverged(const Vec6& step, double voxel_size) {
+  constexpr double kConvergedStepVoxels = 0.005;
+  const double limit = kConvergedStepVoxels * voxel_size;
+  constexpr double kLeverM = 1.0;  // rotation as arc length at this radius
+  return step.head<3>().norm() * kLeverM < limit && step.tail<3>().norm() < limit;
+}
+
 double PointToPlaneVariance(const CameraView& source, const CameraView& target,
-                            const Correspondence& c, double min_noise_m) {
+                            const Correspondence& c, const IcpOptions& options) {
   const Vec3& p = source.level->points[c.source];
   const Vec3& q = target.level->points[c.target];
   const Vec3& n_t = target.level->geometry.normals[c.target];
@@ -60,7 +67,10 @@ double PointToPlaneVariance(const CameraView& source, const CameraView& target,
   const double nq = n_t.dot(q);
   const double k_s = source.depth_noise * p.z() * np;
   const double k_t = target.depth_noise * q.z() * nq;
-  return k_s * k_s + k_t * k_t + min_noise_m * min_noise_m;
+  // The share of the whole depth noise that counts whatever the normal.
+  const double f_s = options.plane_noise_share * source.depth_noise * p.z() * p.z();
+  const double f_t = options.plane_noise_share * target.depth_noise * q.z() * q.z();
+  return k_s * k_s + k_t * k_t + f_s * f_s + f_t * f_t + options.min_noise_m * options.min_noise_m;
 }
 
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options) {
@@ -100,16 +110,17 @@ ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const Icp
     ceres::CostFunction* cost = nullptr;
     if (options.method == RegistrationMethod::kGicp) {
       // Covariance of a point: in-plane shape + k^2 z^2 p p^T (depth noise along the ray)
-      // + half of the residual floor on each side.
+      // + its plane-error share beta^2 k^2 z^4 and half of the residual floor, isotropic.
+      const double share2 = options.plane_noise_share * options.plane_noise_share;
       const Mat3 C_p = shape(src.geometry, c.source) + k_s2 * p.z() * p.z() * p * p.transpose() +
-                       0.5 * floor2 * Mat3::Identity();
+                       (share2 * k_s2 * std::pow(p.z(), 4) + 0.5 * floor2) * Mat3::Identity();
       const Mat3 C_q = shape(tgt.geometry, c.target) + k_t2 * q.z() * q.z() * q * q.transpose() +
-                       0.5 * floor2 * Mat3::Identity();
+                       (share2 * k_t2 * std::pow(q.z(), 4) + 0.5 * floor2) * Mat3::Identity();
       cost = GicpCost::Create(p, q, C_p, C_q, source.T_world_camera.linear(),
                               target.T_world_camera.linear());
     } else {
       // r is linear in n, so a normal scaled by 1 / sigma whitens it.
-      const double variance = PointToPlaneVariance(source, target, c, options.min_noise_m);
+      const double variance = PointToPlaneVariance(source, target, c, options);
       cost = PointToPlaneCost::Create(p, q, tgt.geometry.normals[c.target] / std::sqrt(variance));
     }
     double r[3];

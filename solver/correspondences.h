@@ -41,11 +41,20 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
                                                 double max_distance, double max_normal_angle_deg,
                                                 int num_threads);
 
+/// Whether an outer ICP iteration (correspondences found, then the poses solved with them
+/// fixed) has converged at a scale: its pose step, PoseDifference(before, after), moved the
+/// camera by less than 0.005 voxel_size (0.1 mm at a 2 cm voxel), translation in metres and
+/// rotation as arc length at 1 m. Re-found correspondences of noisy points keep moving the
+/// optimum a little at every iteration; steps this small are far below the scale's
+/// resolution (docs/benchmarks.md).
+bool StepConverged(const Vec6& step, double voxel_size);
+
 /// Variance (m^2) of the point-to-plane residual n . (T_s p - T_t q) of a correspondence
 /// under the depth noise model of both views (docs/residuals.md, "Weights"): each point's
-/// depth noise projected on the target normal, (k z (n . p))^2, plus min_noise_m^2.
+/// depth noise projected on the target normal, (k z (n . p))^2, plus the plane-error share of
+/// its whole depth noise, (plane_noise_share k z^2)^2, plus min_noise_m^2.
 double PointToPlaneVariance(const CameraView& source, const CameraView& target,
-                            const Correspondence& c, double min_noise_m);
+                            const Correspondence& c, const IcpOptions& options);
 
 /// The robust loss of the options on whitened residuals (nullptr for none).
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
@@ -54,7 +63,8 @@ ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
 /// options.method) between the pose blocks of the source and target cameras, each
 /// whitened by the depth noise model of both points (docs/residuals.md, "Weights"):
 /// a depth error moves a point along its ray, so a point p at depth z has covariance
-/// k^2 z^2 p p^T in its camera frame, plus min_noise_m^2 per residual. GICP weights use
+/// k^2 z^2 p p^T in its camera frame, plus the plane-error share (plane_noise_share k z^2)^2
+/// and min_noise_m^2 per residual. GICP weights use
 /// the poses of the views. All of them go into ONE residual block (StackedCost), `loss`
 /// entering as iteratively reweighted least squares at the current values of the pose
 /// blocks. The problem owns the cost functions, the caller `loss`. Returns the residual

@@ -10,10 +10,10 @@
 #include "solver/refine.h"
 
 namespace rigfit {
-
 CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap& T_true,
-                                     const RefineOptions& options, double depth_noise, int samples,
-                                     std::uint64_t seed, int num_threads) {
+                                     const RefineOptions& options, double depth_noise,
+                                     double noise_floor_m, int samples, std::uint64_t seed,
+                                     int num_threads) {
   CramerRaoBound bound;
   const size_t n = noise_free.cameras.size();
   if (n < 2) {
@@ -37,8 +37,12 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
                           std::vector<double>(n, depth_noise), options, num_threads);
   std::vector<RegistrationCamera> cameras(n);
   for (size_t i = 0; i < n; ++i) cameras[i] = {&rig.pyramids[i], poses[i], depth_noise};
+  // The sensor's noise, not the estimator's weighting choices.
+  IcpOptions sensor = options.icp;
+  sensor.min_noise_m = noise_floor_m;
+  sensor.plane_noise_share = 0.0;
   const Eigen::MatrixXd information =
-      JointInformation(cameras, rig.candidates, reference, options.icp, num_threads);
+      JointInformation(cameras, rig.candidates, reference, sensor, num_threads);
   if (information.size() == 0 || !information.allFinite()) {
     bound.message = "no correspondences between the cameras at the true poses";
     return bound;

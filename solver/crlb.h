@@ -13,6 +13,10 @@
 
 namespace rigfit {
 
+/// The residual noise floor of the bounds that `rigfit simulate --crlb` and the benchmarks
+/// report (m): the simulator's depth noise has none, 1 mm keeps grazing points finite.
+inline constexpr double kCramerRaoNoiseFloorM = 1e-3;
+
 struct CramerRaoBound {
   bool ok = false;
   std::string message;  ///< why there is no bound
@@ -31,14 +35,17 @@ struct CramerRaoBound {
 };
 
 /// The bound for a capture of noise-free depth taken at the true poses T_true, sensor noise
-/// sigma_z = depth_noise z^2 along each ray: the information of the joint problem
-/// (JointInformation: the estimator's near-floor band, finest voxel scale, correspondences
-/// in both directions, noise weights with options.icp.min_noise_m, gravity prior) at the
-/// true poses, inverted, then `samples` draws of the poses from N(T_true, covariance)
-/// (seeded, deterministic) measured with EvaluateRig. The reference is options.icp.reference
-/// or the first serial. Never throws on bad geometry: ok false with a message.
+/// sigma_z = depth_noise z^2 along each ray and noise_floor_m on every residual (> 0: it keeps
+/// grazing points, n . p near 0, finite; kCramerRaoNoiseFloorM for the benchmarks): the information
+/// of the joint problem (JointInformation: the estimator's near-floor band, finest voxel scale,
+/// correspondences in both directions, gravity prior; every residual weighted by that sensor noise,
+/// not by the estimator's icp.min_noise_m and icp.plane_noise_share) at the true poses, inverted,
+/// then `samples` draws of the poses from N(T_true, covariance) (seeded, deterministic) measured
+/// with EvaluateRig. The reference is options.icp.reference or the first serial. Never throws on
+/// bad geometry: ok false with a message.
 CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap& T_true,
-                                     const RefineOptions& options, double depth_noise, int samples,
-                                     std::uint64_t seed, int num_threads);
+                                     const RefineOptions& options, double depth_noise,
+                                     double noise_floor_m, int samples, std::uint64_t seed,
+                                     int num_threads);
 
 }  // namespace rigfit

@@ -23,8 +23,6 @@ namespace {
 
 /// A pair with fewer correspondences does not link its cameras in this iteration.
 constexpr size_t kMinPairCorrespondences = 30;
-/// A scale ends when no camera moves by more than this in one outer iteration (rad, m).
-constexpr double kConvergedStep = 1e-6;
 /// Levenberg-Marquardt iterations per outer iteration (correspondences fixed).
 constexpr int kSolverIterationsPerStep = 3;
 
@@ -50,7 +48,7 @@ std::vector<StabilityAccumulator> Stability(const std::vector<CameraView>& views
     for (const Correspondence& c : matches[k]) {
       stability[source].Add(s.T_world_camera * s.level->points[c.source],
                             t.T_world_camera.linear() * t.level->geometry.normals[c.target],
-                            1.0 / PointToPlaneVariance(s, t, c, options.min_noise_m));
+                            1.0 / PointToPlaneVariance(s, t, c, options));
     }
   }
   return stability;
@@ -246,17 +244,19 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
         return result;
       }
       double max_rotation = 0.0, max_translation = 0.0;
+      bool converged = true;
       for (size_t i = 0; i < n; ++i) {
         const Vec6 step = PoseDifference(current[i], PoseFromParameters(blocks[i].data()));
         max_rotation = std::max(max_rotation, step.head<3>().norm());
         max_translation = std::max(max_translation, step.tail<3>().norm());
+        converged = converged && StepConverged(step, cameras[0].pyramid->levels[s].voxel_size);
       }
       std::ostringstream m;
       m << "joint: voxel " << cameras[0].pyramid->levels[s].voxel_size << " iteration " << it
         << ": " << total << " correspondences, cost " << summary.final_cost << ", step "
         << max_rotation * 180.0 / M_PI << " deg " << max_translation * 1e3 << " mm";
       log.Debug(m.str());
-      if (max_rotation < kConvergedStep && max_translation < kConvergedStep) break;
+      if (converged) break;
     }
   }
   for (size_t i = 0; i < n; ++i) {

@@ -92,6 +92,7 @@ void CheckIcp(const IcpOptions& o, ProblemList& p) {
   p.Require(NonNegative(o.depth_noise), "icp.depth_noise", ">= 0", o.depth_noise);
   // The noise floor divides every residual (whitening), so it cannot be 0.
   p.Require(Positive(o.min_noise_m), "icp.min_noise_m", "> 0", o.min_noise_m);
+  p.Require(NonNegative(o.plane_noise_share), "icp.plane_noise_share", ">= 0", o.plane_noise_share);
   p.Require(NonNegative(o.gravity_weight), "icp.gravity_weight", ">= 0", o.gravity_weight);
   p.Require(o.degeneracy_threshold >= 0.0 && o.degeneracy_threshold < 1.0,
             "icp.degeneracy_threshold", "in [0, 1)", o.degeneracy_threshold);

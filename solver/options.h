@@ -64,6 +64,12 @@ struct IcpOptions {
   double depth_noise = 0.0;
   /// Noise floor of every correspondence residual (m): model error of the local plane.
   double min_noise_m = 0.001;
+  /// Share of each point's depth noise k z^2 that enters its residual's sigma whatever the
+  /// surface's orientation: the error of a local plane fitted to noisy neighbours (normal,
+  /// offset along the surface). With 0, points seen at grazing angles (no depth noise along
+  /// their normal) get weights far above what they deserve; 0 for noise-free depth changes
+  /// nothing. docs/residuals.md section 8, docs/benchmarks.md.
+  double plane_noise_share = 0.5;
   /// Weight of the pitch/roll gravity prior, 1 / sigma_tilt in 1/rad against residuals
   /// whitened by the noise model (500: sigma_tilt = 0.11 deg); 0 disables it.
   double gravity_weight = 500.0;
@@ -71,7 +77,7 @@ struct IcpOptions {
   /// of the best-constrained direction's (eigenvalues of the noise-weighted constraint
   /// matrix, solver/degeneracy.h) is reported as weakly constrained; 0 turns the analysis
   /// off.
-  double degeneracy_threshold = 0.002;
+  double degeneracy_threshold = 0.001;
   /// Joint mode: hold weakly constrained directions at the leveled pose (a 0.1 mm prior)
   /// instead of letting the weak data move them. Off by default: on the bare simulated
   /// room it kept more of the start error than it prevented (docs/benchmarks.md).

@@ -14,7 +14,6 @@ namespace {
 /// Fewer correspondences than this cannot constrain 6 degrees of freedom reliably.
 constexpr size_t kMinCorrespondences = 30;
 /// An ICP scale ends when one step moves the pose by less than this (rad and m).
-constexpr double kConvergedStep = 1e-6;
 /// Levenberg-Marquardt iterations per ICP step (correspondences fixed).
 constexpr int kSolverIterationsPerStep = 2;
 
@@ -94,7 +93,7 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
       log.Debug("  voxel " + std::to_string(source.levels[s].voxel_size) + " iteration " +
                 std::to_string(it) + ": " + std::to_string(matches.size()) +
                 " correspondences, cost " + std::to_string(summary.final_cost));
-      if (step.head<3>().norm() < kConvergedStep && step.tail<3>().norm() < kConvergedStep) break;
+      if (StepConverged(step, source.levels[s].voxel_size)) break;
     }
   }
 

@@ -21,11 +21,12 @@ TEST(CramerRaoBound, ScalesWithTheNoiseAndMatchesItsCovariance) {
   const SimulatedRig rig = SmallNoiseFreeRig();
   RefineOptions options;
   // The sensor noise alone, no prior of fixed weight: the bound is linear in the noise.
-  options.icp.min_noise_m = 1e-7;
   options.icp.gravity_weight = 0.0;
   options.ground.enabled = false;  // floor normals are snapped within a noise-sized band
-  const CramerRaoBound k = ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.002, 500, 1, 2);
-  const CramerRaoBound k2 = ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.004, 500, 1, 2);
+  const CramerRaoBound k =
+      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.002, 1e-7, 500, 1, 2);
+  const CramerRaoBound k2 =
+      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.004, 1e-7, 500, 1, 2);
   ASSERT_TRUE(k.ok) << k.message;
   ASSERT_TRUE(k2.ok) << k2.message;
   ASSERT_EQ(k.serials.size(), 2u);
@@ -48,7 +49,8 @@ TEST(CramerRaoBound, CamerasThatShareNothingHaveNoBound) {
   SimulatedRig rig = SmallNoiseFreeRig();
   // Move the second camera's data 100 m away: nothing overlaps at the true poses.
   rig.gt[rig.capture.cameras[1].serial].translation() += Vec3(100.0, 0.0, 0.0);
-  const CramerRaoBound b = ComputeCramerRaoBound(rig.capture, rig.gt, {}, 0.002, 10, 1, 2);
+  const CramerRaoBound b =
+      ComputeCramerRaoBound(rig.capture, rig.gt, {}, 0.002, kCramerRaoNoiseFloorM, 10, 1, 2);
   EXPECT_FALSE(b.ok);
   EXPECT_FALSE(b.message.empty());
 }

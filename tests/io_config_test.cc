@@ -53,6 +53,7 @@ RefineOptions NonDefaultOptions() {
   o.icp.normal_neighbors = 9;
   o.icp.depth_noise = 0.0025;
   o.icp.min_noise_m = 0.002;
+  o.icp.plane_noise_share = 1.5;
   o.icp.gravity_weight = 0.0;
   o.icp.degeneracy_threshold = 0.01;
   o.icp.hold_weak_directions = true;
@@ -263,6 +264,8 @@ TEST(OptionProblems, DefaultsAreValidAndEachRuleNamesItsKey) {
               ElementsAre("icp.normal_neighbors must be >= 3, got 2"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.min_noise_m = 0.0; }),
               ElementsAre("icp.min_noise_m must be > 0, got 0"));
+  EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.plane_noise_share = -0.5; }),
+              ElementsAre("icp.plane_noise_share must be >= 0, got -0.5"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.robust_loss_scale = 0.0; }),
               ElementsAre("icp.robust_loss_scale must be > 0, got 0"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.depth_noise = -1e-3; }),
