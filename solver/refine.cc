@@ -147,6 +147,7 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
           Fixed(100.0 * d.strength, 2) + "% against the best-constrained direction, threshold " +
           Fixed(100.0 * options.degeneracy_threshold, 2) + "%): " + d.reason +
           (options.hold_weak_directions ? "; held at its leveled pose" : ""));
+      log.Warning(result->warnings.back());
     }
   }
   for (size_t k = 0; k < candidates.size(); ++k) {

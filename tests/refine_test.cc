@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -156,9 +157,18 @@ TEST(JointRefine, DegeneracyIsReportedOnABareRoomAndHeldOnRequest) {
   const SimulatedRig bare = SimulateRig(sim);
   RefineOptions options;
   options.icp.hold_weak_directions = true;
-  const RefineResult r = Refine(bare.capture, bare.init, options, true, 2, StderrLog());
+  // Every warning of the result also reaches the log (the CLI prints it on stderr).
+  std::vector<std::string> logged;
+  Log log;
+  log.sink = [&logged](LogLevel level, const std::string& m) {
+    if (level == LogLevel::kWarning) logged.push_back(m);
+  };
+  const RefineResult r = Refine(bare.capture, bare.init, options, true, 2, log);
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_FALSE(DegeneracyWarnings(r).empty());
+  for (const std::string& w : DegeneracyWarnings(r)) {
+    EXPECT_NE(std::find(logged.begin(), logged.end(), w), logged.end()) << "not logged: " << w;
+  }
   for (const CameraReport& c : r.cameras) {
     for (const WeakDirection& d : c.weak_directions) {
       // Held at the leveled pose: the refined pose does not move along the weak direction
