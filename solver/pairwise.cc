@@ -17,11 +17,14 @@ constexpr size_t kMinCorrespondences = 30;
 /// Levenberg-Marquardt iterations per ICP step (correspondences fixed).
 constexpr int kSolverIterationsPerStep = 2;
 
-ceres::Solver::Options StepSolverOptions(int num_threads) {
+/// One thread: a pair's problem is one stacked correspondence block and the gravity prior,
+/// so Ceres has nothing to share out, and its per-thread sums of cost and gradient would
+/// make the last bits of a result depend on the thread count (a diverging pair showed it).
+ceres::Solver::Options StepSolverOptions() {
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::DENSE_QR;
   options.max_num_iterations = kSolverIterationsPerStep;
-  options.num_threads = num_threads;
+  options.num_threads = 1;
   options.logging_type = ceres::SILENT;
   return options;
 }
@@ -58,7 +61,7 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
     result.rmse_before_m = MeasureOverlap(src, tgt, coarsest_voxel, options, num_threads).rmse_m;
   }
 
-  const ceres::Solver::Options solver_options = StepSolverOptions(num_threads);
+  const ceres::Solver::Options solver_options = StepSolverOptions();
   const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
   for (size_t s = 0; s <= finest; ++s) {
     const double max_distance =

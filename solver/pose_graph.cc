@@ -38,8 +38,7 @@ std::vector<bool> ConnectedTo(int reference, size_t n,
 }
 
 PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
-                                  const std::vector<PoseGraphEdge>& edges, int reference,
-                                  int num_threads) {
+                                  const std::vector<PoseGraphEdge>& edges, int reference) {
   PoseGraphResult result;
   result.poses = initial;
   std::vector<std::pair<int, int>> links;
@@ -66,7 +65,9 @@ PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   options.max_num_iterations = kMaxIterations;
-  options.num_threads = num_threads;
+  // One thread: a few edges of 6 residuals; Ceres' per-thread partial sums would make the
+  // last bits of the result depend on the thread count.
+  options.num_threads = 1;
   options.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(options, problem.get(), &summary);

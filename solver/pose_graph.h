@@ -30,9 +30,9 @@ std::vector<bool> ConnectedTo(int reference, size_t n,
                               const std::vector<std::pair<int, int>>& links);
 
 /// Optimises the poses of the cameras connected to `reference` (held constant). Edges
-/// carry a Cauchy loss so one inconsistent pair cannot drag the others. Never throws.
+/// carry a Cauchy loss so one inconsistent pair cannot drag the others. Single-threaded (a
+/// few edges; the result does not depend on the caller's thread count). Never throws.
 PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
-                                  const std::vector<PoseGraphEdge>& edges, int reference,
-                                  int num_threads);
+                                  const std::vector<PoseGraphEdge>& edges, int reference);
 
 }  // namespace rigfit

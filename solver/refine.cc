@@ -90,7 +90,7 @@ std::optional<std::vector<Pose>> RegisterPairwise(const std::vector<Registration
                      EdgeInformationFromTangentInformation(icp.information, leveled[pair.a])});
   }
   const auto start = std::chrono::steady_clock::now();
-  const PoseGraphResult graph = OptimizePoseGraph(leveled, edges, reference, num_threads);
+  const PoseGraphResult graph = OptimizePoseGraph(leveled, edges, reference);
   result->times.pose_graph_s = SecondsSince(start);
   for (size_t i = 0; i < leveled.size(); ++i) result->cameras[i].connected = graph.connected[i];
   if (!graph.usable) {

@@ -2,6 +2,7 @@
 // whatever --threads is, in both modes; and a run killed before it finishes leaves the previous
 // output file intact. The writer's own atomicity (temporary file + rename, a failing writer
 // leaves the old file and no temporary) is tests/io_atomic_file_test.cc's job.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -51,6 +52,7 @@ std::string ReliabilityOutputTest::simulate_error_;
 TEST_F(ReliabilityOutputTest, SameOutputBytesWhateverTheThreadCount) {
   for (const std::string mode : {"joint", "pairwise"}) {
     std::string first;
+    int first_exit_code = -1;
     for (const std::string threads : {"1", "2", "4"}) {
       SCOPED_TRACE(mode + " with " + threads + " threads");
       const fs::path out = root_ / (mode + "_" + threads + ".json");
@@ -59,12 +61,21 @@ TEST_F(ReliabilityOutputTest, SameOutputBytesWhateverTheThreadCount) {
                      (root_ / "rig" / "init.json").string(), "--out", out.string(), "--mode", mode,
                      "--threads", threads, "--no-timings", "--quiet"},
                     root_);
-      ASSERT_EQ(r.exit_code, 0) << Describe(r);
+      // Joint refines this rig; pairwise ICP on so small a noisy band may break the safety
+      // bounds (exit 3, leveled poses and every pair's ICP report written): either way the
+      // outcome and every byte must not depend on the threads.
+      if (mode == "joint") {
+        ASSERT_EQ(r.exit_code, 0) << Describe(r);
+      } else {
+        ASSERT_THAT(r.exit_code, ::testing::AnyOf(0, 3)) << Describe(r);
+      }
       const std::string bytes = ReadText(out);
       ASSERT_EQ(Json::parse(bytes)["_meta"]["icp_refined"]["mode"], mode);
       if (first.empty()) {
         first = bytes;
+        first_exit_code = r.exit_code;
       } else {
+        EXPECT_EQ(r.exit_code, first_exit_code);
         EXPECT_EQ(bytes, first) << "differs from the run with 1 thread";
       }
     }
