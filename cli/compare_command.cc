@@ -604,7 +604,7 @@ int RunCompare(const CompareArgs& a) {
   }
   if (!a.json_path.empty()) RefuseToOverwriteInputs(a.json_path, inputs, "compare: --json");
   const RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
-  const RigCapture capture = ReadCapture(a.capture_path);
+  const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
   CheckPoses(capture, initial.poses, a.extrinsics_path);
   PoseMap gt;

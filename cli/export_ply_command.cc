@@ -39,7 +39,7 @@ int RunExport(const ExportArgs& a) {
     throw InputError("export-ply: --stride must be >= 1, got " + std::to_string(a.stride));
   }
   const RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
-  const RigCapture capture = ReadCapture(a.capture_path);
+  const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument extrinsics = ReadExtrinsics(a.extrinsics_path);
   for (const std::string& warning : extrinsics.warnings) {
     std::fprintf(stderr, "export-ply: warning: %s\n", warning.c_str());

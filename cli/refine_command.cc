@@ -436,7 +436,7 @@ int RunRefine(const RefineArgs& a) {
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "refine: --report");
   const RefineOptions options = EffectiveOptions(a);
   log.Info("loading " + a.capture_path + " and " + a.extrinsics_path);
-  const RigCapture capture = ReadCapture(a.capture_path);
+  const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
   CheckCameras(capture, initial.poses, a);
   CheckReference(capture, options, a);

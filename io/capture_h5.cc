@@ -1,10 +1,16 @@
 #include "io/capture_h5.h"
 
 #include <hdf5.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -760,6 +766,69 @@ RigCapture ReadCapture(const std::string& path) {
   const H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose);
   if (!file.valid()) throw InputError(path + ": cannot open as HDF5 (damaged file?)");
   return ReadOpenFile(file.get(), path);
+}
+
+RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
+  int channel[2];
+  if (pipe(channel) != 0) return ReadCapture(path);  // no pipe, no guard: read as usual
+  const pid_t child = fork();
+  if (child < 0) {
+    close(channel[0]);
+    close(channel[1]);
+    return ReadCapture(path);
+  }
+  if (child == 0) {
+    // The trial read. _exit: no atexit handlers, no destructors of the parent's objects.
+    close(channel[0]);
+    int code = 0;
+    std::string message;
+    try {
+      ReadCapture(path);
+    } catch (const InputError& e) {
+      code = 2;
+      message = e.what();
+    } catch (const std::exception& e) {
+      code = 3;
+      message = e.what();
+    }
+    message = message.substr(0, 4000);  // one line: below the pipe's buffer
+    if (!message.empty() && write(channel[1], message.data(), message.size()) < 0) code = 4;
+    _exit(code);
+  }
+  close(channel[1]);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  int status = 0;
+  pid_t done = 0;
+  while ((done = waitpid(child, &status, WNOHANG)) == 0) {
+    if (std::chrono::steady_clock::now() > deadline) {
+      kill(child, SIGKILL);
+      waitpid(child, &status, 0);
+      close(channel[0]);
+      throw InputError(path + ": reading it did not finish in " +
+                       std::to_string(static_cast<int>(timeout_s)) +
+                       " s (a loop inside the HDF5 library?): damaged file?");
+    }
+    pollfd wait_for = {channel[0], 0, 0};
+    poll(&wait_for, 1, 20);  // 20 ms between checks
+  }
+  std::string message(4096, '\0');
+  const ssize_t got = read(channel[0], message.data(), message.size());
+  message.resize(got > 0 ? static_cast<size_t>(got) : 0);
+  close(channel[0]);
+  if (done < 0) return ReadCapture(path);  // the child was reaped elsewhere: no verdict
+  if (WIFSIGNALED(status)) {
+    throw InputError(path + ": the HDF5 library crashed reading it (" +
+                     strsignal(WTERMSIG(status)) + "): damaged file?");
+  }
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  if (code == 2 && !message.empty()) throw InputError(message);
+  if (code != 0) {
+    throw InputError(
+        path + ": reading it failed" +
+        (message.empty() ? " (exit code " + std::to_string(code) + ")" : ": " + message) +
+        ": damaged file?");
+  }
+  return ReadCapture(path);
 }
 
 RigCapture ReadCaptureFromMemory(const void* data, std::size_t size, const std::string& name) {

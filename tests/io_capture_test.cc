@@ -620,6 +620,45 @@ TEST_F(CaptureTest, EveryMalformedInputNamesFileCameraAndDataset) {
   }
 }
 
+TEST_F(CaptureTest, GuardedReadGivesTheSameCaptureAndTheSameMessages) {
+  std::mt19937 rng(12);
+  RigCapture capture;
+  capture.cameras = {DepthCamera("b", 8, 6, rng), DepthCamera("a", 5, 4, rng)};
+  const std::string path = Path("capture.h5");
+  WriteCapture(path, capture);
+  const RigCapture guarded = ReadCaptureGuarded(path);
+  const RigCapture plain = ReadCapture(path);
+  ASSERT_THAT(guarded.cameras, SizeIs(2));
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(guarded.cameras[i].serial, plain.cameras[i].serial);
+    ExpectSameDepth(guarded.cameras[i].depth_m, plain.cameras[i].depth_m, 0.0);
+  }
+  // The child's InputError reaches the caller unchanged, for every malformed case.
+  for (const MalformedCase& c : MalformedCases()) {
+    SCOPED_TRACE(c.name);
+    std::filesystem::remove(path);
+    {
+      H5Builder h5(path);
+      c.build(h5);
+    }
+    EXPECT_EQ(io_test::InputErrorMessage([&] { ReadCaptureGuarded(path); }),
+              io_test::InputErrorMessage([&] { ReadCapture(path); }));
+  }
+}
+
+TEST_F(CaptureTest, GuardedReadThatDoesNotFinishInTimeIsAnError) {
+  // A child that is still reading at the deadline is killed: with no time at all, a capture
+  // of 16 cameras (milliseconds of reading) cannot be done by the first check.
+  std::mt19937 rng(13);
+  RigCapture capture;
+  for (int i = 0; i < 16; ++i)
+    capture.cameras.push_back(DepthCamera(std::to_string(i), 320, 180, rng));
+  const std::string path = Path("capture.h5");
+  WriteCapture(path, capture);
+  EXPECT_THAT(io_test::InputErrorMessage([&] { ReadCaptureGuarded(path, 0.0); }),
+              HasSubstr(path + ": reading it did not finish in 0 s"));
+}
+
 TEST_F(CaptureTest, UnreadableFilesNameTheFile) {
   EXPECT_THAT(io_test::InputErrorMessage([&] { ReadCapture(Path("missing.h5")); }),
               HasSubstr(Path("missing.h5") + ": cannot open"));
