@@ -10,6 +10,7 @@
 #include "solver/refine.h"
 
 namespace rigfit {
+
 CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap& T_true,
                                      const RefineOptions& options, double depth_noise,
                                      double noise_floor_m, int samples, std::uint64_t seed,

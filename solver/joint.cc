@@ -152,8 +152,8 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     }
   };
   for (size_t s = 0; s < levels; ++s) {
-    const double max_distance =
-        options.max_correspondence_distance_factor * cameras[0].pyramid->levels[s].voxel_size;
+    const double voxel_size = cameras[0].pyramid->levels[s].voxel_size;
+    const double max_distance = options.max_correspondence_distance_factor * voxel_size;
     const int max_iterations = s < options.max_iterations.size() ? options.max_iterations[s] : 0;
     for (int it = 0; it < max_iterations; ++it) {
       std::vector<Pose> current(n);
@@ -249,11 +249,11 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
         const Vec6 step = PoseDifference(current[i], PoseFromParameters(blocks[i].data()));
         max_rotation = std::max(max_rotation, step.head<3>().norm());
         max_translation = std::max(max_translation, step.tail<3>().norm());
-        converged = converged && StepConverged(step, cameras[0].pyramid->levels[s].voxel_size);
+        converged = converged && StepConverged(step, voxel_size);
       }
       std::ostringstream m;
-      m << "joint: voxel " << cameras[0].pyramid->levels[s].voxel_size << " iteration " << it
-        << ": " << total << " correspondences, cost " << summary.final_cost << ", step "
+      m << "joint: voxel " << voxel_size << " iteration " << it << ": " << total
+        << " correspondences, cost " << summary.final_cost << ", step "
         << max_rotation * 180.0 / M_PI << " deg " << max_translation * 1e3 << " mm";
       log.Debug(m.str());
       if (converged) break;

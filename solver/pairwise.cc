@@ -13,7 +13,6 @@ namespace {
 
 /// Fewer correspondences than this cannot constrain 6 degrees of freedom reliably.
 constexpr size_t kMinCorrespondences = 30;
-/// An ICP scale ends when one step moves the pose by less than this (rad and m).
 /// Levenberg-Marquardt iterations per ICP step (correspondences fixed).
 constexpr int kSolverIterationsPerStep = 2;
 

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <string>
+#include <utility>
 
 #include "core/format.h"
 #include "core/geometry.h"
@@ -18,6 +20,12 @@
 
 namespace rigfit {
 namespace {
+
+/// A warning of the result, also logged (the CLI prints it on stderr).
+void Warn(RefineResult* result, const Log& log, std::string message) {
+  log.Warning(message);
+  result->warnings.push_back(std::move(message));
+}
 
 constexpr double kRadToDeg = 180.0 / M_PI;
 
@@ -142,12 +150,12 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
     if (report.reference) continue;
     report.weak_directions = joint.weak[i];
     for (const WeakDirection& d : joint.weak[i]) {
-      result->warnings.push_back(
-          "camera " + report.serial + ": " + d.name + " weakly constrained (" +
-          Fixed(100.0 * d.strength, 2) + "% against the best-constrained direction, threshold " +
-          Fixed(100.0 * options.degeneracy_threshold, 2) + "%): " + d.reason +
-          (options.hold_weak_directions ? "; held at its leveled pose" : ""));
-      log.Warning(result->warnings.back());
+      Warn(result, log,
+           "camera " + report.serial + ": " + d.name + " weakly constrained (" +
+               Fixed(100.0 * d.strength, 2) +
+               "% against the best-constrained direction, threshold " +
+               Fixed(100.0 * options.degeneracy_threshold, 2) + "%): " + d.reason +
+               (options.hold_weak_directions ? "; held at its leveled pose" : ""));
     }
   }
   for (size_t k = 0; k < candidates.size(); ++k) {
@@ -249,9 +257,8 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
                  Fixed(report.ground.correction_translation_m * 1e3, 1) + " mm, " +
                  std::to_string(report.ground.inliers) + " inliers)");
       } else {
-        result.warnings.push_back("camera " + camera.serial +
-                                  ": ground leveling not applied: " + report.ground.message);
-        log.Warning(result.warnings.back());
+        Warn(&result, log,
+             "camera " + camera.serial + ": ground leveling not applied: " + report.ground.message);
       }
     }
     result.leveled[camera.serial] = leveled[i];
@@ -265,8 +272,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   }
   if (n < 2) {
     result.message = "nothing to register: the capture has one camera";
-    result.warnings.push_back(result.message);
-    log.Warning(result.message);
+    Warn(&result, log, result.message);
     return result;
   }
 
@@ -316,9 +322,8 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
     for (CameraReport& report : result.cameras) {
       if (!report.reference) report.message = "registration failed: " + result.message;
     }
-    result.warnings.push_back("registration failed, every camera keeps its leveled pose: " +
-                              result.message);
-    log.Warning(result.warnings.back());
+    Warn(&result, log,
+         "registration failed, every camera keeps its leveled pose: " + result.message);
     return result;
   }
   const std::vector<Pose>& refined = *registered;
@@ -358,9 +363,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
       result.refined[report.serial] = refined[i];
       continue;
     }
-    result.warnings.push_back("camera " + report.serial +
-                              " keeps its leveled pose: " + report.message);
-    log.Warning(result.warnings.back());
+    Warn(&result, log, "camera " + report.serial + " keeps its leveled pose: " + report.message);
   }
   result.success = moved > 0;
   if (result.message.empty()) {
