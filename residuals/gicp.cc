@@ -15,33 +15,31 @@ Mat3 GicpCost::SqrtInformation(const Mat3& cov_a, const Mat3& cov_b, const Mat3&
   return information.llt().matrixU();
 }
 
-bool GicpCost::Evaluate(double const* const* parameters, double* residuals,
-                        double** jacobians) const {
-  const Eigen::Map<const Eigen::Quaterniond> q_a(parameters[0]);
-  const Eigen::Map<const Vec3> t_a(parameters[0] + 4);
-  const Eigen::Map<const Eigen::Quaterniond> q_b(parameters[1]);
-  const Eigen::Map<const Vec3> t_b(parameters[1] + 4);
+void GicpTerm::Evaluate(const double* pose_a, const double* pose_b, double* residuals,
+                        double* jacobian_a, double* jacobian_b) const {
+  const Eigen::Map<const Eigen::Quaterniond> q_a(pose_a);
+  const Eigen::Map<const Vec3> t_a(pose_a + 4);
+  const Eigen::Map<const Eigen::Quaterniond> q_b(pose_b);
+  const Eigen::Map<const Vec3> t_b(pose_b + 4);
 
   // r = L^T ((R_a p + t_a) - (R_b q + t_b))
-  const Vec3 d = (q_a * point_a_ + t_a) - (q_b * point_b_ + t_b);
+  const Vec3 d = (q_a * point_a + t_a) - (q_b * point_b + t_b);
   Eigen::Map<Vec3> r(residuals);
-  r = sqrt_information_ * d;
-  if (jacobians == nullptr) return true;
+  r = sqrt_information * d;
 
   using Mat37 = Eigen::Matrix<double, 3, kPoseAmbientSize, Eigen::RowMajor>;
-  if (jacobians[0] != nullptr) {
+  if (jacobian_a != nullptr) {
     // dr/dq_a = L^T J_R(q_a, p), dr/dt_a = L^T
-    Eigen::Map<Mat37> J(jacobians[0]);
-    J.leftCols<4>() = sqrt_information_ * RotatePointJacobian(q_a, point_a_);
-    J.rightCols<3>() = sqrt_information_;
+    Eigen::Map<Mat37> J(jacobian_a);
+    J.leftCols<4>() = sqrt_information * RotatePointJacobian(q_a, point_a);
+    J.rightCols<3>() = sqrt_information;
   }
-  if (jacobians[1] != nullptr) {
+  if (jacobian_b != nullptr) {
     // dr/dq_b = -L^T J_R(q_b, q), dr/dt_b = -L^T
-    Eigen::Map<Mat37> J(jacobians[1]);
-    J.leftCols<4>() = -sqrt_information_ * RotatePointJacobian(q_b, point_b_);
-    J.rightCols<3>() = -sqrt_information_;
+    Eigen::Map<Mat37> J(jacobian_b);
+    J.leftCols<4>() = -sqrt_information * RotatePointJacobian(q_b, point_b);
+    J.rightCols<3>() = -sqrt_information;
   }
-  return true;
 }
 
 }  // namespace rigfit

@@ -63,16 +63,37 @@ struct GicpFunctor {
   }
 };
 
+/// The analytic GICP residuals of one correspondence, as plain data: what GicpCost
+/// evaluates, and what StackedCost<GicpTerm> evaluates for every correspondence of a camera
+/// pair without one cost object each.
+struct GicpTerm {
+  static constexpr int kNumResiduals = 3;
+
+  Vec3 point_a;           ///< p, camera-a frame
+  Vec3 point_b;           ///< q, camera-b frame
+  Mat3 sqrt_information;  ///< L^T, world frame (GicpCost::SqrtInformation)
+
+  /// r and, where not null, the ambient Jacobians dr/dx_a and dr/dx_b (3 x 7 each,
+  /// row-major) at the pose blocks x_a = pose_a, x_b = pose_b.
+  void Evaluate(const double* pose_a, const double* pose_b, double* residuals, double* jacobian_a,
+                double* jacobian_b) const;
+};
+
 /// Analytic GICP cost: 3 whitened residuals, parameter blocks (T_world_a, T_world_b), each
 /// [qx, qy, qz, qw, tx, ty, tz] with rigfit::PoseManifold.
 class GicpCost final : public ceres::SizedCostFunction<3, kPoseAmbientSize, kPoseAmbientSize> {
  public:
   /// point_a in camera a, point_b in camera b, sqrt_information = L^T (world frame).
   GicpCost(const Vec3& point_a, const Vec3& point_b, const Mat3& sqrt_information)
-      : point_a_(point_a), point_b_(point_b), sqrt_information_(sqrt_information) {}
+      : term_{point_a, point_b, sqrt_information} {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
+                double** jacobians) const override {
+    term_.Evaluate(parameters[0], parameters[1], residuals,
+                   jacobians == nullptr ? nullptr : jacobians[0],
+                   jacobians == nullptr ? nullptr : jacobians[1]);
+    return true;
+  }
 
   /// The whitening L^T (upper triangular, 1/m) with L L^T = S^-1,
   /// S = R_world_a C_a R_world_a^T + R_world_b C_b R_world_b^T + epsilon_m2 I.
@@ -81,20 +102,26 @@ class GicpCost final : public ceres::SizedCostFunction<3, kPoseAmbientSize, kPos
   static Mat3 SqrtInformation(const Mat3& cov_a, const Mat3& cov_b, const Mat3& R_world_a,
                               const Mat3& R_world_b, double epsilon_m2 = kGicpCovarianceEpsilon);
 
-  /// The cost function the solvers use (the caller, usually ceres::Problem, owns it):
-  /// the weight is fixed from the rotations R_world_a, R_world_b at correspondence time.
+  /// The term of a correspondence: the weight is fixed from the rotations R_world_a,
+  /// R_world_b at correspondence time.
+  static GicpTerm MakeTerm(const Vec3& point_a, const Vec3& point_b, const Mat3& cov_a,
+                           const Mat3& cov_b, const Mat3& R_world_a, const Mat3& R_world_b,
+                           double epsilon_m2 = kGicpCovarianceEpsilon) {
+    return {point_a, point_b, SqrtInformation(cov_a, cov_b, R_world_a, R_world_b, epsilon_m2)};
+  }
+
+  /// The cost function of MakeTerm (the caller, usually ceres::Problem, owns it).
   static ceres::CostFunction* Create(const Vec3& point_a, const Vec3& point_b, const Mat3& cov_a,
                                      const Mat3& cov_b, const Mat3& R_world_a,
                                      const Mat3& R_world_b,
                                      double epsilon_m2 = kGicpCovarianceEpsilon) {
-    return new GicpCost(point_a, point_b,
-                        SqrtInformation(cov_a, cov_b, R_world_a, R_world_b, epsilon_m2));
+    const GicpTerm term =
+        MakeTerm(point_a, point_b, cov_a, cov_b, R_world_a, R_world_b, epsilon_m2);
+    return new GicpCost(term.point_a, term.point_b, term.sqrt_information);
   }
 
  private:
-  Vec3 point_a_;
-  Vec3 point_b_;
-  Mat3 sqrt_information_;
+  GicpTerm term_;
 };
 
 }  // namespace rigfit

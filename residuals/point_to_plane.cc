@@ -4,34 +4,32 @@
 
 namespace rigfit {
 
-bool PointToPlaneCost::Evaluate(double const* const* parameters, double* residuals,
-                                double** jacobians) const {
-  const Eigen::Map<const Eigen::Quaterniond> q_a(parameters[0]);
-  const Eigen::Map<const Vec3> t_a(parameters[0] + 4);
-  const Eigen::Map<const Eigen::Quaterniond> q_b(parameters[1]);
-  const Eigen::Map<const Vec3> t_b(parameters[1] + 4);
+void PointToPlaneTerm::Evaluate(const double* pose_a, const double* pose_b, double* residual,
+                                double* jacobian_a, double* jacobian_b) const {
+  const Eigen::Map<const Eigen::Quaterniond> q_a(pose_a);
+  const Eigen::Map<const Vec3> t_a(pose_a + 4);
+  const Eigen::Map<const Eigen::Quaterniond> q_b(pose_b);
+  const Eigen::Map<const Vec3> t_b(pose_b + 4);
 
   // d = (R_a p + t_a) - (R_b q + t_b), n_w = R_b n, r = n_w . d
-  const Vec3 d = (q_a * point_a_ + t_a) - (q_b * point_b_ + t_b);
-  const Vec3 n_w = q_b * normal_b_;
-  residuals[0] = n_w.dot(d);
-  if (jacobians == nullptr) return true;
+  const Vec3 d = (q_a * point_a + t_a) - (q_b * point_b + t_b);
+  const Vec3 n_w = q_b * normal_b;
+  residual[0] = n_w.dot(d);
 
   using Row7 = Eigen::Matrix<double, 1, kPoseAmbientSize>;
-  if (jacobians[0] != nullptr) {
+  if (jacobian_a != nullptr) {
     // dr/dq_a = n_w^T J_R(q_a, p), dr/dt_a = n_w^T
-    Eigen::Map<Row7> J(jacobians[0]);
-    J.head<4>() = ProjectedRotatePointJacobian(q_a, point_a_, n_w);
+    Eigen::Map<Row7> J(jacobian_a);
+    J.head<4>() = ProjectedRotatePointJacobian(q_a, point_a, n_w);
     J.tail<3>() = n_w.transpose();
   }
-  if (jacobians[1] != nullptr) {
+  if (jacobian_b != nullptr) {
     // dr/dq_b = d^T J_R(q_b, n) - n_w^T J_R(q_b, q), dr/dt_b = -n_w^T
-    Eigen::Map<Row7> J(jacobians[1]);
-    J.head<4>() = ProjectedRotatePointJacobian(q_b, normal_b_, d) -
-                  ProjectedRotatePointJacobian(q_b, point_b_, n_w);
+    Eigen::Map<Row7> J(jacobian_b);
+    J.head<4>() = ProjectedRotatePointJacobian(q_b, normal_b, d) -
+                  ProjectedRotatePointJacobian(q_b, point_b, n_w);
     J.tail<3>() = -n_w.transpose();
   }
-  return true;
 }
 
 }  // namespace rigfit

@@ -58,6 +58,22 @@ struct PointToPlaneFunctor {
   }
 };
 
+/// The analytic point-to-plane residual of one correspondence, as plain data: what
+/// PointToPlaneCost evaluates, and what StackedCost<PointToPlaneTerm> evaluates for every
+/// correspondence of a camera pair without one cost object each.
+struct PointToPlaneTerm {
+  static constexpr int kNumResiduals = 1;
+
+  Vec3 point_a;   ///< p, camera-a frame
+  Vec3 point_b;   ///< q, camera-b frame
+  Vec3 normal_b;  ///< n, unit normal at q (or scaled by 1 / sigma), camera-b frame
+
+  /// r and, where not null, the ambient Jacobians dr/dx_a and dr/dx_b (1 x 7 each) at the
+  /// pose blocks x_a = pose_a, x_b = pose_b.
+  void Evaluate(const double* pose_a, const double* pose_b, double* residual, double* jacobian_a,
+                double* jacobian_b) const;
+};
+
 /// Analytic point-to-plane cost: 1 residual (metres), parameter blocks
 /// (T_world_a, T_world_b), each [qx, qy, qz, qw, tx, ty, tz] with rigfit::PoseManifold.
 class PointToPlaneCost final
@@ -66,10 +82,15 @@ class PointToPlaneCost final
   /// point_a in camera a; point_b and its unit normal normal_b in camera b (a normal
   /// scaled by 1 / sigma, sigma in metres, whitens the residual: r is linear in n).
   PointToPlaneCost(const Vec3& point_a, const Vec3& point_b, const Vec3& normal_b)
-      : point_a_(point_a), point_b_(point_b), normal_b_(normal_b) {}
+      : term_{point_a, point_b, normal_b} {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
-                double** jacobians) const override;
+                double** jacobians) const override {
+    term_.Evaluate(parameters[0], parameters[1], residuals,
+                   jacobians == nullptr ? nullptr : jacobians[0],
+                   jacobians == nullptr ? nullptr : jacobians[1]);
+    return true;
+  }
 
   /// The cost function the solvers use (the caller, usually ceres::Problem, owns it).
   static ceres::CostFunction* Create(const Vec3& point_a, const Vec3& point_b,
@@ -78,9 +99,7 @@ class PointToPlaneCost final
   }
 
  private:
-  Vec3 point_a_;
-  Vec3 point_b_;
-  Vec3 normal_b_;
+  PointToPlaneTerm term_;
 };
 
 }  // namespace rigfit

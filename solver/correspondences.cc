@@ -102,36 +102,44 @@ ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const Icp
   const auto shape = [](const LocalGeometry& g, int i) {
     return Mat3(g.covariances[i] - kGicpPlaneEpsilon * g.normals[i] * g.normals[i].transpose());
   };
-  auto* stacked = new StackedCost({kPoseAmbientSize, kPoseAmbientSize});
   const double* parameters[2] = {source.pose_block, target.pose_block};
-  for (const Correspondence& c : correspondences) {
-    const Vec3& p = src.points[c.source];
-    const Vec3& q = tgt.points[c.target];
-    ceres::CostFunction* cost = nullptr;
-    if (options.method == RegistrationMethod::kGicp) {
-      // Covariance of a point: in-plane shape + k^2 z^2 p p^T (depth noise along the ray)
-      // + its plane-error share beta^2 k^2 z^4 and half of the residual floor, isotropic.
-      const double share2 = options.plane_noise_share * options.plane_noise_share;
+  // One stacked block of `term(c)` for every correspondence c, each weighted by the loss at
+  // the views' poses.
+  const auto add_block = [&](auto* stacked, const auto& term) -> ceres::ResidualBlockId {
+    stacked->Reserve(correspondences.size());
+    for (const Correspondence& c : correspondences) {
+      const auto t = term(c);
+      double r[std::decay_t<decltype(t)>::kNumResiduals];
+      t.Evaluate(parameters[0], parameters[1], r, nullptr, nullptr);
+      stacked->Add(t, RobustWeight(loss, r, t.kNumResiduals));
+    }
+    if (stacked->size() == 0) {
+      delete stacked;
+      return nullptr;
+    }
+    return problem->AddResidualBlock(stacked, nullptr, source.pose_block, target.pose_block);
+  };
+  if (options.method == RegistrationMethod::kGicp) {
+    // Covariance of a point: in-plane shape + k^2 z^2 p p^T (depth noise along the ray)
+    // + its plane-error share beta^2 k^2 z^4 and half of the residual floor, isotropic.
+    const double share2 = options.plane_noise_share * options.plane_noise_share;
+    return add_block(new StackedCost<GicpTerm>, [&](const Correspondence& c) {
+      const Vec3& p = src.points[c.source];
+      const Vec3& q = tgt.points[c.target];
       const Mat3 C_p = shape(src.geometry, c.source) + k_s2 * p.z() * p.z() * p * p.transpose() +
                        (share2 * k_s2 * std::pow(p.z(), 4) + 0.5 * floor2) * Mat3::Identity();
       const Mat3 C_q = shape(tgt.geometry, c.target) + k_t2 * q.z() * q.z() * q * q.transpose() +
                        (share2 * k_t2 * std::pow(q.z(), 4) + 0.5 * floor2) * Mat3::Identity();
-      cost = GicpCost::Create(p, q, C_p, C_q, source.T_world_camera.linear(),
-                              target.T_world_camera.linear());
-    } else {
-      // r is linear in n, so a normal scaled by 1 / sigma whitens it.
-      const double variance = PointToPlaneVariance(source, target, c, options);
-      cost = PointToPlaneCost::Create(p, q, tgt.geometry.normals[c.target] / std::sqrt(variance));
-    }
-    double r[3];
-    cost->Evaluate(parameters, r, nullptr);
-    stacked->Add(cost, RobustWeight(loss, r, cost->num_residuals()));
+      return GicpCost::MakeTerm(p, q, C_p, C_q, source.T_world_camera.linear(),
+                                target.T_world_camera.linear());
+    });
   }
-  if (stacked->size() == 0) {
-    delete stacked;
-    return nullptr;
-  }
-  return problem->AddResidualBlock(stacked, nullptr, source.pose_block, target.pose_block);
+  // r is linear in n, so a normal scaled by 1 / sigma whitens it.
+  return add_block(new StackedCost<PointToPlaneTerm>, [&](const Correspondence& c) {
+    const double variance = PointToPlaneVariance(source, target, c, options);
+    return PointToPlaneTerm{src.points[c.source], tgt.points[c.target],
+                            tgt.geometry.normals[c.target] / std::sqrt(variance)};
+  });
 }
 
 std::unique_ptr<ceres::Problem> NewProblem() {

@@ -13,88 +13,74 @@ namespace {
 
 using namespace testing;  // NOLINT: the residual test helpers
 
-/// The autodiff reference of a stack: the templated functors of its items, each scaled by
+/// The autodiff reference of a stack: the templated functors of its terms, each scaled by
 /// its weight, residuals concatenated in order.
+template <class Functor, int kResiduals>
 struct StackedFunctor {
-  std::vector<PointToPlaneFunctor> point_to_plane;
-  std::vector<GicpFunctor> gicp;
-  std::vector<double> weights;  ///< point-to-plane items first, then GICP ones
+  std::vector<Functor> items;
+  std::vector<double> weights;
 
   template <typename T>
   bool operator()(T const* const* parameters, T* residuals) const {
-    size_t item = 0;
-    for (const PointToPlaneFunctor& f : point_to_plane) {
-      f(parameters[0], parameters[1], residuals);
-      residuals[0] *= T(weights[item++]);
-      residuals += 1;
-    }
-    for (const GicpFunctor& f : gicp) {
-      f(parameters[0], parameters[1], residuals);
-      for (int i = 0; i < 3; ++i) residuals[i] *= T(weights[item]);
-      ++item;
-      residuals += 3;
+    for (size_t i = 0; i < items.size(); ++i) {
+      items[i](parameters[0], parameters[1], residuals);
+      for (int k = 0; k < kResiduals; ++k) residuals[k] *= T(weights[i]);
+      residuals += kResiduals;
     }
     return true;
   }
 };
 
-/// A stack of point-to-plane and GICP items with random geometry and weights, and its
-/// autodiff reference.
-struct Stack {
-  std::unique_ptr<StackedCost> analytic;
-  std::unique_ptr<ceres::CostFunction> autodiff;
-};
-
-Stack MakeStack(std::mt19937& rng, const Pose& T_a, const Pose& T_b) {
-  std::uniform_real_distribution<double> weight(0.1, 3.0);
-  auto* functor = new StackedFunctor;
-  Stack stack;
-  stack.analytic = std::make_unique<StackedCost>(std::vector<int32_t>{7, 7});
-  for (int i = 0; i < 5; ++i) {
-    const Vec3 p = RandomVector(rng, 3.0), q = RandomVector(rng, 3.0);
-    const Vec3 n = RandomVector(rng, 1.0).normalized();
-    const double w = weight(rng);
-    stack.analytic->Add(PointToPlaneCost::Create(p, q, n), w);
-    functor->point_to_plane.push_back({p, q, n});
-    functor->weights.push_back(w);
-  }
-  for (int i = 0; i < 3; ++i) {
-    const Vec3 p = RandomVector(rng, 3.0), q = RandomVector(rng, 3.0);
-    const Vec3 axis = RandomVector(rng, 1.0).normalized();
-    const Mat3 C = Mat3::Identity() - 0.999 * axis * axis.transpose();
-    const double w = weight(rng);
-    stack.analytic->Add(GicpCost::Create(p, q, C, C, T_a.linear(), T_b.linear()), w);
-    functor->gicp.push_back({p, q, GicpCost::SqrtInformation(C, C, T_a.linear(), T_b.linear())});
-    functor->weights.push_back(w);
-  }
-  // The weights were pushed in item order: point-to-plane first, GICP next, as evaluated.
-  auto* autodiff = new ceres::DynamicAutoDiffCostFunction<StackedFunctor, 4>(functor);
-  autodiff->AddParameterBlock(kPoseAmbientSize);
-  autodiff->AddParameterBlock(kPoseAmbientSize);
-  autodiff->SetNumResiduals(5 + 3 * 3);
-  stack.autodiff.reset(autodiff);
-  return stack;
-}
-
-TEST(StackedCost, EqualsTheWeightedItemsAndPassesTheGradientCheck) {
+/// A stack of terms with random geometry (from make(rng): the term and its functor) and
+/// random weights, and its autodiff reference.
+template <class Term, class Functor, class Make>
+void ExpectStackMatchesItsTerms(Make make) {
   std::mt19937 rng(3);
+  std::uniform_real_distribution<double> weight(0.1, 3.0);
   for (const auto& [a, b] : TestPosePairs()) {
-    const Stack stack = MakeStack(rng, a.T, b.T);
-    ASSERT_EQ(stack.analytic->num_residuals(), 5 + 3 * 3);
+    constexpr int kTerms = 5;
+    StackedCost<Term> analytic;
+    auto* functor = new StackedFunctor<Functor, Term::kNumResiduals>;
+    for (int i = 0; i < kTerms; ++i) {
+      const auto [term, item] = make(rng, a.T, b.T);
+      const double w = weight(rng);
+      analytic.Add(term, w);
+      functor->items.push_back(item);
+      functor->weights.push_back(w);
+    }
+    ceres::DynamicAutoDiffCostFunction<StackedFunctor<Functor, Term::kNumResiduals>, 4> autodiff(
+        functor);
+    autodiff.AddParameterBlock(kPoseAmbientSize);
+    autodiff.AddParameterBlock(kPoseAmbientSize);
+    autodiff.SetNumResiduals(kTerms * Term::kNumResiduals);
+    ASSERT_EQ(analytic.size(), static_cast<size_t>(kTerms));
+    ASSERT_EQ(analytic.num_residuals(), kTerms * Term::kNumResiduals);
     const PoseBlock x_a = ToBlock(a.T), x_b = ToBlock(b.T);
     const std::vector<const double*> parameters = {x_a.data(), x_b.data()};
     SCOPED_TRACE(a.name + " | " + b.name);
-    ExpectAnalyticMatchesAutodiff(*stack.analytic, *stack.autodiff, parameters);
-    ExpectGradientCheckPasses(*stack.analytic, parameters);
+    ExpectAnalyticMatchesAutodiff(analytic, autodiff, parameters);
+    ExpectGradientCheckPasses(analytic, parameters);
   }
 }
 
-TEST(StackedCost, RejectsAnItemWithOtherParameterBlocks) {
-  StackedCost stack({7, 7});
-  EXPECT_THROW(
-      stack.Add(new ceres::DynamicAutoDiffCostFunction<StackedFunctor, 4>(new StackedFunctor), 1.0),
-      std::invalid_argument);
-  EXPECT_EQ(stack.size(), 0u);
+TEST(StackedCost, PointToPlaneEqualsTheWeightedTermsAndPassesTheGradientCheck) {
+  ExpectStackMatchesItsTerms<PointToPlaneTerm, PointToPlaneFunctor>(
+      [](std::mt19937& rng, const Pose&, const Pose&) {
+        const Vec3 p = RandomVector(rng, 3.0), q = RandomVector(rng, 3.0);
+        const Vec3 n = RandomVector(rng, 1.0).normalized();
+        return std::make_pair(PointToPlaneTerm{p, q, n}, PointToPlaneFunctor{p, q, n});
+      });
+}
+
+TEST(StackedCost, GicpEqualsTheWeightedTermsAndPassesTheGradientCheck) {
+  ExpectStackMatchesItsTerms<GicpTerm, GicpFunctor>(
+      [](std::mt19937& rng, const Pose& T_a, const Pose& T_b) {
+        const Vec3 p = RandomVector(rng, 3.0), q = RandomVector(rng, 3.0);
+        const Vec3 axis = RandomVector(rng, 1.0).normalized();
+        const Mat3 C = Mat3::Identity() - 0.999 * axis * axis.transpose();
+        const GicpTerm term = GicpCost::MakeTerm(p, q, C, C, T_a.linear(), T_b.linear());
+        return std::make_pair(term, GicpFunctor{p, q, term.sqrt_information});
+      });
 }
 
 TEST(RobustWeight, IsTheSquareRootOfTheLossDerivative) {
