@@ -102,7 +102,8 @@ std::vector<Section> Schema(RefineOptions& o) {
            {"max_correspondence_distance_factor", &i.max_correspondence_distance_factor,
             "Correspondences farther than factor x voxel size are dropped (> 0)."},
            {"max_normal_angle_deg", &i.max_normal_angle_deg,
-            "Correspondences whose two normals differ by more are dropped (0, 180]."},
+            "Correspondences whose two normals differ by more, plus their expected error under the "
+            "depth noise (up to 60), are dropped (0, 180]."},
            {"normal_neighbors", &i.normal_neighbors,
             "Neighbours for normals and covariances (>= 3)."},
            {"depth_noise", &i.depth_noise,

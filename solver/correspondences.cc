@@ -17,6 +17,10 @@ namespace {
 /// A normal angle that accepts every pair of normals (overlap statistics).
 constexpr double kAnyNormalAngleDeg = 180.0;
 
+/// The normal check never widens beyond this (degrees): far below the 90 degrees between
+/// the faces of a box corner or a leg, which must not pair up.
+constexpr double kWidestNoisyNormalAngleDeg = 60.0;
+
 }  // namespace
 
 std::vector<Correspondence> FindCorrespondences(const CameraView& source, const CameraView& target,
@@ -25,7 +29,13 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
   const ScaleLevel& src = *source.level;
   const ScaleLevel& tgt = *target.level;
   const Pose T_target_source = target.T_world_camera.inverse() * source.T_world_camera;
-  const double cos_max_angle = std::cos(max_normal_angle_deg * M_PI / 180.0);
+  const double max_angle = max_normal_angle_deg * M_PI / 180.0;
+  const double widest_angle = std::max(max_angle, kWidestNoisyNormalAngleDeg * M_PI / 180.0);
+  // The normal error of a point, as an angle: its depth noise over its normal's support.
+  const auto normal_error = [](const CameraView& view, const Vec3& p) {
+    const double support = view.level->normal_support;
+    return support > 0.0 ? std::atan(view.depth_noise * p.z() * p.z() / support) : 0.0;
+  };
   const int n = static_cast<int>(src.points.size());
   std::vector<Correspondence> found(n);
   std::vector<char> ok(n, 0);
@@ -33,10 +43,15 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
     if (!src.geometry.IsValid(i)) return;
     int j = 0;
     double d2 = 0.0;
-    if (tgt.tree->Nearest(T_target_source * src.points[i], max_distance, &j, &d2) &&
-        tgt.geometry.IsValid(j) &&
-        (T_target_source.linear() * src.geometry.normals[i]).dot(tgt.geometry.normals[j]) >=
-            cos_max_angle) {
+    if (!tgt.tree->Nearest(T_target_source * src.points[i], max_distance, &j, &d2) ||
+        !tgt.geometry.IsValid(j)) {
+      return;
+    }
+    const double angle = std::min(
+        max_angle + normal_error(source, src.points[i]) + normal_error(target, tgt.points[j]),
+        widest_angle);
+    if ((T_target_source.linear() * src.geometry.normals[i]).dot(tgt.geometry.normals[j]) >=
+        std::cos(angle)) {
       found[i] = {i, j, d2};
       ok[i] = 1;
     }

@@ -33,10 +33,13 @@ struct CameraView {
 /// For every source point, the nearest target point at the views' poses, kept when both
 /// points have a valid normal and the normals are within max_normal_angle_deg of each
 /// other (points of different surfaces, such as the faces of a leg or a box corner that
-/// each camera sees differently, do not pair up). The search radius is max_distance: a
-/// radius widened with the depth noise (3 sigma at the points' depth) was measured to bias
-/// far points toward the wrong structure (docs/benchmarks.md). Ordered by source index;
-/// deterministic whatever num_threads.
+/// each camera sees differently, do not pair up), widened by the expected error of both
+/// normals under the depth noise, atan(k z^2 / normal_support) each, up to 60 degrees: a
+/// fixed angle rejects far, noisy points by the noise of their normals, a selection that
+/// measured as a bias (docs/benchmarks.md); 60 degrees still keeps perpendicular faces apart. The
+/// search radius is max_distance: a radius widened with the depth noise (3 sigma at the points'
+/// depth) was measured to bias far points toward the wrong structure (docs/benchmarks.md). Ordered
+/// by source index; deterministic whatever num_threads.
 std::vector<Correspondence> FindCorrespondences(const CameraView& source, const CameraView& target,
                                                 double max_distance, double max_normal_angle_deg,
                                                 int num_threads);

@@ -56,7 +56,8 @@ struct IcpOptions {
   std::vector<int> max_iterations = {50, 30, 5};
   /// Correspondences farther than factor x voxel size (at the current scale) are dropped.
   double max_correspondence_distance_factor = 1.4;
-  /// Correspondences whose two normals differ by more than this are dropped.
+  /// Correspondences whose two normals differ by more than this, plus the expected error of
+  /// both normals under the depth noise (up to 60 degrees in all), are dropped.
   double max_normal_angle_deg = 30.0;
   /// Neighbours used for normals and covariances.
   int normal_neighbors = 20;
@@ -79,7 +80,7 @@ struct IcpOptions {
   /// of the best-constrained direction's (eigenvalues of the noise-weighted constraint
   /// matrix, solver/degeneracy.h) is reported as weakly constrained; 0 turns the analysis
   /// off.
-  double degeneracy_threshold = 0.001;
+  double degeneracy_threshold = 0.002;
   /// Joint mode: hold weakly constrained directions at the leveled pose (a 0.1 mm prior)
   /// instead of letting the weak data move them. Off by default: on the bare simulated
   /// room it kept more of the start error than it prevented (docs/benchmarks.md).

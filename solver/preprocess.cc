@@ -154,6 +154,7 @@ CloudPyramid BuildPyramid(const PointCloud& points, const std::vector<double>& v
   for (size_t i = 0; i < voxel_sizes.size(); ++i) {
     ScaleLevel& level = pyramid.levels[i];
     level.voxel_size = voxel_sizes[i];
+    level.normal_support = voxel_sizes[i] * std::sqrt(k / M_PI);
     level.points = VoxelDownsample(points, voxel_sizes[i]);
     level.tree = std::make_unique<KdTree>(level.points);
     level.geometry = EstimateLocalGeometry(level.points, *level.tree, k, viewpoint, num_threads);

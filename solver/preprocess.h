@@ -62,6 +62,9 @@ LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree
 /// (moving the whole ScaleLevel or CloudPyramid is fine).
 struct ScaleLevel {
   double voxel_size = 0.0;
+  /// Radius (m) of the neighbourhood each normal is fitted to: k neighbours on a surface
+  /// sampled once per voxel cover about voxel_size sqrt(k / pi).
+  double normal_support = 0.0;
   PointCloud points;
   std::unique_ptr<KdTree> tree;
   LocalGeometry geometry;

@@ -1,0 +1,59 @@
+#include "solver/correspondences.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+namespace rigfit {
+namespace {
+
+/// A one-point level at depth z (camera frame, on the optical axis) whose normal is turned
+/// by angle_deg about the camera's x axis from facing the camera.
+ScaleLevel OnePointLevel(double z, double angle_deg) {
+  ScaleLevel level;
+  level.voxel_size = 0.02;
+  level.normal_support = 0.05;
+  level.points = {Vec3(0.0, 0.0, z)};
+  level.tree = std::make_unique<KdTree>(level.points);
+  const double a = angle_deg * M_PI / 180.0;
+  level.geometry.normals = {Vec3(0.0, std::sin(a), -std::cos(a))};
+  level.geometry.covariances = {Mat3::Identity()};
+  level.geometry.planarity = {1.0};
+  return level;
+}
+
+/// Whether a source point and a target point at the same place (same pose, depth z), their
+/// normals angle_deg apart, pair up under the 30-degree check with depth noise k.
+bool Pairs(double z, double angle_deg, double k) {
+  const ScaleLevel source = OnePointLevel(z, 0.0);
+  const ScaleLevel target = OnePointLevel(z, angle_deg);
+  const CameraView s{&source, Pose::Identity(), nullptr, k};
+  const CameraView t{&target, Pose::Identity(), nullptr, k};
+  return FindCorrespondences(s, t, 0.1, 30.0, 1).size() == 1;
+}
+
+TEST(FindCorrespondences, NoiseFreeNormalsMustAgreeWithinTheGivenAngle) {
+  EXPECT_TRUE(Pairs(3.0, 28.0, 0.0));
+  EXPECT_FALSE(Pairs(3.0, 32.0, 0.0));
+}
+
+TEST(FindCorrespondences, TheNormalCheckWidensWithTheDepthNoiseOfBothPoints) {
+  // k z^2 = 0.0045 m over a 0.05 m support: atan(0.09) = 5.14 deg per point, 40.3 in all.
+  EXPECT_TRUE(Pairs(3.0, 39.0, 0.0005));
+  EXPECT_FALSE(Pairs(3.0, 42.0, 0.0005));
+  // Nearer, less noise: 1.5 m gives 1.29 deg per point, 32.6 in all.
+  EXPECT_TRUE(Pairs(1.5, 32.0, 0.0005));
+  EXPECT_FALSE(Pairs(1.5, 34.0, 0.0005));
+}
+
+TEST(FindCorrespondences, NoNoiseWidensTheCheckBeyondSixtyDegrees) {
+  // 2.3 cm of depth noise per point would add 48 deg; the check stops at 60 degrees, far
+  // from the 90 degrees between the faces of a box corner.
+  EXPECT_TRUE(Pairs(3.0, 58.0, 0.0025));
+  EXPECT_FALSE(Pairs(3.0, 62.0, 0.0025));
+  EXPECT_FALSE(Pairs(3.0, 90.0, 1.0));
+}
+
+}  // namespace
+}  // namespace rigfit
