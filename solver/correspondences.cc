@@ -65,7 +65,7 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
 }
 
 bool StepConverged(const Vec6& step, double voxel_size) {
-  constexpr double kConvergedStepVoxels = 0.005;
+  constexpr double kConvergedStepVoxels = 0.01;
   const double limit = kConvergedStepVoxels * voxel_size;
   constexpr double kLeverM = 1.0;  // rotation as arc length at this radius
   return step.head<3>().norm() * kLeverM < limit && step.tail<3>().norm() < limit;

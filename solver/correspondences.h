@@ -46,7 +46,7 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
 
 /// Whether an outer ICP iteration (correspondences found, then the poses solved with them
 /// fixed) has converged at a scale: its pose step, PoseDifference(before, after), moved the
-/// camera by less than 0.005 voxel_size (0.1 mm at a 2 cm voxel), translation in metres and
+/// camera by less than 0.01 voxel_size (0.2 mm at a 2 cm voxel), translation in metres and
 /// rotation as arc length at 1 m. Re-found correspondences of noisy points keep moving the
 /// optimum a little at every iteration; steps this small are far below the scale's
 /// resolution (docs/benchmarks.md).
