@@ -74,8 +74,9 @@ struct IcpOptions {
   /// nothing. docs/residuals.md section 8, docs/benchmarks.md.
   double plane_noise_share = 0.5;
   /// Weight of the pitch/roll gravity prior, 1 / sigma_tilt in 1/rad against residuals
-  /// whitened by the noise model (500: sigma_tilt = 0.11 deg); 0 disables it.
-  double gravity_weight = 500.0;
+  /// whitened by the noise model; 0 disables it. 1500: sigma_tilt = 0.04 deg, how far a
+  /// plane fitted to a few metres of real floor (flat to about 3 mm over 4 m) can tilt.
+  double gravity_weight = 1500.0;
   /// Joint mode: a direction of a camera's pose whose information is below this fraction
   /// of the best-constrained direction's (eigenvalues of the noise-weighted constraint
   /// matrix, solver/degeneracy.h) is reported as weakly constrained; 0 turns the analysis
