@@ -31,6 +31,8 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
   const Pose T_target_source = target.T_world_camera.inverse() * source.T_world_camera;
   const double max_angle = max_normal_angle_deg * M_PI / 180.0;
   const double widest_angle = std::max(max_angle, kWidestNoisyNormalAngleDeg * M_PI / 180.0);
+  const double cos_max_angle = std::cos(max_angle);
+  const double cos_widest_angle = std::cos(widest_angle);
   // The normal error of a point, as an angle: its depth noise over its normal's support.
   const auto normal_error = [](const CameraView& view, const Vec3& p) {
     const double support = view.level->normal_support;
@@ -47,14 +49,19 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
         !tgt.geometry.IsValid(j)) {
       return;
     }
-    const double angle = std::min(
-        max_angle + normal_error(source, src.points[i]) + normal_error(target, tgt.points[j]),
-        widest_angle);
-    if ((T_target_source.linear() * src.geometry.normals[i]).dot(tgt.geometry.normals[j]) >=
-        std::cos(angle)) {
-      found[i] = {i, j, d2};
-      ok[i] = 1;
+    // The widened angle lies between max_angle and widest_angle: only normals between the
+    // two need it.
+    const double cos_between =
+        (T_target_source.linear() * src.geometry.normals[i]).dot(tgt.geometry.normals[j]);
+    if (cos_between < cos_widest_angle) return;
+    if (cos_between < cos_max_angle) {
+      const double angle = std::min(
+          max_angle + normal_error(source, src.points[i]) + normal_error(target, tgt.points[j]),
+          widest_angle);
+      if (cos_between < std::cos(angle)) return;
     }
+    found[i] = {i, j, d2};
+    ok[i] = 1;
   });
   std::vector<Correspondence> out;
   out.reserve(n);

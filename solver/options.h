@@ -57,7 +57,8 @@ struct IcpOptions {
   /// Correspondences farther than factor x voxel size (at the current scale) are dropped.
   double max_correspondence_distance_factor = 1.4;
   /// Correspondences whose two normals differ by more than this, plus the expected error of
-  /// both normals under the depth noise (up to 60 degrees in all), are dropped.
+  /// both normals under the depth noise (up to 60 degrees in all; a larger angle is not
+  /// widened), are dropped.
   double max_normal_angle_deg = 30.0;
   /// Neighbours used for normals and covariances.
   int normal_neighbors = 20;
