@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "core/parallel.h"
 #include "residuals/gicp.h"
@@ -131,9 +132,10 @@ ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const Icp
     stacked->Reserve(correspondences.size());
     for (const Correspondence& c : correspondences) {
       const auto t = term(c);
-      double r[std::decay_t<decltype(t)>::kNumResiduals];
+      using Term = std::decay_t<decltype(t)>;
+      double r[Term::kNumResiduals];
       t.Evaluate(parameters[0], parameters[1], r, nullptr, nullptr);
-      stacked->Add(t, RobustWeight(loss, r, t.kNumResiduals));
+      stacked->Add(t, RobustWeight(loss, r, Term::kNumResiduals));
     }
     if (stacked->size() == 0) {
       delete stacked;
