@@ -42,4 +42,40 @@ void GicpTerm::Evaluate(const double* pose_a, const double* pose_b, double* resi
   }
 }
 
+void GicpTerm::AddNormal(double weight2, double* normal) const {
+  const double z[8] = {point_a(0),  point_a(1),  point_a(2),  1.0,
+                       -point_b(0), -point_b(1), -point_b(2), -1.0};
+  const Mat3 W = weight2 * sqrt_information.transpose() * sqrt_information;
+  // Block (a, b) of (z z^T) (x) W is z_a z_b W; the lower triangle is blocks b <= a.
+  for (int b = 0; b < 8; ++b) {
+    for (int a = b; a < 8; ++a) {
+      const double zz = z[a] * z[b];
+      for (int j = 0; j < 3; ++j) {
+        for (int i = 0; i < 3; ++i) normal[(3 * b + j) * kFeatureSize + 3 * a + i] += zz * W(i, j);
+      }
+    }
+  }
+}
+
+void GicpTerm::Features(const double* pose_a, const double* pose_b, double* theta, double* dtheta_a,
+                        double* dtheta_b) {
+  Eigen::Map<Eigen::Matrix<double, kFeatureSize, 1>> f(theta);
+  using Mat = Eigen::Matrix<double, kFeatureSize, kPoseAmbientSize, Eigen::RowMajor>;
+  // The features of one pose block x = [q; t] at `offset`: [vec(R(q)); t], and their
+  // derivative d(R(q) e_j)/dq = J_R(q, e_j), dt/dt = I.
+  const auto pose_features = [&](const double* pose, int offset, double* dtheta) {
+    const Eigen::Map<const Eigen::Quaterniond> q(pose);
+    for (int j = 0; j < 3; ++j) f.segment<3>(offset + 3 * j) = q * Vec3::Unit(j);
+    f.segment<3>(offset + 9) = Eigen::Map<const Vec3>(pose + 4);
+    if (dtheta == nullptr) return;
+    Eigen::Map<Mat> J(dtheta);
+    J.setZero();
+    for (int j = 0; j < 3; ++j)
+      J.block<3, 4>(offset + 3 * j, 0) = RotatePointJacobian(q, Vec3::Unit(j));
+    J.block<3, 3>(offset + 9, 4) = Mat3::Identity();
+  };
+  pose_features(pose_a, 0, dtheta_a);
+  pose_features(pose_b, 12, dtheta_b);
+}
+
 }  // namespace rigfit

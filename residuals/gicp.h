@@ -77,6 +77,22 @@ struct GicpTerm {
   /// row-major) at the pose blocks x_a = pose_a, x_b = pose_b.
   void Evaluate(const double* pose_a, const double* pose_b, double* residuals, double* jacobian_a,
                 double* jacobian_b) const;
+
+  /// r is linear in the features of the two poses (CompressedCost); the weight L^T is in
+  /// the world frame, so they are the absolute poses, not the relative one:
+  ///   theta = [vec(R_a); t_a; vec(R_b); t_b],  vec column by column,
+  ///   r = L^T (R_a p + t_a - R_b q - t_b) = Phi theta,
+  ///   Phi = L^T [p_0 I, p_1 I, p_2 I, I, -q_0 I, -q_1 I, -q_2 I, -I] = z^T (x) L^T,
+  ///   z = (p, 1, -q, -1),  so Phi^T Phi = (z z^T) (x) (L L^T).
+  static constexpr int kFeatureSize = 24;
+
+  /// Adds weight2 Phi^T Phi to the lower triangle of `normal` (kFeatureSize^2, column-major).
+  void AddNormal(double weight2, double* normal) const;
+
+  /// theta at the pose blocks and, where not null, d theta/dx_a and d theta/dx_b
+  /// (kFeatureSize x 7 each, row-major).
+  static void Features(const double* pose_a, const double* pose_b, double* theta, double* dtheta_a,
+                       double* dtheta_b);
 };
 
 /// Analytic GICP cost: 3 whitened residuals, parameter blocks (T_world_a, T_world_b), each

@@ -72,6 +72,19 @@ struct PointToPlaneTerm {
   /// pose blocks x_a = pose_a, x_b = pose_b.
   void Evaluate(const double* pose_a, const double* pose_b, double* residual, double* jacobian_a,
                 double* jacobian_b) const;
+
+  /// r is linear in the features of the relative pose T_b^-1 T_a = (R, t) (CompressedCost):
+  ///   theta = [vec(R); t; 1],  R = R_b^T R_a,  t = R_b^T (t_a - t_b),  vec column by column,
+  ///   r = n^T (R p + t - q) = phi . theta,  phi = [p (x) n; n; -n.q]  (phi[i + 3j] = n_i p_j).
+  static constexpr int kFeatureSize = 13;
+
+  /// Adds weight2 phi^T phi to the lower triangle of `normal` (kFeatureSize^2, column-major).
+  void AddNormal(double weight2, double* normal) const;
+
+  /// theta at the pose blocks and, where not null, d theta/dx_a and d theta/dx_b
+  /// (kFeatureSize x 7 each, row-major).
+  static void Features(const double* pose_a, const double* pose_b, double* theta, double* dtheta_a,
+                       double* dtheta_b);
 };
 
 /// Analytic point-to-plane cost: 1 residual (metres), parameter blocks
