@@ -8,6 +8,7 @@
 #include <type_traits>
 
 #include "core/parallel.h"
+#include "residuals/compressed_cost.h"
 #include "residuals/gicp.h"
 #include "residuals/point_to_plane.h"
 #include "residuals/stacked_cost.h"
@@ -114,7 +115,7 @@ ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options) {
 ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
                                               const CameraView& source, const CameraView& target,
                                               const std::vector<Correspondence>& correspondences,
-                                              ceres::LossFunction* loss) {
+                                              ceres::LossFunction* loss, TermStorage storage) {
   const ScaleLevel& src = *source.level;
   const ScaleLevel& tgt = *target.level;
   const double k_s2 = source.depth_noise * source.depth_noise;
@@ -126,28 +127,38 @@ ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const Icp
     return Mat3(g.covariances[i] - kGicpPlaneEpsilon * g.normals[i] * g.normals[i].transpose());
   };
   const double* parameters[2] = {source.pose_block, target.pose_block};
-  // One stacked block of `term(c)` for every correspondence c, each weighted by the loss at
-  // the views' poses.
-  const auto add_block = [&](auto* stacked, const auto& term) -> ceres::ResidualBlockId {
-    stacked->Reserve(correspondences.size());
+  // term(c) of every correspondence c into `cost`, weighted by the loss at the views' poses.
+  const auto add_terms = [&](auto* cost, const auto& term) {
     for (const Correspondence& c : correspondences) {
       const auto t = term(c);
       using Term = std::decay_t<decltype(t)>;
       double r[Term::kNumResiduals];
       t.Evaluate(parameters[0], parameters[1], r, nullptr, nullptr);
-      stacked->Add(t, RobustWeight(loss, r, Term::kNumResiduals));
+      cost->Add(t, RobustWeight(loss, r, Term::kNumResiduals));
     }
-    if (stacked->size() == 0) {
-      delete stacked;
-      return nullptr;
+  };
+  const auto add_block = [&](const auto& term) -> ceres::ResidualBlockId {
+    if (correspondences.empty()) return nullptr;
+    using Term = std::decay_t<decltype(term(correspondences.front()))>;
+    ceres::CostFunction* cost = nullptr;
+    if (storage == TermStorage::kStacked) {
+      auto* stacked = new StackedCost<Term>;
+      stacked->Reserve(correspondences.size());
+      add_terms(stacked, term);
+      cost = stacked;
+    } else {
+      auto* compressed = new CompressedCost<Term>;
+      add_terms(compressed, term);
+      compressed->Compress();
+      cost = compressed;
     }
-    return problem->AddResidualBlock(stacked, nullptr, source.pose_block, target.pose_block);
+    return problem->AddResidualBlock(cost, nullptr, source.pose_block, target.pose_block);
   };
   if (options.method == RegistrationMethod::kGicp) {
     // Covariance of a point: in-plane shape + k^2 z^2 p p^T (depth noise along the ray)
     // + its plane-error share beta^2 k^2 z^4 and half of the residual floor, isotropic.
     const double share2 = options.plane_noise_share * options.plane_noise_share;
-    return add_block(new StackedCost<GicpTerm>, [&](const Correspondence& c) {
+    return add_block([&](const Correspondence& c) {
       const Vec3& p = src.points[c.source];
       const Vec3& q = tgt.points[c.target];
       const Mat3 C_p = shape(src.geometry, c.source) + k_s2 * p.z() * p.z() * p * p.transpose() +
@@ -159,7 +170,7 @@ ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const Icp
     });
   }
   // r is linear in n, so a normal scaled by 1 / sigma whitens it.
-  return add_block(new StackedCost<PointToPlaneTerm>, [&](const Correspondence& c) {
+  return add_block([&](const Correspondence& c) {
     const double variance = PointToPlaneVariance(source, target, c, options);
     return PointToPlaneTerm{src.points[c.source], tgt.points[c.target],
                             tgt.geometry.normals[c.target] / std::sqrt(variance)};

@@ -62,21 +62,30 @@ double PointToPlaneVariance(const CameraView& source, const CameraView& target,
 /// The robust loss of the options on whitened residuals (nullptr for none).
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
 
-/// Adds one residual block per correspondence (point-to-plane or GICP, per
-/// options.method) between the pose blocks of the source and target cameras, each
-/// whitened by the depth noise model of both points (docs/residuals.md, "Weights"):
-/// a depth error moves a point along its ray, so a point p at depth z has covariance
-/// k^2 z^2 p p^T in its camera frame, plus the plane-error share (plane_noise_share k z^2)^2
-/// and min_noise_m^2 per residual. GICP weights use
-/// the poses of the views. All of them go into ONE residual block (StackedCost), `loss`
-/// entering as iteratively reweighted least squares at the current values of the pose
-/// blocks. The problem owns the cost functions, the caller `loss`. Returns the residual
-/// block (nullptr when there are no correspondences); its residuals are those of the
-/// correspondences in order, 1 (point-to-plane) or 3 (GICP) each.
+/// How AddCorrespondenceTerms stores the terms of a camera pair in its residual block.
+enum class TermStorage {
+  /// StackedCost: one row (point-to-plane) or three (GICP) per correspondence, in order.
+  /// For what needs the rows: residual variance, clusters.
+  kStacked,
+  /// CompressedCost: the same cost, gradient and Gauss-Newton matrix at every pose in
+  /// 13 (point-to-plane) or 24 (GICP) rows, whatever the number of correspondences. For
+  /// solving.
+  kCompressed,
+};
+
+/// Adds the terms of the correspondences (point-to-plane or GICP, per options.method)
+/// between the pose blocks of the source and target cameras, each whitened by the depth
+/// noise model of both points (docs/residuals.md, "Weights"): a depth error moves a point
+/// along its ray, so a point p at depth z has covariance k^2 z^2 p p^T in its camera frame,
+/// plus the plane-error share (plane_noise_share k z^2)^2 and min_noise_m^2 per residual.
+/// GICP weights use the poses of the views. All of them go into ONE residual block, stored
+/// as `storage` says, `loss` entering as iteratively reweighted least squares at the
+/// current values of the pose blocks. The problem owns the cost functions, the caller
+/// `loss`. Returns the residual block (nullptr when there are no correspondences).
 ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
                                               const CameraView& source, const CameraView& target,
                                               const std::vector<Correspondence>& correspondences,
-                                              ceres::LossFunction* loss);
+                                              ceres::LossFunction* loss, TermStorage storage);
 
 /// A problem that does not own loss functions or manifolds (they are shared by many
 /// blocks and owned by the caller), but owns cost functions.

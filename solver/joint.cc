@@ -57,22 +57,26 @@ std::vector<StabilityAccumulator> Stability(const std::vector<CameraView>& views
 /// Side of the world cells that group correspondences into clusters for the covariance (m).
 constexpr double kClusterCellM = 0.5;
 
-/// The cluster (world cell of side kClusterCellM) of every residual row of the
-/// correspondence terms, in the order the terms were added.
+/// The clusters of the covariance's residual rows: the world cells of side kClusterCellM
+/// of the correspondences' source points, and one cluster per prior.
 class RowClusters {
  public:
-  void AddCorrespondences(const CameraView& source, const std::vector<Correspondence>& matches,
-                          int rows_per_correspondence) {
+  /// `matches` split by the cell of their source point, with each group's cluster.
+  std::vector<std::pair<int, std::vector<Correspondence>>> Split(
+      const CameraView& source, const std::vector<Correspondence>& matches) {
+    std::map<int, std::vector<Correspondence>> groups;
     for (const Correspondence& c : matches) {
       const Vec3 p = source.T_world_camera * source.level->points[c.source];
       const std::array<int64_t, 3> key = {static_cast<int64_t>(std::floor(p.x() / kClusterCellM)),
                                           static_cast<int64_t>(std::floor(p.y() / kClusterCellM)),
                                           static_cast<int64_t>(std::floor(p.z() / kClusterCellM))};
-      const int id = ids_.emplace(key, static_cast<int>(ids_.size())).first->second;
-      rows_.insert(rows_.end(), rows_per_correspondence, id);
+      groups[ids_.emplace(key, static_cast<int>(ids_.size())).first->second].push_back(c);
     }
+    return {groups.begin(), groups.end()};
   }
-  /// Rows that form a cluster of their own (a prior).
+  /// `rows` rows of cluster `id` (from Split).
+  void AddRows(int id, int rows) { rows_.insert(rows_.end(), rows, id); }
+  /// Rows that form a cluster of their own (a prior), after the last Split.
   void AddOwnCluster(int rows) {
     rows_.insert(rows_.end(), rows, static_cast<int>(ids_.size()) + own_++);
   }
@@ -136,9 +140,6 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   solver_options.logging_type = ceres::SILENT;
 
   std::unique_ptr<ceres::Problem> problem;
-  // Of the last outer iteration: for the covariance and the weak directions.
-  std::vector<ceres::ResidualBlockId> residual_blocks;
-  RowClusters clusters;
   std::vector<CameraView> views(n);
   std::vector<std::vector<Correspondence>> matches;
   // The weak directions of the connected cameras at the views' poses.
@@ -150,6 +151,39 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
                                                          options.degeneracy_threshold)
                            : std::vector<WeakDirection>();
     }
+  };
+  // The correspondence terms of every pair with enough correspondences, both directions,
+  // into `target`, compressed (CompressedCost): one block per direction, or with `clusters`,
+  // one per direction and cluster. Returns their residual blocks, and the pairs' links.
+  const auto add_pair_terms = [&](ceres::Problem* target, std::vector<std::pair<int, int>>* links,
+                                  RowClusters* clusters) {
+    std::vector<ceres::ResidualBlockId> ids;
+    const auto add = [&](const CameraView& source, const CameraView& target_view,
+                         const std::vector<Correspondence>& m) {
+      const ceres::ResidualBlockId id = AddCorrespondenceTerms(
+          target, options, source, target_view, m, loss.get(), TermStorage::kCompressed);
+      if (id != nullptr) ids.push_back(id);
+      return id;
+    };
+    for (size_t k = 0; k < pairs.size(); ++k) {
+      if (static_cast<size_t>(result.pair_correspondences[k]) < kMinPairCorrespondences) continue;
+      links->emplace_back(pairs[k].a, pairs[k].b);
+      for (size_t d = 0; d < 2; ++d) {
+        const CameraView& source = views[d == 0 ? pairs[k].a : pairs[k].b];
+        const CameraView& target_view = views[d == 0 ? pairs[k].b : pairs[k].a];
+        const std::vector<Correspondence>& m = matches[2 * k + d];
+        if (clusters == nullptr) {
+          add(source, target_view, m);
+          continue;
+        }
+        for (const auto& [cluster, group] : clusters->Split(source, m)) {
+          const ceres::ResidualBlockId id = add(source, target_view, group);
+          if (id == nullptr) continue;
+          clusters->AddRows(cluster, target->GetCostFunctionForResidualBlock(id)->num_residuals());
+        }
+      }
+    }
+    return ids;
   };
   for (size_t s = 0; s < levels; ++s) {
     const double voxel_size = cameras[0].pyramid->levels[s].voxel_size;
@@ -187,27 +221,10 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
           problem->SetParameterBlockConstant(b.data());
         }
       }
-      size_t total = 0;
       std::vector<std::pair<int, int>> links;
-      residual_blocks.clear();
-      clusters = RowClusters();
-      const auto add_terms = [&](const CameraView& source, const CameraView& target,
-                                 const std::vector<Correspondence>& m) {
-        const ceres::ResidualBlockId id =
-            AddCorrespondenceTerms(problem.get(), options, source, target, m, loss.get());
-        if (id == nullptr) return;
-        residual_blocks.push_back(id);
-        const int rows = problem->GetCostFunctionForResidualBlock(id)->num_residuals();
-        clusters.AddCorrespondences(source, m, rows / static_cast<int>(m.size()));
-      };
-      for (size_t k = 0; k < pairs.size(); ++k) {
-        const size_t count = result.pair_correspondences[k];
-        if (count < kMinPairCorrespondences) continue;
-        links.emplace_back(pairs[k].a, pairs[k].b);
-        add_terms(views[pairs[k].a], views[pairs[k].b], matches[2 * k]);
-        add_terms(views[pairs[k].b], views[pairs[k].a], matches[2 * k + 1]);
-        total += count;
-      }
+      add_pair_terms(problem.get(), &links, nullptr);
+      size_t total = 0;
+      for (int count : result.pair_correspondences) total += count;
       result.connected = ConnectedTo(reference, n, links);
       if (options.hold_weak_directions) find_weak_directions();
       for (size_t i = 0; i < n; ++i) {
@@ -227,10 +244,9 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
               nullptr, start_blocks[i].data(), blocks[i].data());
         }
         if (static_cast<int>(i) != reference && options.gravity_weight > 0.0) {
-          ceres::CostFunction* prior =
-              GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight);
-          residual_blocks.push_back(problem->AddResidualBlock(prior, nullptr, blocks[i].data()));
-          clusters.AddOwnCluster(prior->num_residuals());
+          problem->AddResidualBlock(
+              GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
+              nullptr, blocks[i].data());
         }
       }
       problem->SetParameterBlockConstant(blocks[reference].data());
@@ -266,9 +282,28 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     // Without holding, only the end matters: the analysis runs once, at the last
     // iteration's correspondences and poses.
     if (!options.hold_weak_directions) find_weak_directions();
+    // The covariance of the last iteration's terms and priors (not the holding ones: it
+    // reports what the data alone determine) at the final poses, the terms compressed per
+    // cluster: the cluster-robust estimator needs only each cluster's sum of J^T r and the
+    // sum of J^T J, which compression keeps exactly.
+    const std::unique_ptr<ceres::Problem> rows = NewProblem();
+    for (PoseBlock& b : blocks) {
+      rows->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+    }
+    std::vector<std::pair<int, int>> links;
+    RowClusters clusters;
+    std::vector<ceres::ResidualBlockId> residual_blocks =
+        add_pair_terms(rows.get(), &links, &clusters);
     std::vector<bool> free = result.connected;
     free[reference] = false;
-    result.covariance_ok = PoseCovariances(problem.get(), blocks, free, residual_blocks,
+    for (size_t i = 0; i < n; ++i) {
+      if (!free[i] || options.gravity_weight <= 0.0) continue;
+      ceres::CostFunction* prior =
+          GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight);
+      residual_blocks.push_back(rows->AddResidualBlock(prior, nullptr, blocks[i].data()));
+      clusters.AddOwnCluster(prior->num_residuals());
+    }
+    result.covariance_ok = PoseCovariances(rows.get(), blocks, free, residual_blocks,
                                            clusters.rows(), &result.covariance);
   }
   return result;
@@ -295,8 +330,8 @@ Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
   const auto add_terms = [&](const CameraView& source, const CameraView& target) {
     const std::vector<Correspondence> matches = FindCorrespondences(
         source, target, max_distance, options.max_normal_angle_deg, num_threads);
-    const ceres::ResidualBlockId id =
-        AddCorrespondenceTerms(problem.get(), options, source, target, matches, nullptr);
+    const ceres::ResidualBlockId id = AddCorrespondenceTerms(
+        problem.get(), options, source, target, matches, nullptr, TermStorage::kCompressed);
     if (id != nullptr) residual_blocks.push_back(id);
   };
   for (const CandidatePair& pair : pairs) {

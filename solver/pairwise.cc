@@ -82,7 +82,8 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
       problem->AddParameterBlock(source_pose, kPoseAmbientSize, SharedPoseManifold());
       problem->AddParameterBlock(target_pose, kPoseAmbientSize, SharedPoseManifold());
       problem->SetParameterBlockConstant(target_pose);
-      AddCorrespondenceTerms(problem.get(), options, src, tgt, matches, loss.get());
+      AddCorrespondenceTerms(problem.get(), options, src, tgt, matches, loss.get(),
+                             TermStorage::kCompressed);
       if (options.gravity_weight > 0.0) {
         problem->AddResidualBlock(
             GravityPriorCost::Create(source_camera.T_world_camera.linear(), options.gravity_weight),
@@ -119,7 +120,8 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
     problem->AddParameterBlock(source_pose, kPoseAmbientSize, SharedPoseManifold());
     problem->AddParameterBlock(target_pose, kPoseAmbientSize, SharedPoseManifold());
     problem->SetParameterBlockConstant(target_pose);
-    AddCorrespondenceTerms(problem.get(), options, src, tgt, final_matches, nullptr);
+    AddCorrespondenceTerms(problem.get(), options, src, tgt, final_matches, nullptr,
+                           TermStorage::kStacked);
     std::vector<ceres::ResidualBlockId> blocks;
     problem->GetResidualBlocks(&blocks);
     result.information = Information(problem.get(), {source_pose}, blocks);
