@@ -112,10 +112,10 @@ ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options) {
   return nullptr;
 }
 
-ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
-                                              const CameraView& source, const CameraView& target,
-                                              const std::vector<Correspondence>& correspondences,
-                                              ceres::LossFunction* loss, TermStorage storage) {
+std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
+    const IcpOptions& options, const CameraView& source, const CameraView& target,
+    const std::vector<Correspondence>& correspondences, const ceres::LossFunction* loss,
+    TermStorage storage) {
   const ScaleLevel& src = *source.level;
   const ScaleLevel& tgt = *target.level;
   const double k_s2 = source.depth_noise * source.depth_noise;
@@ -137,22 +137,19 @@ ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const Icp
       cost->Add(t, RobustWeight(loss, r, Term::kNumResiduals));
     }
   };
-  const auto add_block = [&](const auto& term) -> ceres::ResidualBlockId {
+  const auto add_block = [&](const auto& term) -> std::unique_ptr<ceres::CostFunction> {
     if (correspondences.empty()) return nullptr;
     using Term = std::decay_t<decltype(term(correspondences.front()))>;
-    ceres::CostFunction* cost = nullptr;
     if (storage == TermStorage::kStacked) {
-      auto* stacked = new StackedCost<Term>;
+      auto stacked = std::make_unique<StackedCost<Term>>();
       stacked->Reserve(correspondences.size());
-      add_terms(stacked, term);
-      cost = stacked;
-    } else {
-      auto* compressed = new CompressedCost<Term>;
-      add_terms(compressed, term);
-      compressed->Compress();
-      cost = compressed;
+      add_terms(stacked.get(), term);
+      return stacked;
     }
-    return problem->AddResidualBlock(cost, nullptr, source.pose_block, target.pose_block);
+    auto compressed = std::make_unique<CompressedCost<Term>>();
+    add_terms(compressed.get(), term);
+    compressed->Compress();
+    return compressed;
   };
   if (options.method == RegistrationMethod::kGicp) {
     // Covariance of a point: in-plane shape + k^2 z^2 p p^T (depth noise along the ray)
@@ -175,6 +172,17 @@ ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const Icp
     return PointToPlaneTerm{src.points[c.source], tgt.points[c.target],
                             tgt.geometry.normals[c.target] / std::sqrt(variance)};
   });
+}
+
+ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
+                                              const CameraView& source, const CameraView& target,
+                                              const std::vector<Correspondence>& correspondences,
+                                              const ceres::LossFunction* loss,
+                                              TermStorage storage) {
+  std::unique_ptr<ceres::CostFunction> cost =
+      CorrespondenceCost(options, source, target, correspondences, loss, storage);
+  if (cost == nullptr) return nullptr;
+  return problem->AddResidualBlock(cost.release(), nullptr, source.pose_block, target.pose_block);
 }
 
 std::unique_ptr<ceres::Problem> NewProblem() {

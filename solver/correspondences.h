@@ -73,19 +73,27 @@ enum class TermStorage {
   kCompressed,
 };
 
-/// Adds the terms of the correspondences (point-to-plane or GICP, per options.method)
-/// between the pose blocks of the source and target cameras, each whitened by the depth
-/// noise model of both points (docs/residuals.md, "Weights"): a depth error moves a point
-/// along its ray, so a point p at depth z has covariance k^2 z^2 p p^T in its camera frame,
-/// plus the plane-error share (plane_noise_share k z^2)^2 and min_noise_m^2 per residual.
-/// GICP weights use the poses of the views. All of them go into ONE residual block, stored
-/// as `storage` says, `loss` entering as iteratively reweighted least squares at the
-/// current values of the pose blocks. The problem owns the cost functions, the caller
-/// `loss`. Returns the residual block (nullptr when there are no correspondences).
+/// The terms of the correspondences (point-to-plane or GICP, per options.method) between
+/// the pose blocks of the source and target cameras, each whitened by the depth noise model
+/// of both points (docs/residuals.md, "Weights"): a depth error moves a point along its ray,
+/// so a point p at depth z has covariance k^2 z^2 p p^T in its camera frame, plus the
+/// plane-error share (plane_noise_share k z^2)^2 and min_noise_m^2 per residual. GICP
+/// weights use the poses of the views. All of them form ONE cost function over the blocks
+/// (source.pose_block, target.pose_block), stored as `storage` says, `loss` entering as
+/// iteratively reweighted least squares at the current values of the pose blocks. Null
+/// when there are no correspondences. Reads only, so calls may run concurrently.
+std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
+    const IcpOptions& options, const CameraView& source, const CameraView& target,
+    const std::vector<Correspondence>& correspondences, const ceres::LossFunction* loss,
+    TermStorage storage);
+
+/// Adds CorrespondenceCost(...) to `problem` between the views' pose blocks (the problem
+/// owns it, the caller `loss`). Returns the residual block (nullptr when there are no
+/// correspondences).
 ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
                                               const CameraView& source, const CameraView& target,
                                               const std::vector<Correspondence>& correspondences,
-                                              ceres::LossFunction* loss, TermStorage storage);
+                                              const ceres::LossFunction* loss, TermStorage storage);
 
 /// A problem that does not own loss functions or manifolds (they are shared by many
 /// blocks and owned by the caller), but owns cost functions.

@@ -6,11 +6,13 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <map>
 #include <memory>
 #include <sstream>
 
 #include "core/geometry.h"
+#include "core/parallel.h"
 #include "core/stopwatch.h"
 #include "residuals/gravity_prior.h"
 #include "residuals/relative_pose.h"
@@ -154,34 +156,52 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   };
   // The correspondence terms of every pair with enough correspondences, both directions,
   // into `target`, compressed (CompressedCost): one block per direction, or with `clusters`,
-  // one per direction and cluster. Returns their residual blocks, and the pairs' links.
+  // one per direction and cluster, built in parallel. Returns their residual blocks, and
+  // the pairs' links.
   const auto add_pair_terms = [&](ceres::Problem* target, std::vector<std::pair<int, int>>* links,
                                   RowClusters* clusters) {
-    std::vector<ceres::ResidualBlockId> ids;
-    const auto add = [&](const CameraView& source, const CameraView& target_view,
-                         const std::vector<Correspondence>& m) {
-      const ceres::ResidualBlockId id = AddCorrespondenceTerms(
-          target, options, source, target_view, m, loss.get(), TermStorage::kCompressed);
-      if (id != nullptr) ids.push_back(id);
-      return id;
+    struct Block {
+      const CameraView* source;
+      const CameraView* target;
+      const std::vector<Correspondence>* matches;
+      int cluster;
     };
+    std::vector<Block> blocks_to_add;
+    std::deque<std::vector<Correspondence>> groups;  // the clusters' matches (stable addresses)
     for (size_t k = 0; k < pairs.size(); ++k) {
       if (static_cast<size_t>(result.pair_correspondences[k]) < kMinPairCorrespondences) continue;
       links->emplace_back(pairs[k].a, pairs[k].b);
       for (size_t d = 0; d < 2; ++d) {
-        const CameraView& source = views[d == 0 ? pairs[k].a : pairs[k].b];
-        const CameraView& target_view = views[d == 0 ? pairs[k].b : pairs[k].a];
+        const CameraView* source = &views[d == 0 ? pairs[k].a : pairs[k].b];
+        const CameraView* target_view = &views[d == 0 ? pairs[k].b : pairs[k].a];
         const std::vector<Correspondence>& m = matches[2 * k + d];
         if (clusters == nullptr) {
-          add(source, target_view, m);
+          blocks_to_add.push_back({source, target_view, &m, -1});
           continue;
         }
-        for (const auto& [cluster, group] : clusters->Split(source, m)) {
-          const ceres::ResidualBlockId id = add(source, target_view, group);
-          if (id == nullptr) continue;
-          clusters->AddRows(cluster, target->GetCostFunctionForResidualBlock(id)->num_residuals());
+        for (auto& [cluster, group] : clusters->Split(*source, m)) {
+          groups.push_back(std::move(group));
+          blocks_to_add.push_back({source, target_view, &groups.back(), cluster});
         }
       }
+    }
+    std::vector<std::unique_ptr<ceres::CostFunction>> costs(blocks_to_add.size());
+    ParallelFor(
+        static_cast<int>(blocks_to_add.size()), num_threads,
+        [&](int b) {
+          costs[b] =
+              CorrespondenceCost(options, *blocks_to_add[b].source, *blocks_to_add[b].target,
+                                 *blocks_to_add[b].matches, loss.get(), TermStorage::kCompressed);
+        },
+        /*min_per_thread=*/1);
+    std::vector<ceres::ResidualBlockId> ids;
+    for (size_t b = 0; b < costs.size(); ++b) {
+      if (costs[b] == nullptr) continue;
+      const int rows = costs[b]->num_residuals();
+      ids.push_back(target->AddResidualBlock(costs[b].release(), nullptr,
+                                             blocks_to_add[b].source->pose_block,
+                                             blocks_to_add[b].target->pose_block));
+      if (clusters != nullptr) clusters->AddRows(blocks_to_add[b].cluster, rows);
     }
     return ids;
   };
