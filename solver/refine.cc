@@ -1,5 +1,6 @@
 #include "solver/refine.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -9,6 +10,7 @@
 
 #include "core/format.h"
 #include "core/geometry.h"
+#include "core/parallel.h"
 #include "core/stopwatch.h"
 #include "residuals/relative_pose.h"
 #include "solver/correspondences.h"
@@ -211,17 +213,24 @@ PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
   rig.pyramids.resize(n);
   rig.band_points.resize(n);
   std::vector<GroundBox> boxes(n);
-  for (size_t i = 0; i < n; ++i) {
-    const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
-    rig.band_points[i] = static_cast<int>(band.size());
-    boxes[i] = RobustGroundBox(Transform(leveled[i], band));
-    rig.pyramids[i] =
-        BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(), num_threads);
-    if (floor_leveled[i]) {
-      SnapFloorNormals(&rig.pyramids[i],
-                       FloorModel{leveled[i], depth_noise[i], options.ground.ransac_distance_m});
-    }
-  }
+  // The cameras in parallel, the threads left over within each camera: downsampling and
+  // tree building run on one thread per camera.
+  const int camera_threads = std::max(1, std::min(static_cast<int>(n), num_threads));
+  const int threads_per_camera = std::max(1, num_threads / camera_threads);
+  ParallelFor(
+      static_cast<int>(n), camera_threads,
+      [&](int i) {
+        const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
+        rig.band_points[i] = static_cast<int>(band.size());
+        boxes[i] = RobustGroundBox(Transform(leveled[i], band));
+        rig.pyramids[i] = BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors,
+                                       Vec3::Zero(), threads_per_camera);
+        if (floor_leveled[i]) {
+          SnapFloorNormals(&rig.pyramids[i], FloorModel{leveled[i], depth_noise[i],
+                                                        options.ground.ransac_distance_m});
+        }
+      },
+      /*min_per_thread=*/1);
   rig.candidates =
       FindCandidatePairs(boxes, options.icp.overlap_margin, options.icp.min_overlap_area);
   return rig;
