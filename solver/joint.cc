@@ -299,6 +299,7 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     if (result.connected[i]) result.poses[i] = PoseFromParameters(blocks[i].data());
   }
   if (problem != nullptr) {
+    const auto start = std::chrono::steady_clock::now();
     // Without holding, only the end matters: the analysis runs once, at the last
     // iteration's correspondences and poses.
     if (!options.hold_weak_directions) find_weak_directions();
@@ -325,6 +326,7 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     }
     result.covariance_ok = PoseCovariances(rows.get(), blocks, free, residual_blocks,
                                            clusters.rows(), &result.covariance);
+    result.covariance_s = SecondsSince(start);
   }
   return result;
 }

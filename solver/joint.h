@@ -38,7 +38,7 @@ struct JointResult {
   std::vector<std::vector<WeakDirection>> weak;
   double correspondences_s = 0.0;  ///< time spent searching correspondences
   double solve_s = 0.0;            ///< time spent building and solving problems
-  double covariance_s = 0.0;       ///< time spent on the covariance
+  double covariance_s = 0.0;       ///< time spent on the covariance and the weak directions
 };
 
 /// Refines every camera connected to `reference` jointly. Never throws on bad geometry.
