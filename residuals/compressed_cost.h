@@ -7,13 +7,13 @@
 //
 //   sum_k |r_k|^2 = theta^T M theta,   M = sum_k w_k^2 Phi_k^T Phi_k   (D x D, D = kFeatureSize)
 //
-// (Term::AddNormal adds a term's w_k^2 Phi_k^T Phi_k)
-// and with M = V Lambda V^T, the D residuals e = Lambda^1/2 V^T theta have the same squared
-// norm, the same gradient J_e^T e = sum_k J_k^T r_k and the same Gauss-Newton matrix
-// J_e^T J_e = sum_k J_k^T J_k as the stack, at every pose. The solver therefore takes the
-// same steps, but evaluates D residuals per camera pair instead of one row per
-// correspondence. What it loses is the rows themselves: statistics over the correspondences
-// (residual variance, clusters) need StackedCost.
+// (Term::AddNormal adds one term's w_k^2 Phi_k^T Phi_k), and with M = V Lambda V^T the D
+// residuals e = Lambda^1/2 V^T theta have the same squared norm, the same gradient
+// J_e^T e = sum_k J_k^T r_k and the same Gauss-Newton matrix J_e^T J_e = sum_k J_k^T J_k as
+// the stack, at every pose. The solver therefore takes the same steps, but evaluates D
+// residuals per camera pair instead of one row per correspondence. What it loses is the
+// rows themselves: a residual variance needs their number (StackedCost), and sums over a
+// subset of them (a cluster) need a block of their own.
 //
 // Build it with Add for every term, then Compress once, before the solver evaluates it.
 #pragma once

@@ -62,10 +62,10 @@ double PointToPlaneVariance(const CameraView& source, const CameraView& target,
 /// The robust loss of the options on whitened residuals (nullptr for none).
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
 
-/// How AddCorrespondenceTerms stores the terms of a camera pair in its residual block.
+/// How CorrespondenceCost stores the terms of a camera pair.
 enum class TermStorage {
   /// StackedCost: one row (point-to-plane) or three (GICP) per correspondence, in order.
-  /// For what needs the rows: residual variance, clusters.
+  /// For what needs the rows, such as a residual variance.
   kStacked,
   /// CompressedCost: the same cost, gradient and Gauss-Newton matrix at every pose in
   /// 13 (point-to-plane) or 24 (GICP) rows, whatever the number of correspondences. For
