@@ -73,9 +73,13 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
   return out;
 }
 
-bool StepConverged(const Vec6& step, double voxel_size) {
+bool StepConverged(const Vec6& step, double voxel_size, bool finest) {
+  // A coarser scale only has to bring the cameras well inside the next scale's
+  // correspondence distance: 0.05 of its own voxel against 1.4 of the next one's (half as
+  // large by default) is 14 times inside.
   constexpr double kConvergedStepVoxels = 0.01;
-  const double limit = kConvergedStepVoxels * voxel_size;
+  constexpr double kCoarseConvergedStepVoxels = 0.05;
+  const double limit = (finest ? kConvergedStepVoxels : kCoarseConvergedStepVoxels) * voxel_size;
   constexpr double kLeverM = 1.0;  // rotation as arc length at this radius
   return step.head<3>().norm() * kLeverM < limit && step.tail<3>().norm() < limit;
 }

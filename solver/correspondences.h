@@ -46,11 +46,12 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
 
 /// Whether an outer ICP iteration (correspondences found, then the poses solved with them
 /// fixed) has converged at a scale: its pose step, PoseDifference(before, after), moved the
-/// camera by less than 0.01 voxel_size (0.2 mm at a 2 cm voxel), translation in metres and
-/// rotation as arc length at 1 m. Re-found correspondences of noisy points keep moving the
-/// optimum a little at every iteration; steps this small are far below the scale's
-/// resolution (docs/benchmarks.md).
-bool StepConverged(const Vec6& step, double voxel_size);
+/// camera by less than 0.01 voxel_size at the finest scale (0.2 mm at a 2 cm voxel) and
+/// 0.05 voxel_size at a coarser one, which only has to hand over well inside the next
+/// scale's correspondence distance; translation in metres, rotation as arc length at 1 m.
+/// Re-found correspondences of noisy points keep moving the optimum a little at every
+/// iteration; steps this small are far below the scale's resolution (docs/benchmarks.md).
+bool StepConverged(const Vec6& step, double voxel_size, bool finest);
 
 /// Variance (m^2) of the point-to-plane residual n . (T_s p - T_t q) of a correspondence
 /// under the depth noise model of both views (docs/residuals.md, "Weights"): each point's

@@ -285,7 +285,7 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
         const Vec6 step = PoseDifference(current[i], PoseFromParameters(blocks[i].data()));
         max_rotation = std::max(max_rotation, step.head<3>().norm());
         max_translation = std::max(max_translation, step.tail<3>().norm());
-        converged = converged && StepConverged(step, voxel_size);
+        converged = converged && StepConverged(step, voxel_size, s + 1 == levels);
       }
       std::ostringstream m;
       m << "joint: voxel " << voxel_size << " iteration " << it << ": " << total

@@ -96,7 +96,7 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
       log.Debug("  voxel " + std::to_string(source.levels[s].voxel_size) + " iteration " +
                 std::to_string(it) + ": " + std::to_string(matches.size()) +
                 " correspondences, cost " + std::to_string(summary.final_cost));
-      if (StepConverged(step, source.levels[s].voxel_size)) break;
+      if (StepConverged(step, source.levels[s].voxel_size, s == finest)) break;
     }
   }
 

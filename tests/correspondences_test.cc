@@ -55,5 +55,19 @@ TEST(FindCorrespondences, NoNoiseWidensTheCheckBeyondSixtyDegrees) {
   EXPECT_FALSE(Pairs(3.0, 90.0, 1.0));
 }
 
+TEST(StepConverged, CoarseScalesStopAtAFifthOfTheFinestScalesPrecision) {
+  // At a 2 cm voxel the finest scale stops below 0.2 mm (and 0.2 mrad), a coarser one
+  // below 1 mm (and 1 mrad).
+  const auto step = [](double rotation_rad, double translation_m) {
+    return (Vec6() << 0.0, rotation_rad, 0.0, translation_m, 0.0, 0.0).finished();
+  };
+  EXPECT_TRUE(StepConverged(step(0.0, 0.00015), 0.02, /*finest=*/true));
+  EXPECT_FALSE(StepConverged(step(0.0, 0.00025), 0.02, /*finest=*/true));
+  EXPECT_FALSE(StepConverged(step(0.00025, 0.0), 0.02, /*finest=*/true));
+  EXPECT_TRUE(StepConverged(step(0.0009, 0.0009), 0.02, /*finest=*/false));
+  EXPECT_FALSE(StepConverged(step(0.0, 0.0011), 0.02, /*finest=*/false));
+  EXPECT_FALSE(StepConverged(step(0.0011, 0.0), 0.02, /*finest=*/false));
+}
+
 }  // namespace
 }  // namespace rigfit
