@@ -154,12 +154,14 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
                            : std::vector<WeakDirection>();
     }
   };
-  // The correspondence terms of every pair with enough correspondences, both directions,
-  // into `target`, compressed (CompressedCost): one block per direction, or with `clusters`,
-  // one per direction and cluster, built in parallel. Returns their residual blocks, and
-  // the pairs' links.
-  const auto add_pair_terms = [&](ceres::Problem* target, std::vector<std::pair<int, int>>* links,
-                                  RowClusters* clusters) {
+  // Whether pair k has enough correspondences to link its cameras in this iteration.
+  const auto linked = [&](size_t k) {
+    return static_cast<size_t>(result.pair_correspondences[k]) >= kMinPairCorrespondences;
+  };
+  // The correspondence terms of every linked pair, both directions, into `target`,
+  // compressed (CompressedCost): one block per direction, or with `clusters`, one per
+  // direction and cluster, built in parallel. Returns their residual blocks.
+  const auto add_pair_terms = [&](ceres::Problem* target, RowClusters* clusters) {
     struct Block {
       const CameraView* source;
       const CameraView* target;
@@ -169,8 +171,7 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     std::vector<Block> blocks_to_add;
     std::deque<std::vector<Correspondence>> groups;  // the clusters' matches (stable addresses)
     for (size_t k = 0; k < pairs.size(); ++k) {
-      if (static_cast<size_t>(result.pair_correspondences[k]) < kMinPairCorrespondences) continue;
-      links->emplace_back(pairs[k].a, pairs[k].b);
+      if (!linked(k)) continue;
       for (size_t d = 0; d < 2; ++d) {
         const CameraView* source = &views[d == 0 ? pairs[k].a : pairs[k].b];
         const CameraView* target_view = &views[d == 0 ? pairs[k].b : pairs[k].a];
@@ -241,10 +242,14 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
           problem->SetParameterBlockConstant(b.data());
         }
       }
-      std::vector<std::pair<int, int>> links;
-      add_pair_terms(problem.get(), &links, nullptr);
+      add_pair_terms(problem.get(), nullptr);
       size_t total = 0;
-      for (int count : result.pair_correspondences) total += count;
+      std::vector<std::pair<int, int>> links;
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        if (!linked(k)) continue;
+        links.emplace_back(pairs[k].a, pairs[k].b);
+        total += result.pair_correspondences[k];
+      }
       result.connected = ConnectedTo(reference, n, links);
       if (options.hold_weak_directions) find_weak_directions();
       for (size_t i = 0; i < n; ++i) {
@@ -311,10 +316,8 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     for (PoseBlock& b : blocks) {
       rows->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
     }
-    std::vector<std::pair<int, int>> links;
     RowClusters clusters;
-    std::vector<ceres::ResidualBlockId> residual_blocks =
-        add_pair_terms(rows.get(), &links, &clusters);
+    std::vector<ceres::ResidualBlockId> residual_blocks = add_pair_terms(rows.get(), &clusters);
     std::vector<bool> free = result.connected;
     free[reference] = false;
     for (size_t i = 0; i < n; ++i) {
