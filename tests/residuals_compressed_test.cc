@@ -68,13 +68,7 @@ void ExpectFeaturesMatchAutodiff() {
   const FeaturesCost<Term> analytic;
   ceres::AutoDiffCostFunction<Functor, Term::kFeatureSize, kPoseAmbientSize, kPoseAmbientSize>
       autodiff(new Functor);
-  for (const auto& [a, b] : TestPosePairs()) {
-    const PoseBlock x_a = ToBlock(a.T), x_b = ToBlock(b.T);
-    const std::vector<const double*> parameters = {x_a.data(), x_b.data()};
-    SCOPED_TRACE(a.name + " | " + b.name);
-    ExpectAnalyticMatchesAutodiff(analytic, autodiff, parameters);
-    ExpectGradientCheckPasses(analytic, parameters);
-  }
+  for (const auto& [a, b] : TestPosePairs()) ExpectProvenAt(analytic, autodiff, a, b);
 }
 
 TEST(CompressedCost, PointToPlaneFeaturesMatchAutodiffAndPassTheGradientCheck) {
@@ -172,33 +166,36 @@ std::vector<std::pair<Pose, Pose>> ComparisonPoses(const RigScene& s, std::mt199
   return poses;
 }
 
-TEST(CompressedCost, PointToPlaneEqualsItsStackToRounding) {
-  std::mt19937 rng(5);
+/// ExpectCompressionIsExact on 2000 terms of a rig scene made with `seed`: make(scene, k,
+/// sigma) gives correspondence k's term, sigma its noise, drawn in 1-20 mm; weights in
+/// [0.2, 1].
+template <class Term, class Make>
+void ExpectRigSceneCompressionIsExact(unsigned seed, Make make) {
+  std::mt19937 rng(seed);
   const RigScene s = MakeRigScene(rng, 2000);
   std::uniform_real_distribution<double> sigma(1e-3, 2e-2), weight(0.2, 1.0);
-  std::vector<PointToPlaneTerm> terms;
+  std::vector<Term> terms;
   std::vector<double> weights;
   for (size_t k = 0; k < s.p.size(); ++k) {
-    terms.push_back({s.p[k], s.q[k], s.n[k] / sigma(rng)});
+    terms.push_back(make(s, k, sigma(rng)));
     weights.push_back(weight(rng));
   }
   ExpectCompressionIsExact(terms, weights, ComparisonPoses(s, rng), 1e-7);
 }
 
+TEST(CompressedCost, PointToPlaneEqualsItsStackToRounding) {
+  ExpectRigSceneCompressionIsExact<PointToPlaneTerm>(
+      5, [](const RigScene& s, size_t k, double sigma) {
+        return PointToPlaneTerm{s.p[k], s.q[k], s.n[k] / sigma};
+      });
+}
+
 TEST(CompressedCost, GicpEqualsItsStackToRounding) {
-  std::mt19937 rng(6);
-  const RigScene s = MakeRigScene(rng, 2000);
-  std::uniform_real_distribution<double> sigma(1e-3, 2e-2), weight(0.2, 1.0);
-  std::vector<GicpTerm> terms;
-  std::vector<double> weights;
-  for (size_t k = 0; k < s.p.size(); ++k) {
+  ExpectRigSceneCompressionIsExact<GicpTerm>(6, [](const RigScene& s, size_t k, double sigma) {
     // A plane-like covariance: 1 m^2 in the plane, sigma^2 along the normal.
-    const double s2 = std::pow(sigma(rng), 2);
-    const Mat3 C = Mat3::Identity() - (1.0 - s2) * s.n[k] * s.n[k].transpose();
-    terms.push_back(GicpCost::MakeTerm(s.p[k], s.q[k], C, C, s.T_a.linear(), s.T_b.linear()));
-    weights.push_back(weight(rng));
-  }
-  ExpectCompressionIsExact(terms, weights, ComparisonPoses(s, rng), 1e-7);
+    const Mat3 C = Mat3::Identity() - (1.0 - sigma * sigma) * s.n[k] * s.n[k].transpose();
+    return GicpCost::MakeTerm(s.p[k], s.q[k], C, C, s.T_a.linear(), s.T_b.linear());
+  });
 }
 
 TEST(CompressedCost, PassesTheGradientCheck) {

@@ -55,11 +55,7 @@ void ExpectStackMatchesItsTerms(Make make) {
     autodiff.SetNumResiduals(kTerms * Term::kNumResiduals);
     ASSERT_EQ(analytic.size(), static_cast<size_t>(kTerms));
     ASSERT_EQ(analytic.num_residuals(), kTerms * Term::kNumResiduals);
-    const PoseBlock x_a = ToBlock(a.T), x_b = ToBlock(b.T);
-    const std::vector<const double*> parameters = {x_a.data(), x_b.data()};
-    SCOPED_TRACE(a.name + " | " + b.name);
-    ExpectAnalyticMatchesAutodiff(analytic, autodiff, parameters);
-    ExpectGradientCheckPasses(analytic, parameters);
+    ExpectProvenAt(analytic, autodiff, a, b);
   }
 }
 

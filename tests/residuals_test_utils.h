@@ -210,4 +210,15 @@ inline void ExpectGradientCheckPasses(const ceres::CostFunction& cost,
   }
 }
 
+/// Both proofs of a two-block cost at a pose pair (named in the failure trace): the
+/// analytic cost against its autodiff reference, and against GradientChecker.
+inline void ExpectProvenAt(const ceres::CostFunction& analytic, const ceres::CostFunction& autodiff,
+                           const NamedPose& a, const NamedPose& b) {
+  const PoseBlock x_a = ToBlock(a.T), x_b = ToBlock(b.T);
+  const std::vector<const double*> parameters = {x_a.data(), x_b.data()};
+  SCOPED_TRACE(a.name + " | " + b.name);
+  ExpectAnalyticMatchesAutodiff(analytic, autodiff, parameters);
+  ExpectGradientCheckPasses(analytic, parameters);
+}
+
 }  // namespace rigfit::testing
