@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "bench_util.h"
 #include "core/geometry.h"
 #include "io/config_yaml.h"
 #include "sim/simulate_rig.h"
@@ -15,6 +16,7 @@
 
 int main(int argc, char** argv) {
   using namespace rigfit;
+  using bench::kRadToDeg;
   CLI::App app{"Single camera pairs of simulated rigs registered from the true poses"};
   SimOptions sim;
   int first_seed = 0, seeds = 3;
@@ -75,8 +77,8 @@ int main(int argc, char** argv) {
         if (verbose) {
           std::printf(
               "seed %d %zu <- %zu: %.4f deg (yaw %.4f), %.2f mm (world x %.2f y %.2f z %.2f)\n",
-              seed, b, a, d.head<3>().norm() * 180.0 / M_PI, d(1) * 180.0 / M_PI, t * 1e3,
-              d(3) * 1e3, d(4) * 1e3, d(5) * 1e3);
+              seed, b, a, d.head<3>().norm() * kRadToDeg, d(1) * kRadToDeg, t * 1e3, d(3) * 1e3,
+              d(4) * 1e3, d(5) * 1e3);
         }
       }
     }
@@ -85,7 +87,7 @@ int main(int argc, char** argv) {
       "noise %g on %s%s, seeds %d..%d: %d pairs refined (%d not), RMS error %.4f deg, "
       "%.2f mm (worst %.2f mm)\n",
       sim.noise, noisy.c_str(), same_view ? " (same view)" : "", first_seed, first_seed + seeds - 1,
-      runs, failures, runs ? std::sqrt(sum_r2 / runs) * 180.0 / M_PI : 0.0,
+      runs, failures, runs ? std::sqrt(sum_r2 / runs) * kRadToDeg : 0.0,
       runs ? std::sqrt(sum_t2 / runs) * 1e3 : 0.0, worst_t * 1e3);
   return 0;
 }
