@@ -208,13 +208,21 @@ OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
   const size_t n = source.level->points.size();
   if (n == 0) return stats;
   const double factor = options.max_correspondence_distance_factor;
-  stats.fitness =
-      static_cast<double>(FindCorrespondences(source, target, factor * coarsest_voxel_size,
-                                              kAnyNormalAngleDeg, num_threads)
-                              .size()) /
-      n;
-  stats.rmse_m = CorrespondenceRmse(FindCorrespondences(
-      source, target, factor * source.level->voxel_size, kAnyNormalAngleDeg, num_threads));
+  const double fit_distance = factor * source.level->voxel_size;
+  // One search at the wider distance serves both: a point's nearest neighbour within the
+  // narrower one is its nearest neighbour within the wider one, when that is close enough.
+  const std::vector<Correspondence> matches = FindCorrespondences(
+      source, target, factor * std::max(coarsest_voxel_size, source.level->voxel_size),
+      kAnyNormalAngleDeg, num_threads);
+  stats.fitness = static_cast<double>(matches.size()) / n;
+  double sum = 0.0;
+  int fits = 0;
+  for (const Correspondence& c : matches) {
+    if (c.squared_distance >= fit_distance * fit_distance) continue;
+    sum += c.squared_distance;
+    ++fits;
+  }
+  stats.rmse_m = fits > 0 ? std::sqrt(sum / fits) : 0.0;
   return stats;
 }
 
@@ -299,13 +307,6 @@ Eigen::MatrixXd ClusterRobustCovariance(ceres::Problem* problem, const std::vect
   Eigen::MatrixXd covariance = H_plus * meat * H_plus;
   if (!covariance.allFinite()) return {};
   return covariance;
-}
-
-double CorrespondenceRmse(const std::vector<Correspondence>& correspondences) {
-  if (correspondences.empty()) return 0.0;
-  double sum = 0.0;
-  for (const Correspondence& c : correspondences) sum += c.squared_distance;
-  return std::sqrt(sum / correspondences.size());
 }
 
 }  // namespace rigfit

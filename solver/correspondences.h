@@ -138,7 +138,4 @@ Eigen::MatrixXd ClusterRobustCovariance(ceres::Problem* problem, const std::vect
                                         const std::vector<ceres::ResidualBlockId>& residual_blocks,
                                         const std::vector<int>& row_cluster);
 
-/// Root mean square of the correspondence distances (m); 0 when there are none.
-double CorrespondenceRmse(const std::vector<Correspondence>& correspondences);
-
 }  // namespace rigfit

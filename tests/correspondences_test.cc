@@ -69,5 +69,43 @@ TEST(StepConverged, CoarseScalesStopAtAFifthOfTheFinestScalesPrecision) {
   EXPECT_FALSE(StepConverged(step(0.0011, 0.0), 0.02, /*finest=*/false));
 }
 
+/// A level of the given points at the finest voxel (2 cm), every normal facing the camera.
+ScaleLevel FacingLevel(const PointCloud& points) {
+  ScaleLevel level;
+  level.voxel_size = 0.02;
+  level.normal_support = 0.05;
+  level.points = points;
+  level.tree = std::make_unique<KdTree>(level.points);
+  level.geometry.normals.assign(points.size(), Vec3(0.0, 0.0, -1.0));
+  level.geometry.covariances.assign(points.size(), Mat3::Identity());
+  level.geometry.planarity.assign(points.size(), 1.0);
+  return level;
+}
+
+TEST(MeasureOverlap, FitnessWithinTheCoarsestScalesDistanceRmseWithinTheViewsOwn) {
+  // The target: a 2 cm grid on the wall z = 2. The source: points in front of grid points
+  // at distances inside the finest scale's correspondence distance (1.4 x 2 cm), inside
+  // only the coarsest one's (1.4 x 8 cm) and beyond both.
+  PointCloud grid;
+  for (int i = -10; i <= 10; ++i) {
+    for (int j = -10; j <= 10; ++j) grid.emplace_back(0.02 * i, 0.02 * j, 2.0);
+  }
+  const std::vector<double> gaps = {0.01, 0.02, 0.05, 0.1, 0.2};
+  PointCloud in_front;
+  for (size_t i = 0; i < gaps.size(); ++i) in_front.emplace_back(0.04 * i, 0.0, 2.0 - gaps[i]);
+  const ScaleLevel target = FacingLevel(grid);
+  const ScaleLevel source = FacingLevel(in_front);
+  const CameraView s{&source, Pose::Identity(), nullptr, 0.0};
+  const CameraView t{&target, Pose::Identity(), nullptr, 0.0};
+  const OverlapStats stats = MeasureOverlap(s, t, 0.08, IcpOptions(), 2);
+  EXPECT_DOUBLE_EQ(stats.fitness, 4.0 / 5.0);
+  EXPECT_NEAR(stats.rmse_m, std::sqrt((0.01 * 0.01 + 0.02 * 0.02) / 2.0), 1e-12);
+  // No source point near the target: no fitness, no RMSE.
+  const ScaleLevel far = FacingLevel({Vec3(0.0, 0.0, 1.0)});
+  const CameraView f{&far, Pose::Identity(), nullptr, 0.0};
+  EXPECT_EQ(MeasureOverlap(f, t, 0.08, IcpOptions(), 1).fitness, 0.0);
+  EXPECT_EQ(MeasureOverlap(f, t, 0.08, IcpOptions(), 1).rmse_m, 0.0);
+}
+
 }  // namespace
 }  // namespace rigfit
