@@ -56,7 +56,7 @@ struct PairReport {
 struct StageTimes {
   double leveling_s = 0.0;
   double preprocessing_s = 0.0;
-  double registration_s = 0.0;     ///< correspondences and solves (ICP or joint)
+  double registration_s = 0.0;     ///< correspondences, solves and the pairs' fit metrics
   double correspondences_s = 0.0;  ///< of which correspondence search (joint mode)
   double solve_s = 0.0;            ///< of which building and solving the problem (joint)
   double pose_graph_s = 0.0;
