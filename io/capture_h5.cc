@@ -434,6 +434,21 @@ void ReadIntrinsics(hid_t group, CameraCapture& camera, const Context& where) {
   camera.intrinsics = {K(0, 0), K(1, 1), K(0, 2), K(1, 2)};
 }
 
+/// Fails on the first vector (row of points, normals) that is not finite or is longer than
+/// max_norm.
+void CheckVectors(const PointCloud& vectors, const std::string& name, double max_norm,
+                  const Context& where) {
+  for (size_t i = 0; i < vectors.size(); ++i) {
+    if (!vectors[i].allFinite()) where.Fail(name, "row " + std::to_string(i) + " is not finite");
+    if (vectors[i].norm() > max_norm) {
+      std::ostringstream what;
+      what << "row " << i << " has length " << vectors[i].norm() << ", beyond " << max_norm
+           << (name == "points" ? " m from the camera: points must be in metres" : "");
+      where.Fail(name, what.str());
+    }
+  }
+}
+
 /// An [N, 3] float dataset of finite values (points, normals), each no longer than max_norm.
 PointCloud ReadVectors(hid_t group, const std::string& name, double max_norm,
                        const Context& where) {
@@ -445,14 +460,8 @@ PointCloud ReadVectors(hid_t group, const std::string& name, double max_norm,
   PointCloud vectors(d.dims[0]);
   for (size_t i = 0; i < vectors.size(); ++i) {
     vectors[i] = Vec3(raw[3 * i], raw[3 * i + 1], raw[3 * i + 2]);
-    if (!vectors[i].allFinite()) where.Fail(name, "row " + std::to_string(i) + " is not finite");
-    if (vectors[i].norm() > max_norm) {
-      std::ostringstream what;
-      what << "row " << i << " has length " << vectors[i].norm() << ", beyond " << max_norm
-           << (name == "points" ? " m from the camera: points must be in metres" : "");
-      where.Fail(name, what.str());
-    }
   }
+  CheckVectors(vectors, name, max_norm, where);
   return vectors;
 }
 
@@ -606,10 +615,14 @@ void CheckWritable(const RigCapture& capture, const CaptureWriteOptions& options
         where.Fail("color", "size does not match the depth image (3 bytes per pixel)");
       }
       if (!camera.normals.empty()) where.Fail("normals", "only allowed beside points");
+      // What ReadCapture would reject is not written.
+      CheckDepthRange(camera.depth_m, camera, 1, where);
     } else {
       if (!camera.normals.empty() && camera.normals.size() != camera.points.size()) {
         where.Fail("normals", "size does not match points");
       }
+      CheckVectors(camera.points, "points", kMaxRangeM, where);
+      CheckVectors(camera.normals, "normals", std::numeric_limits<double>::infinity(), where);
       if (!camera.confidence.empty() || !camera.color.empty()) {
         where.Fail("", "confidence and color are only allowed beside depth");
       }

@@ -44,7 +44,8 @@ struct CaptureWriteOptions {
 /// (+ normals) float32 [N, 3]; confidence float32 and color uint8 [H, W, 3] when present.
 /// Datasets are chunked and compressed (shuffle + deflate level 1) when the library supports
 /// it. Atomic (temporary file + rename). Throws InputError naming the file and camera if the
-/// capture is not writable as the contract (sizes, serials, depth beyond the uint16 range).
+/// capture is not writable as the contract (sizes, serials, depth beyond the uint16 range) or
+/// would not read back (depths or points beyond 1 km, points or normals not finite).
 void WriteCapture(const std::string& path, const RigCapture& capture,
                   const CaptureWriteOptions& options = {});
 

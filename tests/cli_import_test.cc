@@ -132,6 +132,18 @@ TEST_F(CliImportTest, MissingOrBrokenFileIsNamed) {
                  empty + ": no points");
 }
 
+TEST_F(CliImportTest, CloudsInMillimetresAreRefused) {
+  // A cloud in millimetres: its points lie kilometres away, which no capture may hold.
+  PlyCloud millimetres = Grid(3, 0.0, false);
+  for (Vec3& p : millimetres.points) p *= 1000.0;
+  WritePly(Path("mm.ply"), millimetres);
+  WritePly(Path("a.ply"), Grid(3, 0.0, false));
+  ExpectBadInput(
+      RunRigfit({"import-ply", "--out", Out(), "s1=" + Path("a.ply"), "s2=" + Path("mm.ply")},
+                dir_),
+      "camera s2: points: row 0 has length 2061.55, beyond 1000 m from the camera");
+}
+
 TEST_F(CliImportTest, ExistingOutputIsReplacedOnlyWithForce) {
   WritePly(Path("a.ply"), Grid(3, 0.0, false));
   WriteText(Out(), "previous");

@@ -297,6 +297,43 @@ TEST_F(CaptureTest, FailedWriteKeepsThePreviousFileAndLeavesNoTemporary) {
   EXPECT_THAT(Listing(), ElementsAre("capture.h5"));
 }
 
+TEST_F(CaptureTest, WhatWouldNotReadBackIsNotWritten) {
+  std::mt19937 rng(2);
+  const std::string path = Path("capture.h5");
+  const auto refused = [&](const RigCapture& capture) {
+    const std::string message = io_test::InputErrorMessage([&] { WriteCapture(path, capture); });
+    EXPECT_FALSE(std::filesystem::exists(path));
+    EXPECT_TRUE(Listing().empty());
+    return message;
+  };
+  // A depth beyond 1 km (a unit mistake), in float metres.
+  RigCapture depth;
+  depth.cameras = {DepthCamera("cam", 8, 6, rng)};
+  depth.cameras[0].depth_m[9] = 1500.0f;
+  EXPECT_THAT(refused(depth), HasSubstr(path + ": cannot write: camera cam: depth: value 1500 m "
+                                               "at pixel (u 1, v 1) is beyond 1000 m"));
+  // Points beyond 1 km, and points or normals that are not finite.
+  RigCapture points;
+  points.cameras.resize(1);
+  points.cameras[0].serial = "lidar";
+  points.cameras[0].points = {Vec3(1.0, 2.0, 3.0), Vec3(0.0, 0.0, 1200.0)};
+  EXPECT_THAT(refused(points), HasSubstr(path + ": cannot write: camera lidar: points: row 1 "
+                                                "has length 1200, beyond 1000 m"));
+  points.cameras[0].points[1] = Vec3(0.0, kNaN, 1.0);
+  EXPECT_THAT(refused(points), HasSubstr("camera lidar: points: row 1 is not finite"));
+  points.cameras[0].points[1] = Vec3(0.0, 0.0, 999.0);
+  points.cameras[0].normals = {Vec3::UnitZ(), Vec3(kNaN, 0.0, 1.0)};
+  EXPECT_THAT(refused(points), HasSubstr("camera lidar: normals: row 1 is not finite"));
+  // Within the limits, the same captures write and read back.
+  points.cameras[0].normals[1] = Vec3::UnitX();
+  depth.cameras[0].depth_m[9] = 999.0f;
+  for (const RigCapture& capture : {points, depth}) {
+    WriteCapture(path, capture);
+    EXPECT_EQ(ReadCapture(path).cameras.size(), 1u);
+    std::filesystem::remove(path);
+  }
+}
+
 TEST_F(CaptureTest, BurstBecomesThePerPixelMedianOfValidSamples) {
   const std::string path = Path("burst.h5");
   {
