@@ -368,12 +368,13 @@ std::vector<float> ReadFloatDepth(const Dataset& depth, hid_t memory_type, const
   return metres;
 }
 
-/// Fails on the first depth beyond kMaxRangeM, naming its pixel (and frame of a burst).
+/// Fails on the first finite depth beyond kMaxRangeM, naming its pixel (and frame of a
+/// burst). Invalid samples (NaN, +-inf) pass.
 void CheckDepthRange(const std::vector<float>& metres, const CameraCapture& camera,
                      size_t num_frames, const Context& where) {
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
   for (size_t i = 0; i < metres.size(); ++i) {
-    if (!(metres[i] > kMaxRangeM)) continue;  // NaN (invalid) passes
+    if (!std::isfinite(metres[i]) || !(metres[i] > kMaxRangeM)) continue;
     const size_t pixel = i % pixels;
     std::ostringstream what;
     what << "value " << metres[i] << " m at pixel (u " << pixel % camera.width << ", v "
