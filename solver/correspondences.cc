@@ -2,6 +2,7 @@
 
 #include <ceres/crs_matrix.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -22,6 +23,44 @@ constexpr double kAnyNormalAngleDeg = 180.0;
 /// The normal check never widens beyond this (degrees): far below the 90 degrees between
 /// the faces of a box corner or a leg, which must not pair up.
 constexpr double kWidestNoisyNormalAngleDeg = 60.0;
+
+/// The noise of point p of a view (its camera frame), as the weights model it (docs/residuals.md,
+/// "Weights"): its depth error along the ray, k^2 z^2 p p^T, plus its plane-error share,
+/// (plane_noise_share k z^2)^2, isotropic; GICP puts half the residual floor into each point's
+/// noise too (`floor_share`).
+Mat3 PointNoise(const CameraView& view, const Vec3& p, const IcpOptions& options,
+                double floor_share) {
+  const double k2 = view.depth_noise * view.depth_noise;
+  const double share2 = options.plane_noise_share * options.plane_noise_share;
+  return k2 * p.z() * p.z() * p * p.transpose() +
+         (share2 * k2 * std::pow(p.z(), 4) +
+          floor_share * options.min_noise_m * options.min_noise_m) *
+             Mat3::Identity();
+}
+
+/// The whitened point-to-plane term of a correspondence: r is linear in n, so a normal
+/// scaled by 1 / sigma whitens it.
+PointToPlaneTerm MakePointToPlaneTerm(const CameraView& source, const CameraView& target,
+                                      const Correspondence& c, const IcpOptions& options) {
+  const double variance = PointToPlaneVariance(source, target, c, options);
+  return {source.level->points[c.source], target.level->points[c.target],
+          target.level->geometry.normals[c.target] / std::sqrt(variance)};
+}
+
+/// The GICP term of a correspondence: the covariance of a point is its plane-regularised
+/// shape, V diag(1, 1, eps) V^T (m^2: the in-plane freedom stays, 1 m^2 as in small_gicp; the
+/// eps along the normal is replaced by the noise model), plus PointNoise with half the floor.
+GicpTerm MakeGicpTerm(const CameraView& source, const CameraView& target, const Correspondence& c,
+                      const IcpOptions& options) {
+  const auto covariance = [&](const CameraView& view, int i) {
+    const LocalGeometry& g = view.level->geometry;
+    return Mat3(g.covariances[i] - kGicpPlaneEpsilon * g.normals[i] * g.normals[i].transpose() +
+                PointNoise(view, view.level->points[i], options, 0.5));
+  };
+  return GicpCost::MakeTerm(source.level->points[c.source], target.level->points[c.target],
+                            covariance(source, c.source), covariance(target, c.target),
+                            source.T_world_camera.linear(), target.T_world_camera.linear());
+}
 
 }  // namespace
 
@@ -120,16 +159,6 @@ std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
     const IcpOptions& options, const CameraView& source, const CameraView& target,
     const std::vector<Correspondence>& correspondences, const ceres::LossFunction* loss,
     TermStorage storage) {
-  const ScaleLevel& src = *source.level;
-  const ScaleLevel& tgt = *target.level;
-  const double k_s2 = source.depth_noise * source.depth_noise;
-  const double k_t2 = target.depth_noise * target.depth_noise;
-  const double floor2 = options.min_noise_m * options.min_noise_m;
-  // GICP shapes are plane-regularised, V diag(1, 1, eps) V^T (m^2): the in-plane freedom
-  // stays (1 m^2, as in small_gicp), the eps along the normal is replaced by the noise model.
-  const auto shape = [](const LocalGeometry& g, int i) {
-    return Mat3(g.covariances[i] - kGicpPlaneEpsilon * g.normals[i] * g.normals[i].transpose());
-  };
   const double* parameters[2] = {source.pose_block, target.pose_block};
   // term(c) of every correspondence c into `cost`, weighted by the loss at the views' poses.
   const auto add_terms = [&](auto* cost, const auto& term) {
@@ -156,26 +185,11 @@ std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
     return compressed;
   };
   if (options.method == RegistrationMethod::kGicp) {
-    // Covariance of a point: in-plane shape + k^2 z^2 p p^T (depth noise along the ray)
-    // + its plane-error share beta^2 k^2 z^4 and half of the residual floor, isotropic.
-    const double share2 = options.plane_noise_share * options.plane_noise_share;
-    return add_block([&](const Correspondence& c) {
-      const Vec3& p = src.points[c.source];
-      const Vec3& q = tgt.points[c.target];
-      const Mat3 C_p = shape(src.geometry, c.source) + k_s2 * p.z() * p.z() * p * p.transpose() +
-                       (share2 * k_s2 * std::pow(p.z(), 4) + 0.5 * floor2) * Mat3::Identity();
-      const Mat3 C_q = shape(tgt.geometry, c.target) + k_t2 * q.z() * q.z() * q * q.transpose() +
-                       (share2 * k_t2 * std::pow(q.z(), 4) + 0.5 * floor2) * Mat3::Identity();
-      return GicpCost::MakeTerm(p, q, C_p, C_q, source.T_world_camera.linear(),
-                                target.T_world_camera.linear());
-    });
+    return add_block(
+        [&](const Correspondence& c) { return MakeGicpTerm(source, target, c, options); });
   }
-  // r is linear in n, so a normal scaled by 1 / sigma whitens it.
-  return add_block([&](const Correspondence& c) {
-    const double variance = PointToPlaneVariance(source, target, c, options);
-    return PointToPlaneTerm{src.points[c.source], tgt.points[c.target],
-                            tgt.geometry.normals[c.target] / std::sqrt(variance)};
-  });
+  return add_block(
+      [&](const Correspondence& c) { return MakePointToPlaneTerm(source, target, c, options); });
 }
 
 ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
@@ -260,6 +274,19 @@ Eigen::MatrixXd Gram(const ceres::CRSMatrix& J) {
   return JtJ;
 }
 
+/// H^+ of a symmetric positive semi-definite matrix: directions with eigenvalues below
+/// 1e-12 of the largest are left out. Empty when H has no positive eigenvalue.
+Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& H) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  if (!(lambda.maxCoeff() > 0.0)) return {};
+  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(lambda.size());
+  for (int k = 0; k < lambda.size(); ++k) {
+    if (lambda(k) > 1e-12 * lambda.maxCoeff()) inverse(k) = 1.0 / lambda(k);
+  }
+  return eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
+}
+
 }  // namespace
 
 Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
@@ -277,36 +304,163 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
   return JtJ / (sum_sq / dof);
 }
 
-Eigen::MatrixXd ClusterRobustCovariance(ceres::Problem* problem, const std::vector<double*>& blocks,
-                                        const std::vector<ceres::ResidualBlockId>& residual_blocks,
-                                        const std::vector<int>& row_cluster) {
-  std::vector<double> residuals;
-  ceres::CRSMatrix J;
-  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
-  if (J.num_rows != static_cast<int>(row_cluster.size()) || J.num_cols == 0) return {};
-  const Eigen::MatrixXd H = Gram(J);
-  if (!H.allFinite()) return {};
-  const int clusters = *std::max_element(row_cluster.begin(), row_cluster.end()) + 1;
-  if (clusters < 2) return {};
-  Eigen::MatrixXd g = Eigen::MatrixXd::Zero(J.num_cols, clusters);
-  for (int row = 0; row < J.num_rows; ++row) {
-    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
-      g(J.cols[a], row_cluster[row]) += J.values[a] * residuals[row];
-    }
+namespace {
+
+/// One term linearised at the views' poses: its whitened Jacobians with respect to the
+/// tangents of the source and target poses, and with respect to the source and target points
+/// (their camera frames).
+template <typename Term>
+struct Linearised {
+  static constexpr int kRows = Term::kNumResiduals;
+  Eigen::Matrix<double, kRows, 6> J_source, J_target;
+  Eigen::Matrix<double, kRows, 3> D_source, D_target;
+};
+
+template <typename Term>
+Linearised<Term> Linearise(const Term& term, const CameraView& source, const CameraView& target,
+                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_source,
+                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_target) {
+  constexpr int kRows = Term::kNumResiduals;
+  double r[kRows];
+  Eigen::Matrix<double, kRows, 7, Eigen::RowMajor> Ja, Jb;
+  term.Evaluate(source.pose_block, target.pose_block, r, Ja.data(), Jb.data());
+  Linearised<Term> l;
+  l.J_source = Ja * plus_source;
+  l.J_target = Jb * plus_target;
+  // r depends on p through T_source p and on q through T_target q only (both methods), so
+  // its derivative with respect to a point is that with respect to the pose's translation
+  // (the point in the world) times the pose's rotation.
+  l.D_source = Ja.template rightCols<3>() * source.T_world_camera.linear();
+  l.D_target = Jb.template rightCols<3>() * target.T_world_camera.linear();
+  return l;
+}
+
+/// M_uw += A_u^T B_w for the free views u, w (6 x 6 blocks at their columns).
+template <typename A, typename B>
+void AddBlock(Eigen::MatrixXd* M, int u, int w, const A& a, const B& b) {
+  if (u < 0 || w < 0) return;
+  M->block<6, 6>(u, w) += a.transpose() * b;
+}
+
+template <typename Term, typename MakeTerm>
+Eigen::MatrixXd SharedNoise(const std::vector<CameraView>& views, const std::vector<int>& column,
+                            const std::vector<MatchedViews>& terms, const IcpOptions& options,
+                            const Eigen::MatrixXd& prior_information, const MakeTerm& make_term,
+                            double term_floor_share, double point_floor_share, int num_threads) {
+  using Plus = Eigen::Matrix<double, 7, 6, Eigen::RowMajor>;
+  using Score = Eigen::Matrix<double, 6, 3>;
+  const size_t n = views.size();
+  std::vector<Plus> plus(n);
+  for (size_t v = 0; v < n; ++v)
+    SharedPoseManifold()->PlusJacobian(views[v].pose_block, plus[v].data());
+  const auto index = [&](const CameraView* view) {
+    return static_cast<size_t>(view - views.data());
+  };
+  const double floor2 = options.min_noise_m * options.min_noise_m;
+  const int free = static_cast<int>(prior_information.rows()) / 6;
+  // Per view v (in parallel): the information H and independent noise of the terms whose
+  // source is v, and the points' shared noise of v's points: s_p per free view w, the sum of
+  // J_w^T D_p over the terms of point p, then M += s_p C_p s_p^T blockwise, as
+  // (s_p L)(s_p L)^T with L L^T = C_p = PointNoise.
+  std::vector<Eigen::MatrixXd> H(
+      n, Eigen::MatrixXd::Zero(prior_information.rows(), prior_information.cols()));
+  std::vector<Eigen::MatrixXd> M = H;
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int v) {
+        const CameraView& view = views[v];
+        const size_t count = view.level->points.size();
+        std::vector<Score> scores;  // [point * free + free index of the view]
+        for (const MatchedViews& m : terms) {
+          const size_t s = index(m.source), t = index(m.target);
+          if (s != static_cast<size_t>(v) && t != static_cast<size_t>(v)) continue;
+          if (scores.empty()) scores.assign(count * free, Score::Zero());
+          const int cs = column[s], ct = column[t];
+          // Adds J^T D to the score of point i for the free view at column c.
+          const auto score = [&](size_t i, int c, const auto& J, const auto& D) {
+            if (c >= 0) scores[i * free + c / 6] += J.transpose() * D;
+          };
+          for (const Correspondence& c : *m.matches) {
+            const Term term = make_term(*m.source, *m.target, c);
+            const Linearised<Term> l = Linearise(term, *m.source, *m.target, plus[s], plus[t]);
+            if (s == static_cast<size_t>(v)) {
+              // Each term once, with its source's view.
+              AddBlock(&H[v], cs, cs, l.J_source, l.J_source);
+              AddBlock(&H[v], cs, ct, l.J_source, l.J_target);
+              AddBlock(&H[v], ct, cs, l.J_target, l.J_source);
+              AddBlock(&H[v], ct, ct, l.J_target, l.J_target);
+              if constexpr (std::is_same_v<Term, PointToPlaneTerm>) {
+                // The term's own floor, whitened: floor^2 / sigma^2, sigma = 1 / |n| of the
+                // whitened normal.
+                const double f = term_floor_share * floor2 * term.normal_b.squaredNorm();
+                AddBlock(&M[v], cs, cs, f * l.J_source, l.J_source);
+                AddBlock(&M[v], cs, ct, f * l.J_source, l.J_target);
+                AddBlock(&M[v], ct, cs, f * l.J_target, l.J_source);
+                AddBlock(&M[v], ct, ct, f * l.J_target, l.J_target);
+              }
+              score(c.source, cs, l.J_source, l.D_source);
+              score(c.source, ct, l.J_target, l.D_source);
+            }
+            if (t == static_cast<size_t>(v)) {
+              score(c.target, cs, l.J_source, l.D_target);
+              score(c.target, ct, l.J_target, l.D_target);
+            }
+          }
+        }
+        if (scores.empty()) return;
+        std::vector<Score> factors(free);
+        std::vector<int> used;
+        for (size_t i = 0; i < count; ++i) {
+          const Mat3 L =
+              PointNoise(view, view.level->points[i], options, point_floor_share).llt().matrixL();
+          used.clear();
+          for (int w = 0; w < free; ++w) {
+            if (scores[i * free + w].isZero(0.0)) continue;
+            factors[w] = scores[i * free + w] * L;
+            used.push_back(w);
+          }
+          for (int u : used) {
+            for (int w : used)
+              M[v].block<6, 6>(6 * u, 6 * w) += factors[u] * factors[w].transpose();
+          }
+        }
+      },
+      /*min_per_thread=*/1);
+  Eigen::MatrixXd H_total = prior_information;
+  Eigen::MatrixXd M_total = prior_information;
+  for (size_t v = 0; v < n; ++v) {
+    H_total += H[v];
+    M_total += M[v];
   }
-  const Eigen::MatrixXd meat = g * g.transpose() * (clusters / (clusters - 1.0));
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
-  const Eigen::VectorXd& lambda = eig.eigenvalues();
-  if (!(lambda.maxCoeff() > 0.0)) return {};
-  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(lambda.size());
-  for (int k = 0; k < lambda.size(); ++k) {
-    if (lambda(k) > 1e-12 * lambda.maxCoeff()) inverse(k) = 1.0 / lambda(k);
-  }
-  const Eigen::MatrixXd H_plus =
-      eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
-  Eigen::MatrixXd covariance = H_plus * meat * H_plus;
+  const Eigen::MatrixXd H_plus = PseudoInverse(H_total);
+  if (H_plus.size() == 0) return {};
+  Eigen::MatrixXd covariance = H_plus * M_total * H_plus;
   if (!covariance.allFinite()) return {};
   return covariance;
+}
+
+}  // namespace
+
+Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
+                                      const std::vector<int>& column,
+                                      const std::vector<MatchedViews>& terms,
+                                      const IcpOptions& options,
+                                      const Eigen::MatrixXd& prior_information, int num_threads) {
+  if (prior_information.rows() == 0 || terms.empty()) return {};
+  if (options.method == RegistrationMethod::kGicp) {
+    return SharedNoise<GicpTerm>(
+        views, column, terms, options, prior_information,
+        [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
+          return MakeGicpTerm(s, t, c, options);
+        },
+        /*term_floor_share=*/0.0, /*point_floor_share=*/0.5, num_threads);
+  }
+  return SharedNoise<PointToPlaneTerm>(
+      views, column, terms, options, prior_information,
+      [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
+        return MakePointToPlaneTerm(s, t, c, options);
+      },
+      /*term_floor_share=*/1.0, /*point_floor_share=*/0.0, num_threads);
 }
 
 }  // namespace rigfit

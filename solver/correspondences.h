@@ -124,18 +124,36 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
                             const std::vector<ceres::ResidualBlockId>& residual_blocks,
                             bool scale_by_residuals = true);
 
-/// Cluster-robust ("sandwich") covariance of the given pose blocks (PoseManifold tangents,
-/// 6 per block, in the order given) from the given residual blocks, each residual row
-/// belonging to the cluster row_cluster[row] (rows in the order of residual_blocks):
-///   C = H^+ (G / (G - 1) sum_c g_c g_c^T) H^+,  H = J^T J,  g_c = sum_{rows in c} J_row^T r_row,
-/// with G clusters. Unlike (J^T J / sigma^2)^-1 it does not assume independent residuals of
-/// the modelled variance: errors shared by the rows of a cluster (a patch of surface whose
-/// noisy points, normals and correspondences err together) count once per cluster, not
-/// once per row. Directions with information below 1e-12 of the largest are left out of
-/// H^+. Loss functions are not applied. Returns an empty matrix when the problem gives no
-/// finite covariance.
-Eigen::MatrixXd ClusterRobustCovariance(ceres::Problem* problem, const std::vector<double*>& blocks,
-                                        const std::vector<ceres::ResidualBlockId>& residual_blocks,
-                                        const std::vector<int>& row_cluster);
+/// The correspondences of one pair direction between two views.
+struct MatchedViews {
+  const CameraView* source = nullptr;
+  const CameraView* target = nullptr;
+  const std::vector<Correspondence>* matches = nullptr;
+};
+
+/// Covariance of the poses that weighted least squares over the terms of `terms`
+/// (CorrespondenceCost's terms of options.method and weights, loss not applied) estimates,
+/// when the noise is the one the weights model but belongs to the POINTS, not to the terms:
+/// each point p of a view has one error, of covariance k^2 z^2 p p^T (depth, along its ray)
+/// + (plane_noise_share k z^2)^2 I (plane error) in its camera frame, and that same error
+/// enters every term the point is in, as source or target, in every pair. The residual
+/// floor min_noise_m is independent per term (point-to-plane) or half of it per point (GICP),
+/// as in the weights. Linearised at the views' poses (pose blocks, and T_world_camera for
+/// the GICP weights):
+///   C = H^-1 (sum_p s_p C_p s_p^T + sum_t J_t^T F_t J_t + P) H^-1,
+///   H = sum_t J_t^T J_t + P,   s_p = sum over the terms t of point p of J_t^T dr_t/dp,
+/// with r_t the whitened residuals, J_t their tangent Jacobians, F_t their independent
+/// variance and P = prior_information (the gravity priors', independent of the points).
+/// When every point is in one term, C = H^-1, the inverse of what the terms' independence
+/// gives; counting the same points twice leaves C unchanged where it halves H^-1.
+/// `column[v]` is the first of view v's 6 tangent columns of C, -1 for a view held fixed; C
+/// is prior_information's size. Directions with information below 1e-12 of the largest are
+/// left out of H^-1. Empty when there are no terms or free views. The views' points are
+/// split over up to num_threads threads; the result does not depend on it.
+Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
+                                      const std::vector<int>& column,
+                                      const std::vector<MatchedViews>& terms,
+                                      const IcpOptions& options,
+                                      const Eigen::MatrixXd& prior_information, int num_threads);
 
 }  // namespace rigfit

@@ -58,29 +58,41 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
   for (size_t i = 0; i < n; ++i) {
     if (static_cast<int>(i) != reference) bound.serials.push_back(noise_free.cameras[i].serial);
   }
-  // Draws delta = L z, L L^T = covariance, z ~ N(0, I): poses Exp(delta_i) T_i.
-  const Eigen::MatrixXd L = Eigen::LLT<Eigen::MatrixXd>(bound.covariance).matrixL();
-  std::mt19937_64 rng(seed);
-  std::normal_distribution<double> normal;
-  double sum_r2 = 0.0, sum_t2 = 0.0, sum_tilt2 = 0.0;
-  for (int s = 0; s < samples; ++s) {
-    Eigen::VectorXd z(L.cols());
-    for (int k = 0; k < z.size(); ++k) z(k) = normal(rng);
-    const Eigen::VectorXd delta = L * z;
-    PoseMap drawn = T_true;
-    for (size_t k = 0; k < bound.serials.size(); ++k) {
-      const std::string& serial = bound.serials[k];
-      drawn[serial] = PosePlus(T_true.at(serial), delta.segment<6>(6 * k));
+  const auto draw = [&](const Eigen::MatrixXd& covariance, double* rotation, double* translation,
+                        double* tilt) {
+    // Draws delta = L z, L L^T = covariance, z ~ N(0, I): poses Exp(delta_i) T_i.
+    const Eigen::MatrixXd L = Eigen::LLT<Eigen::MatrixXd>(covariance).matrixL();
+    std::mt19937_64 rng(seed);
+    std::normal_distribution<double> normal;
+    double sum_r2 = 0.0, sum_t2 = 0.0, sum_tilt2 = 0.0;
+    for (int s = 0; s < samples; ++s) {
+      Eigen::VectorXd z(L.cols());
+      for (int k = 0; k < z.size(); ++k) z(k) = normal(rng);
+      const Eigen::VectorXd delta = L * z;
+      PoseMap drawn = T_true;
+      for (size_t k = 0; k < bound.serials.size(); ++k) {
+        const std::string& serial = bound.serials[k];
+        drawn[serial] = PosePlus(T_true.at(serial), delta.segment<6>(6 * k));
+      }
+      const RigErrors e = EvaluateRig(drawn, T_true);
+      sum_r2 += e.rms_rotation_rad * e.rms_rotation_rad;
+      sum_t2 += e.rms_translation_m * e.rms_translation_m;
+      sum_tilt2 += e.rms_tilt_rad * e.rms_tilt_rad;
     }
-    const RigErrors e = EvaluateRig(drawn, T_true);
-    sum_r2 += e.rms_rotation_rad * e.rms_rotation_rad;
-    sum_t2 += e.rms_translation_m * e.rms_translation_m;
-    sum_tilt2 += e.rms_tilt_rad * e.rms_tilt_rad;
-  }
-  if (samples > 0) {
-    bound.rms_rotation_rad = std::sqrt(sum_r2 / samples);
-    bound.rms_translation_m = std::sqrt(sum_t2 / samples);
-    bound.rms_tilt_rad = std::sqrt(sum_tilt2 / samples);
+    if (samples > 0) {
+      *rotation = std::sqrt(sum_r2 / samples);
+      *translation = std::sqrt(sum_t2 / samples);
+      *tilt = std::sqrt(sum_tilt2 / samples);
+    }
+  };
+  draw(bound.covariance, &bound.rms_rotation_rad, &bound.rms_translation_m, &bound.rms_tilt_rad);
+  // The estimator's own weights and noise model (options.icp) at the points.
+  bound.estimator_covariance =
+      JointSharedNoiseCovariance(cameras, rig.candidates, reference, options.icp, num_threads);
+  bound.estimator_ok = bound.estimator_covariance.size() == bound.covariance.size();
+  if (bound.estimator_ok) {
+    draw(bound.estimator_covariance, &bound.estimator_rms_rotation_rad,
+         &bound.estimator_rms_translation_m, &bound.estimator_rms_tilt_rad);
   }
   bound.samples = samples;
   bound.ok = true;

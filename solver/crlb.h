@@ -32,6 +32,18 @@ struct CramerRaoBound {
   double rms_translation_m = 0.0;
   double rms_tilt_rad = 0.0;
   int samples = 0;
+
+  /// The same for the joint estimator as rigfit runs it (options.icp: method, weights and
+  /// noise model) when each point's depth noise enters every term it takes part in
+  /// (JointSharedNoiseCovariance): what rigfit's errors should be under the noise model. The
+  /// bound above treats the terms as independent, as the joint problem does, and so counts a
+  /// point once per term it is in: in both directions and with every overlapping camera. Not
+  /// a lower bound; estimator_ok false when it is not available.
+  bool estimator_ok = false;
+  Eigen::MatrixXd estimator_covariance;
+  double estimator_rms_rotation_rad = 0.0;
+  double estimator_rms_translation_m = 0.0;
+  double estimator_rms_tilt_rad = 0.0;
 };
 
 /// The bound for a capture of noise-free depth taken at the true poses T_true, sensor noise

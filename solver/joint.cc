@@ -56,64 +56,6 @@ std::vector<StabilityAccumulator> Stability(const std::vector<CameraView>& views
   return stability;
 }
 
-/// Side of the world cells that group correspondences into clusters for the covariance (m).
-constexpr double kClusterCellM = 0.5;
-
-/// The clusters of the covariance's residual rows: the world cells of side kClusterCellM
-/// of the correspondences' source points, and one cluster per prior.
-class RowClusters {
- public:
-  /// `matches` split by the cell of their source point, with each group's cluster.
-  std::vector<std::pair<int, std::vector<Correspondence>>> Split(
-      const CameraView& source, const std::vector<Correspondence>& matches) {
-    std::map<int, std::vector<Correspondence>> groups;
-    for (const Correspondence& c : matches) {
-      const Vec3 p = source.T_world_camera * source.level->points[c.source];
-      const std::array<int64_t, 3> key = {static_cast<int64_t>(std::floor(p.x() / kClusterCellM)),
-                                          static_cast<int64_t>(std::floor(p.y() / kClusterCellM)),
-                                          static_cast<int64_t>(std::floor(p.z() / kClusterCellM))};
-      groups[ids_.emplace(key, static_cast<int>(ids_.size())).first->second].push_back(c);
-    }
-    return {groups.begin(), groups.end()};
-  }
-  /// `rows` rows of cluster `id` (from Split).
-  void AddRows(int id, int rows) { rows_.insert(rows_.end(), rows, id); }
-  /// Rows that form a cluster of their own (a prior), after the last Split.
-  void AddOwnCluster(int rows) {
-    rows_.insert(rows_.end(), rows, static_cast<int>(ids_.size()) + own_++);
-  }
-  const std::vector<int>& rows() const { return rows_; }
-
- private:
-  std::map<std::array<int64_t, 3>, int> ids_;
-  std::vector<int> rows_;
-  int own_ = 0;
-};
-
-/// Covariance of every free pose block (tangent space) from the cluster-robust estimator
-/// over the given residual blocks. Returns false when it is not available.
-bool PoseCovariances(ceres::Problem* problem, std::vector<PoseBlock>& blocks,
-                     const std::vector<bool>& free,
-                     const std::vector<ceres::ResidualBlockId>& residual_blocks,
-                     const std::vector<int>& row_cluster, std::vector<Mat6>* out) {
-  std::vector<double*> free_blocks;
-  std::vector<size_t> index;
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    if (!free[i]) continue;
-    free_blocks.push_back(blocks[i].data());
-    index.push_back(i);
-  }
-  if (free_blocks.empty()) return false;
-  const Eigen::MatrixXd covariance =
-      ClusterRobustCovariance(problem, free_blocks, residual_blocks, row_cluster);
-  if (covariance.size() == 0) return false;
-  out->assign(blocks.size(), Mat6::Zero());
-  for (size_t k = 0; k < index.size(); ++k) {
-    (*out)[index[k]] = covariance.block<6, 6>(6 * k, 6 * k);
-  }
-  return true;
-}
-
 }  // namespace
 
 JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
@@ -158,53 +100,33 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   const auto linked = [&](size_t k) {
     return static_cast<size_t>(result.pair_correspondences[k]) >= kMinPairCorrespondences;
   };
-  // The correspondence terms of every linked pair, both directions, into `target`,
-  // compressed (CompressedCost): one block per direction, or with `clusters`, one per
-  // direction and cluster, built in parallel. Returns their residual blocks.
-  const auto add_pair_terms = [&](ceres::Problem* target, RowClusters* clusters) {
-    struct Block {
-      const CameraView* source;
-      const CameraView* target;
-      const std::vector<Correspondence>* matches;
-      int cluster;
-    };
-    std::vector<Block> blocks_to_add;
-    std::deque<std::vector<Correspondence>> groups;  // the clusters' matches (stable addresses)
+  // The correspondences of every linked pair, both directions.
+  const auto linked_terms = [&] {
+    std::vector<MatchedViews> terms;
     for (size_t k = 0; k < pairs.size(); ++k) {
       if (!linked(k)) continue;
-      for (size_t d = 0; d < 2; ++d) {
-        const CameraView* source = &views[d == 0 ? pairs[k].a : pairs[k].b];
-        const CameraView* target_view = &views[d == 0 ? pairs[k].b : pairs[k].a];
-        const std::vector<Correspondence>& m = matches[2 * k + d];
-        if (clusters == nullptr) {
-          blocks_to_add.push_back({source, target_view, &m, -1});
-          continue;
-        }
-        for (auto& [cluster, group] : clusters->Split(*source, m)) {
-          groups.push_back(std::move(group));
-          blocks_to_add.push_back({source, target_view, &groups.back(), cluster});
-        }
-      }
+      terms.push_back({&views[pairs[k].a], &views[pairs[k].b], &matches[2 * k]});
+      terms.push_back({&views[pairs[k].b], &views[pairs[k].a], &matches[2 * k + 1]});
     }
-    std::vector<std::unique_ptr<ceres::CostFunction>> costs(blocks_to_add.size());
+    return terms;
+  };
+  // Their terms into `target`, compressed (CompressedCost), one block per direction, built
+  // in parallel.
+  const auto add_pair_terms = [&](ceres::Problem* target) {
+    const std::vector<MatchedViews> terms = linked_terms();
+    std::vector<std::unique_ptr<ceres::CostFunction>> costs(terms.size());
     ParallelFor(
-        static_cast<int>(blocks_to_add.size()), num_threads,
+        static_cast<int>(terms.size()), num_threads,
         [&](int b) {
-          costs[b] =
-              CorrespondenceCost(options, *blocks_to_add[b].source, *blocks_to_add[b].target,
-                                 *blocks_to_add[b].matches, loss.get(), TermStorage::kCompressed);
+          costs[b] = CorrespondenceCost(options, *terms[b].source, *terms[b].target,
+                                        *terms[b].matches, loss.get(), TermStorage::kCompressed);
         },
         /*min_per_thread=*/1);
-    std::vector<ceres::ResidualBlockId> ids;
     for (size_t b = 0; b < costs.size(); ++b) {
       if (costs[b] == nullptr) continue;
-      const int rows = costs[b]->num_residuals();
-      ids.push_back(target->AddResidualBlock(costs[b].release(), nullptr,
-                                             blocks_to_add[b].source->pose_block,
-                                             blocks_to_add[b].target->pose_block));
-      if (clusters != nullptr) clusters->AddRows(blocks_to_add[b].cluster, rows);
+      target->AddResidualBlock(costs[b].release(), nullptr, terms[b].source->pose_block,
+                               terms[b].target->pose_block);
     }
-    return ids;
   };
   for (size_t s = 0; s < levels; ++s) {
     const double voxel_size = cameras[0].pyramid->levels[s].voxel_size;
@@ -242,7 +164,7 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
           problem->SetParameterBlockConstant(b.data());
         }
       }
-      add_pair_terms(problem.get(), nullptr);
+      add_pair_terms(problem.get());
       size_t total = 0;
       std::vector<std::pair<int, int>> links;
       for (size_t k = 0; k < pairs.size(); ++k) {
@@ -309,72 +231,159 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     // iteration's correspondences and poses.
     if (!options.hold_weak_directions) find_weak_directions();
     // The covariance of the last iteration's terms and priors (not the holding ones: it
-    // reports what the data alone determine) at the final poses, the terms compressed per
-    // cluster: the cluster-robust estimator needs only each cluster's sum of J^T r and the
-    // sum of J^T J, which compression keeps exactly.
-    const std::unique_ptr<ceres::Problem> rows = NewProblem();
-    for (PoseBlock& b : blocks) {
-      rows->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
-    }
-    RowClusters clusters;
-    std::vector<ceres::ResidualBlockId> residual_blocks = add_pair_terms(rows.get(), &clusters);
-    std::vector<bool> free = result.connected;
-    free[reference] = false;
+    // reports what the data alone determine) at the final poses, each point's depth noise
+    // shared by every term it is in (SharedNoiseCovariance), the gravity priors independent.
+    std::vector<int> column(n, -1);
+    std::vector<double*> free_blocks;
     for (size_t i = 0; i < n; ++i) {
-      if (!free[i] || options.gravity_weight <= 0.0) continue;
-      ceres::CostFunction* prior =
-          GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight);
-      residual_blocks.push_back(rows->AddResidualBlock(prior, nullptr, blocks[i].data()));
-      clusters.AddOwnCluster(prior->num_residuals());
+      if (!result.connected[i] || static_cast<int>(i) == reference) continue;
+      column[i] = 6 * static_cast<int>(free_blocks.size());
+      free_blocks.push_back(blocks[i].data());
+      views[i].T_world_camera = PoseFromParameters(blocks[i].data());
     }
-    result.covariance_ok = PoseCovariances(rows.get(), blocks, free, residual_blocks,
-                                           clusters.rows(), &result.covariance);
+    const std::unique_ptr<ceres::Problem> priors = NewProblem();
+    std::vector<ceres::ResidualBlockId> prior_blocks;
+    for (size_t i = 0; i < n; ++i) {
+      if (column[i] < 0 || options.gravity_weight <= 0.0) continue;
+      priors->AddParameterBlock(blocks[i].data(), kPoseAmbientSize, SharedPoseManifold());
+      prior_blocks.push_back(priors->AddResidualBlock(
+          GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
+          nullptr, blocks[i].data()));
+    }
+    const int dim = 6 * static_cast<int>(free_blocks.size());
+    const Eigen::MatrixXd prior = prior_blocks.empty()
+                                      ? Eigen::MatrixXd::Zero(dim, dim)
+                                      : Information(priors.get(), free_blocks, prior_blocks, false);
+    const Eigen::MatrixXd covariance =
+        SharedNoiseCovariance(views, column, linked_terms(), options, prior, num_threads);
+    result.covariance_ok = covariance.size() > 0;
+    for (size_t i = 0; i < n && result.covariance_ok; ++i) {
+      if (column[i] >= 0) result.covariance[i] = covariance.block<6, 6>(column[i], column[i]);
+    }
     result.covariance_s = SecondsSince(start);
   }
   return result;
 }
 
-Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
-                                 const std::vector<CandidatePair>& pairs, int reference,
-                                 const IcpOptions& options, int num_threads) {
+namespace {
+
+/// The cameras at their poses at the finest scale, and the correspondences of every pair
+/// in both directions there. The views point into `blocks`, the terms into `views` and
+/// `matches`: moving the whole struct keeps them valid, changing its vectors does not.
+struct FinestTerms {
+  std::vector<PoseBlock> blocks;
+  std::vector<CameraView> views;
+  std::vector<std::vector<Correspondence>> matches;  ///< pair k: 2k a -> b, 2k + 1 b -> a
+  std::vector<MatchedViews> terms;
+};
+
+FinestTerms FindFinestTerms(const std::vector<RegistrationCamera>& cameras,
+                            const std::vector<CandidatePair>& pairs, const IcpOptions& options,
+                            int num_threads) {
   const size_t n = cameras.size();
-  if (n < 2 || cameras[0].pyramid == nullptr || cameras[0].pyramid->levels.empty()) return {};
   const size_t finest = cameras[0].pyramid->levels.size() - 1;
   const double max_distance =
       options.max_correspondence_distance_factor * cameras[0].pyramid->levels[finest].voxel_size;
-  std::vector<PoseBlock> blocks(n);
-  std::vector<CameraView> views(n);
-  const std::unique_ptr<ceres::Problem> problem = NewProblem();
+  FinestTerms f;
+  f.blocks.resize(n);
+  f.views.resize(n);
   for (size_t i = 0; i < n; ++i) {
-    PoseToParameters(cameras[i].T_world_camera, blocks[i].data());
-    problem->AddParameterBlock(blocks[i].data(), kPoseAmbientSize, SharedPoseManifold());
-    views[i] = {&cameras[i].pyramid->levels[finest], cameras[i].T_world_camera, blocks[i].data(),
-                cameras[i].depth_noise};
+    PoseToParameters(cameras[i].T_world_camera, f.blocks[i].data());
+    f.views[i] = {&cameras[i].pyramid->levels[finest], cameras[i].T_world_camera,
+                  f.blocks[i].data(), cameras[i].depth_noise};
   }
-  std::vector<ceres::ResidualBlockId> residual_blocks;
-  const auto add_terms = [&](const CameraView& source, const CameraView& target) {
-    const std::vector<Correspondence> matches = FindCorrespondences(
-        source, target, max_distance, options.max_normal_angle_deg, num_threads);
-    const ceres::ResidualBlockId id = AddCorrespondenceTerms(
-        problem.get(), options, source, target, matches, nullptr, TermStorage::kCompressed);
-    if (id != nullptr) residual_blocks.push_back(id);
-  };
-  for (const CandidatePair& pair : pairs) {
-    add_terms(views[pair.a], views[pair.b]);
-    add_terms(views[pair.b], views[pair.a]);
-  }
-  std::vector<double*> free_blocks;
-  for (size_t i = 0; i < n; ++i) {
-    if (static_cast<int>(i) == reference) continue;
-    free_blocks.push_back(blocks[i].data());
-    if (options.gravity_weight > 0.0) {
-      residual_blocks.push_back(problem->AddResidualBlock(
-          GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
-          nullptr, blocks[i].data()));
+  f.matches.resize(2 * pairs.size());
+  for (size_t k = 0; k < pairs.size(); ++k) {
+    for (size_t d = 0; d < 2; ++d) {
+      const CameraView& source = f.views[d == 0 ? pairs[k].a : pairs[k].b];
+      const CameraView& target = f.views[d == 0 ? pairs[k].b : pairs[k].a];
+      f.matches[2 * k + d] = FindCorrespondences(source, target, max_distance,
+                                                 options.max_normal_angle_deg, num_threads);
+      f.terms.push_back({&source, &target, &f.matches[2 * k + d]});
     }
   }
+  return f;
+}
+
+/// Adds the gravity prior of every camera but the reference to `problem` (blocks already
+/// added). Returns their residual blocks (none when options.gravity_weight is 0).
+std::vector<ceres::ResidualBlockId> AddGravityPriors(ceres::Problem* problem,
+                                                     const std::vector<RegistrationCamera>& cameras,
+                                                     int reference, const IcpOptions& options,
+                                                     std::vector<PoseBlock>& blocks) {
+  std::vector<ceres::ResidualBlockId> ids;
+  if (options.gravity_weight <= 0.0) return ids;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (static_cast<int>(i) == reference) continue;
+    ids.push_back(problem->AddResidualBlock(
+        GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
+        nullptr, blocks[i].data()));
+  }
+  return ids;
+}
+
+/// The pose blocks of every camera but the reference, in camera order.
+std::vector<double*> FreeBlocks(std::vector<PoseBlock>& blocks, int reference) {
+  std::vector<double*> free;
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    if (static_cast<int>(i) != reference) free.push_back(blocks[i].data());
+  }
+  return free;
+}
+
+}  // namespace
+
+Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
+                                 const std::vector<CandidatePair>& pairs, int reference,
+                                 const IcpOptions& options, int num_threads) {
+  if (cameras.size() < 2 || cameras[0].pyramid == nullptr || cameras[0].pyramid->levels.empty()) {
+    return {};
+  }
+  FinestTerms f = FindFinestTerms(cameras, pairs, options, num_threads);
+  const std::unique_ptr<ceres::Problem> problem = NewProblem();
+  for (PoseBlock& b : f.blocks) {
+    problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+  }
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  for (const MatchedViews& t : f.terms) {
+    const ceres::ResidualBlockId id =
+        AddCorrespondenceTerms(problem.get(), options, *t.source, *t.target, *t.matches, nullptr,
+                               TermStorage::kCompressed);
+    if (id != nullptr) residual_blocks.push_back(id);
+  }
+  for (ceres::ResidualBlockId id :
+       AddGravityPriors(problem.get(), cameras, reference, options, f.blocks)) {
+    residual_blocks.push_back(id);
+  }
   if (residual_blocks.empty()) return {};
-  return Information(problem.get(), free_blocks, residual_blocks, /*scale_by_residuals=*/false);
+  return Information(problem.get(), FreeBlocks(f.blocks, reference), residual_blocks,
+                     /*scale_by_residuals=*/false);
+}
+
+Eigen::MatrixXd JointSharedNoiseCovariance(const std::vector<RegistrationCamera>& cameras,
+                                           const std::vector<CandidatePair>& pairs, int reference,
+                                           const IcpOptions& options, int num_threads) {
+  if (cameras.size() < 2 || cameras[0].pyramid == nullptr || cameras[0].pyramid->levels.empty()) {
+    return {};
+  }
+  FinestTerms f = FindFinestTerms(cameras, pairs, options, num_threads);
+  std::vector<int> column(cameras.size(), -1);
+  int free = 0;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (static_cast<int>(i) != reference) column[i] = 6 * free++;
+  }
+  Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(6 * free, 6 * free);
+  const std::unique_ptr<ceres::Problem> problem = NewProblem();
+  for (PoseBlock& b : f.blocks) {
+    problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+  }
+  const std::vector<ceres::ResidualBlockId> priors =
+      AddGravityPriors(problem.get(), cameras, reference, options, f.blocks);
+  if (!priors.empty()) {
+    prior = Information(problem.get(), FreeBlocks(f.blocks, reference), priors,
+                        /*scale_by_residuals=*/false);
+  }
+  return SharedNoiseCovariance(f.views, column, f.terms, options, prior, num_threads);
 }
 
 }  // namespace rigfit

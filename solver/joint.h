@@ -56,4 +56,12 @@ Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
                                  const std::vector<CandidatePair>& pairs, int reference,
                                  const IcpOptions& options, int num_threads);
 
+/// The covariance of the joint estimator at the cameras' poses (same tangents, terms and
+/// priors as JointInformation) when each point's depth noise enters every term it takes part
+/// in (SharedNoiseCovariance): what the estimator's errors are under the noise model, where
+/// the inverse of JointInformation counts a point once per term.
+Eigen::MatrixXd JointSharedNoiseCovariance(const std::vector<RegistrationCamera>& cameras,
+                                           const std::vector<CandidatePair>& pairs, int reference,
+                                           const IcpOptions& options, int num_threads);
+
 }  // namespace rigfit

@@ -2,8 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <memory>
+#include <random>
+
+#include "core/pose.h"
 
 namespace rigfit {
 namespace {
@@ -105,6 +109,124 @@ TEST(MeasureOverlap, FitnessWithinTheCoarsestScalesDistanceRmseWithinTheViewsOwn
   const CameraView f{&far, Pose::Identity(), nullptr, 0.0};
   EXPECT_EQ(MeasureOverlap(f, t, 0.08, IcpOptions(), 1).fitness, 0.0);
   EXPECT_EQ(MeasureOverlap(f, t, 0.08, IcpOptions(), 1).rmse_m, 0.0);
+}
+
+/// Two views of the three faces of a box corner (normals along the world axes), noisy depth
+/// k = 0.003 /m, from two poses; point i of one is point i of the other (correspondence
+/// i <-> i at distance 0).
+class SharedNoiseTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.1, 1.0);
+    PointCloud world, normals;
+    for (int face = 0; face < 3; ++face) {
+      for (int i = 0; i < 40; ++i) {
+        Vec3 p(u(rng), u(rng), u(rng));
+        p(face) = 0.0;
+        world.push_back(p + Vec3(-0.5, -0.5, 2.5));
+        normals.push_back(-Vec3::Unit(face));
+      }
+    }
+    const Pose T_source =
+        PoseFromParameters(std::array<double, 7>{0.05, -0.1, 0.02, 0.99, 0.3, -0.1, 0.2}.data());
+    const Pose T_target =
+        PoseFromParameters(std::array<double, 7>{-0.03, 0.04, 0.1, 0.99, -0.2, 0.1, 0.05}.data());
+    // The points and normals of the world in a camera at T.
+    const auto seen_from = [&](const Pose& T, PointCloud* points, PointCloud* normals_in) {
+      for (size_t i = 0; i < world.size(); ++i) {
+        points->push_back(T.inverse() * world[i]);
+        normals_in->push_back(T.linear().transpose() * normals[i]);
+      }
+    };
+    PointCloud source_points, source_normals, target_points, target_normals;
+    seen_from(T_source, &source_points, &source_normals);
+    seen_from(T_target, &target_points, &target_normals);
+    for (size_t i = 0; i < world.size(); ++i) {
+      matches_.push_back({static_cast<int>(i), static_cast<int>(i), 0.0});
+    }
+    source_ = Level(source_points, source_normals);
+    target_ = Level(target_points, target_normals);
+    PoseToParameters(T_source, blocks_[0].data());
+    PoseToParameters(T_target, blocks_[1].data());
+    views_ = {{&source_, T_source, blocks_[0].data(), 0.003},
+              {&target_, T_target, blocks_[1].data(), 0.003}};
+  }
+
+  static ScaleLevel Level(const PointCloud& points, const PointCloud& normals) {
+    ScaleLevel level;
+    level.voxel_size = 0.02;
+    level.normal_support = 0.05;
+    level.points = points;
+    level.geometry.normals = normals;
+    for (const Vec3& n : normals) {
+      level.geometry.covariances.push_back(Mat3::Identity() - (1.0 - 1e-3) * n * n.transpose());
+    }
+    level.geometry.planarity.assign(points.size(), 1.0);
+    return level;
+  }
+
+  /// SharedNoiseCovariance of the source pose (the target held) over `terms`.
+  Eigen::MatrixXd Shared(const std::vector<MatchedViews>& terms, const IcpOptions& options) {
+    return SharedNoiseCovariance(views_, {0, -1}, terms, options, Eigen::MatrixXd::Zero(6, 6), 2);
+  }
+
+  /// The inverse of the information of the same terms taken as independent.
+  Eigen::MatrixXd InverseInformation(const std::vector<MatchedViews>& terms,
+                                     const IcpOptions& options) {
+    const std::unique_ptr<ceres::Problem> problem = NewProblem();
+    for (auto& block : blocks_) {
+      problem->AddParameterBlock(block.data(), kPoseAmbientSize, SharedPoseManifold());
+    }
+    std::vector<ceres::ResidualBlockId> ids;
+    for (const MatchedViews& t : terms) {
+      ids.push_back(AddCorrespondenceTerms(problem.get(), options, *t.source, *t.target, *t.matches,
+                                           nullptr, TermStorage::kStacked));
+    }
+    return Information(problem.get(), {blocks_[0].data()}, ids, false).inverse();
+  }
+
+  ScaleLevel source_, target_;
+  std::array<std::array<double, kPoseAmbientSize>, 2> blocks_;
+  std::vector<CameraView> views_;
+  std::vector<Correspondence> matches_;
+};
+
+/// Largest entry of |a - b| against the largest of |b|.
+double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff();
+}
+
+TEST_F(SharedNoiseTest, EveryPointInOneTermGivesTheInverseInformation) {
+  // Point-to-plane weights are exactly the noise the points carry: with each point in one
+  // term the sandwich collapses to the inverse of the information.
+  const std::vector<MatchedViews> one_way = {{&views_[0], &views_[1], &matches_}};
+  const IcpOptions options;
+  const Eigen::MatrixXd shared = Shared(one_way, options);
+  ASSERT_EQ(shared.rows(), 6);
+  EXPECT_LT(RelativeDifference(shared, InverseInformation(one_way, options)), 1e-9);
+}
+
+TEST_F(SharedNoiseTest, CountingThePointsTwiceLeavesTheCovariance) {
+  // Both directions pair the same points twice (i <-> i, the same world normal: the reverse
+  // residual is minus the forward one), and so do the same terms given twice. Independent
+  // terms would halve the covariance; the points' shared noise keeps it. The per-term
+  // floor, independent by design, is made negligible (1e-6 m against millimetres).
+  for (const RegistrationMethod method :
+       {RegistrationMethod::kPointToPlane, RegistrationMethod::kGicp}) {
+    IcpOptions options;
+    options.method = method;
+    options.min_noise_m = 1e-6;
+    const MatchedViews forward = {&views_[0], &views_[1], &matches_};
+    const MatchedViews reverse = {&views_[1], &views_[0], &matches_};
+    const Eigen::MatrixXd once = Shared({forward}, options);
+    ASSERT_EQ(once.rows(), 6);
+    EXPECT_LT(RelativeDifference(Shared({forward, reverse}, options), once), 1e-7);
+    EXPECT_LT(RelativeDifference(Shared({forward, forward}, options), once), 1e-7);
+    EXPECT_LT(RelativeDifference(InverseInformation({forward, forward}, options),
+                                 0.5 * InverseInformation({forward}, options)),
+              1e-9);
+  }
 }
 
 }  // namespace
