@@ -61,6 +61,8 @@ int main(int argc, char** argv) {
               "result");
   double sum_r2 = 0, sum_t2 = 0, sum_tilt2 = 0, worst_t = 0;
   double sum_ratio_r2 = 0, sum_ratio_t2 = 0, sum_bound_r2 = 0, sum_bound_t2 = 0;
+  double sum_est_ratio_r2 = 0, sum_est_ratio_t2 = 0, sum_est_r2 = 0, sum_est_t2 = 0;
+  int estimator_seeds = 0;
   int runs_with_weak = 0;
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
@@ -106,6 +108,20 @@ int main(int argc, char** argv) {
         sum_ratio_t2 += std::pow(after.rms_translation_m / b.rms_translation_m, 2);
         sum_bound_r2 += std::pow(b.rms_rotation_rad, 2);
         sum_bound_t2 += std::pow(b.rms_translation_m, 2);
+        if (b.estimator_ok) {
+          std::printf(
+              "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
+              "error / it: %.2f %.2f\n",
+              b.estimator_rms_rotation_rad * kRadToDeg, b.estimator_rms_translation_m * 1e3,
+              b.estimator_rms_tilt_rad * kRadToDeg,
+              after.rms_rotation_rad / b.estimator_rms_rotation_rad,
+              after.rms_translation_m / b.estimator_rms_translation_m);
+          sum_est_ratio_r2 += std::pow(after.rms_rotation_rad / b.estimator_rms_rotation_rad, 2);
+          sum_est_ratio_t2 += std::pow(after.rms_translation_m / b.estimator_rms_translation_m, 2);
+          sum_est_r2 += std::pow(b.estimator_rms_rotation_rad, 2);
+          sum_est_t2 += std::pow(b.estimator_rms_translation_m, 2);
+          ++estimator_seeds;
+        }
       } else {
         std::printf("       bound: not available: %s\n", b.message.c_str());
       }
@@ -158,6 +174,15 @@ int main(int argc, char** argv) {
         "rotation, %.2f translation\n",
         std::sqrt(sum_bound_r2 / seeds) * kRadToDeg, std::sqrt(sum_bound_t2 / seeds) * 1e3,
         std::sqrt(sum_ratio_r2 / seeds), std::sqrt(sum_ratio_t2 / seeds));
+    if (estimator_seeds > 0) {
+      std::printf(
+          "estimator under shared point noise: RMS %.4f deg %.2f mm; RMS of error / it over "
+          "%d seeds: %.2f rotation, %.2f translation\n",
+          std::sqrt(sum_est_r2 / estimator_seeds) * kRadToDeg,
+          std::sqrt(sum_est_t2 / estimator_seeds) * 1e3, estimator_seeds,
+          std::sqrt(sum_est_ratio_r2 / estimator_seeds),
+          std::sqrt(sum_est_ratio_t2 / estimator_seeds));
+    }
   }
   return 0;
 }
