@@ -69,6 +69,14 @@ void PrintBound(const SimulateArgs& a) {
     std::printf("  %-30s %9.4f %9.4f %8.2f %8.2f %8.2f\n", b.serials[k].c_str(), s.yaw_deg,
                 s.tilt_deg, s.x_mm, s.y_mm, s.z_mm);
   }
+  if (b.estimator_ok) {
+    std::printf(
+        "rigfit's joint estimator under the same noise, each point's noise shared by all its "
+        "terms (what its errors should be; not a bound): RMS relative rotation %.4f deg, RMS "
+        "relative translation %.2f mm, RMS tilt %.4f deg\n",
+        b.estimator_rms_rotation_rad * kRadToDeg, b.estimator_rms_translation_m * 1e3,
+        b.estimator_rms_tilt_rad * kRadToDeg);
+  }
 }
 
 void CheckArgs(const SimulateArgs& a) {
