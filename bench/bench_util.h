@@ -13,8 +13,6 @@
 
 namespace rigfit::bench {
 
-inline constexpr double kRadToDeg = 180.0 / M_PI;
-
 /// Every pose of `gt` moved by PosePlus (core/pose.h: a world rotation about the camera
 /// centre, then a world translation) of exactly rotation_deg about a random axis and
 /// translation_m along a random direction, both uniform on the sphere (normalised Gaussian

@@ -127,7 +127,7 @@ double MeanSpacing(int n) { return std::sqrt(BandArea() / n); }
 /// Correspondence queries: an independent band sample moved by 1 degree about +Y and 3 cm.
 PointCloud MovedQueries(int n) {
   Pose motion = Pose::Identity();
-  motion.linear() = Eigen::AngleAxisd(M_PI / 180.0, Vec3::UnitY()).toRotationMatrix();
+  motion.linear() = Eigen::AngleAxisd(kDegToRad, Vec3::UnitY()).toRotationMatrix();
   motion.translation() = Vec3(0.02, 0.01, -0.02);
   return Transform(motion, SampleBand(n, 1000 + n));
 }

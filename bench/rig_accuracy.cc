@@ -13,11 +13,7 @@
 #include "solver/crlb.h"
 #include "solver/refine.h"
 
-namespace {
-
-constexpr double kRadToDeg = 180.0 / M_PI;
-
-}  // namespace
+namespace {}  // namespace
 
 int main(int argc, char** argv) {
   using namespace rigfit;

@@ -16,7 +16,6 @@
 
 int main(int argc, char** argv) {
   using namespace rigfit;
-  using bench::kRadToDeg;
   CLI::App app{"Single camera pairs of simulated rigs registered from the true poses"};
   SimOptions sim;
   int first_seed = 0, seeds = 3;

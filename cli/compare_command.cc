@@ -38,7 +38,6 @@ namespace {
 
 using Json = nlohmann::json;
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kMToMm = 1e3;
 constexpr int kMaxThreads = 256;
 /// Two numbers closer than this fraction of the larger one are called even in the verdict.

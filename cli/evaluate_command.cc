@@ -20,7 +20,6 @@ namespace {
 
 using Json = nlohmann::json;
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 constexpr double kMToMm = 1e3;
 
 struct EvaluateArgs {

@@ -30,7 +30,6 @@ void WriteJsonFile(const std::string& path, const Json& json) {
 }
 
 Json RigErrorsSummaryJson(const RigErrors& e) {
-  constexpr double kRadToDeg = 180.0 / M_PI;
   constexpr double kMToMm = 1e3;
   const bool has_pairs = !e.pairs.empty();
   return {{"rotation_deg",

@@ -56,7 +56,6 @@ void PrintBound(const SimulateArgs& a) {
     std::printf("Cramer-Rao bound: not available: %s\n", b.message.c_str());
     return;
   }
-  constexpr double kRadToDeg = 180.0 / M_PI;
   std::printf(
       "Cramer-Rao bound (joint problem at the true poses, noise %g, %d draws): RMS relative "
       "rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",

@@ -38,7 +38,6 @@ RigErrors EvaluateRig(const PoseMap& est, const PoseMap& gt) {
 }
 
 PoseSigma SigmaOf(const Mat6& covariance) {
-  constexpr double kRadToDeg = 180.0 / M_PI;
   constexpr double kMToMm = 1e3;
   const Mat6& C = covariance;
   PoseSigma s;

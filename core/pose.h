@@ -35,6 +35,10 @@ using Mat6 = Eigen::Matrix<double, 6, 6>;
 inline constexpr int kPoseAmbientSize = 7;
 inline constexpr int kPoseTangentSize = 6;
 
+/// Angles are radians inside rigfit and degrees for people (options, reports).
+inline constexpr double kRadToDeg = 180.0 / M_PI;
+inline constexpr double kDegToRad = M_PI / 180.0;
+
 /// Writes T into a 7-double parameter block [qx, qy, qz, qw, tx, ty, tz].
 void PoseToParameters(const Pose& T, double* x);
 /// Reads a 7-double parameter block; the quaternion is normalised.

@@ -12,8 +12,6 @@
 namespace rigfit {
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
-
 // Random streams of a seed (sim/random.h); pixel noise of camera i uses kPixelStream + i.
 enum Stream : std::uint64_t { kRoomStream = 0, kCameraStream = 1, kPerturbStream = 2 };
 constexpr std::uint64_t kPixelStream = 1000;

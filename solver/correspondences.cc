@@ -70,8 +70,8 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
   const ScaleLevel& src = *source.level;
   const ScaleLevel& tgt = *target.level;
   const Pose T_target_source = target.T_world_camera.inverse() * source.T_world_camera;
-  const double max_angle = max_normal_angle_deg * M_PI / 180.0;
-  const double widest_angle = std::max(max_angle, kWidestNoisyNormalAngleDeg * M_PI / 180.0);
+  const double max_angle = max_normal_angle_deg * kDegToRad;
+  const double widest_angle = std::max(max_angle, kWidestNoisyNormalAngleDeg * kDegToRad);
   const double cos_max_angle = std::cos(max_angle);
   const double cos_widest_angle = std::cos(widest_angle);
   // The normal error of a point, as an angle: its depth noise over its normal's support.

@@ -11,7 +11,6 @@
 namespace rigfit {
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
 /// Noise is estimated from points within this multiple of the RANSAC distance of the floor.
 constexpr double kNoiseWindowFactor = 5.0;
 /// Points scored per RANSAC hypothesis; the final fit uses every candidate.

@@ -216,8 +216,8 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
       }
       std::ostringstream m;
       m << "joint: voxel " << voxel_size << " iteration " << it << ": " << total
-        << " correspondences, cost " << summary.final_cost << ", step "
-        << max_rotation * 180.0 / M_PI << " deg " << max_translation * 1e3 << " mm";
+        << " correspondences, cost " << summary.final_cost << ", step " << max_rotation * kRadToDeg
+        << " deg " << max_translation * 1e3 << " mm";
       log.Debug(m.str());
       if (converged) break;
     }

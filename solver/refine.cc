@@ -29,8 +29,6 @@ void Warn(RefineResult* result, const Log& log, std::string message) {
   result->warnings.push_back(std::move(message));
 }
 
-constexpr double kRadToDeg = 180.0 / M_PI;
-
 /// The rigid motion G that best explains the change of the connected cameras,
 /// refined_i ~ G leveled_i (Gauss-Newton on the tangent residuals PoseDifference(G
 /// leveled_i, refined_i); a few steps suffice for the small motions of a refinement).

@@ -27,7 +27,6 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 using namespace cli_test;  // NOLINT: RunRigfit and friends
 
-constexpr double kDegToRad = M_PI / 180.0;
 /// Errors of exactly equal relative poses are round-off: far below what the table prints.
 constexpr double kRoundOff = 1e-9;
 

@@ -29,7 +29,6 @@ using namespace cli_test;  // NOLINT: RunRigfit and friends
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-constexpr double kRadToDeg = 180.0 / M_PI;
 /// Coordinates are stored as float32: relative round-off 6e-8, 2e-7 m at a few metres.
 constexpr double kFloat32Tolerance = 1e-6;
 

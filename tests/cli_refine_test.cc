@@ -27,7 +27,6 @@ using Json = nlohmann::json;
 using namespace cli_test;  // NOLINT: RunRigfit and friends
 
 constexpr int kCameras = 3;
-constexpr double kRadToDeg = 180.0 / M_PI;
 
 void WriteText(const fs::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;

@@ -20,7 +20,7 @@ ScaleLevel OnePointLevel(double z, double angle_deg) {
   level.normal_support = 0.05;
   level.points = {Vec3(0.0, 0.0, z)};
   level.tree = std::make_unique<KdTree>(level.points);
-  const double a = angle_deg * M_PI / 180.0;
+  const double a = angle_deg * kDegToRad;
   level.geometry.normals = {Vec3(0.0, std::sin(a), -std::cos(a))};
   level.geometry.covariances = {Mat3::Identity()};
   level.geometry.planarity = {1.0};

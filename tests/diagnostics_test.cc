@@ -12,7 +12,6 @@
 namespace rigfit {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
 /// A residual of a noise-free plane matched at the true poses: round-off (m).
 constexpr double kExact = 1e-5;
 
@@ -69,7 +68,7 @@ TEST_F(DiagnosticsTest, MovingOneCameraSpoilsOnlyItsPairs) {
   PoseMap moved = rig_->gt;
   const std::string serial = diagnostics_->serials[2];
   Vec6 delta;  // 0.3 deg of tilt, 1 deg of yaw, 2 cm across and 1 cm up
-  delta << 0.3 * kDeg, 1.0 * kDeg, 0.0, 0.02, 0.01, 0.0;
+  delta << 0.3 * kDegToRad, 1.0 * kDegToRad, 0.0, 0.02, 0.01, 0.0;
   moved[serial] = PosePlus(moved[serial], delta);
   const std::vector<PairDiagnostics> after = Diagnose(*diagnostics_, moved, options, 2);
   ASSERT_EQ(after.size(), truth.size());

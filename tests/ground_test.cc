@@ -11,8 +11,6 @@
 namespace rigfit {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 /// A floor patch (y = 0) of side `size` around (cx, cz), a box on it and a wall, in the world.
 PointCloud FloorScene(double noise, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -33,7 +31,7 @@ PointCloud FloorScene(double noise, std::uint64_t seed) {
 
 /// A camera 2 m above the floor at the world origin, looking toward +Z and 40 deg down.
 Pose TrueCamera() {
-  const double a = 40.0 * kDeg;
+  const double a = 40.0 * kDegToRad;
   Pose T = Pose::Identity();
   // Columns: camera x (right), y (down), z (forward) in world coordinates.
   T.linear().col(2) = Vec3(0.0, -std::sin(a), std::cos(a));
@@ -49,14 +47,14 @@ TEST(LevelCamera, RecoversKnownTiltAndFloorHeight) {
   const PointCloud camera_points = Transform(T_true.inverse(), FloorScene(0.0, 1));
   // Rough calibration: 2 deg tilt about a horizontal axis, 8 cm too high.
   Pose error = Pose::Identity();
-  error.linear() = ExpSO3(2.0 * kDeg * Vec3(0.6, 0.0, 0.8));
+  error.linear() = ExpSO3(2.0 * kDegToRad * Vec3(0.6, 0.0, 0.8));
   error.translation() = Vec3(0.0, 0.08, 0.0);
   const Pose T_init = error * T_true;
 
   const GroundResult r = LevelCamera(camera_points, T_init, GroundOptions{});
   ASSERT_TRUE(r.found) << r.message;
   ASSERT_TRUE(r.accepted) << r.message;
-  EXPECT_LT(TiltErrorRad(r.T_world_camera, T_true), 1e-4 * kDeg);
+  EXPECT_LT(TiltErrorRad(r.T_world_camera, T_true), 1e-4 * kDegToRad);
   EXPECT_NEAR(r.T_world_camera.translation().y(), 2.0, 1e-6);
   EXPECT_NEAR(r.correction_rotation_deg, 2.0, 1e-6);
   // The floor is found in the camera frame: n_c . p + d_c = 0 for floor points.
@@ -69,10 +67,10 @@ TEST(LevelCamera, NoisyFloorLevelsToAFewHundredthsOfADegree) {
   const Pose T_true = TrueCamera();
   const PointCloud camera_points = Transform(T_true.inverse(), FloorScene(0.005, 2));
   Pose error = Pose::Identity();
-  error.linear() = ExpSO3(1.0 * kDeg * Vec3(1.0, 0.0, 0.0));
+  error.linear() = ExpSO3(1.0 * kDegToRad * Vec3(1.0, 0.0, 0.0));
   const GroundResult r = LevelCamera(camera_points, error * T_true, GroundOptions{});
   ASSERT_TRUE(r.accepted) << r.message;
-  EXPECT_LT(TiltErrorRad(r.T_world_camera, T_true), 0.03 * kDeg);
+  EXPECT_LT(TiltErrorRad(r.T_world_camera, T_true), 0.03 * kDegToRad);
   EXPECT_NEAR(r.T_world_camera.translation().y(), 2.0, 0.002);
   EXPECT_NEAR(r.inlier_rms_m, 0.005, 0.001);
 }
@@ -81,13 +79,13 @@ TEST(LevelCamera, LevelingDoesNotChangeYawOrHorizontalPositionOfTheFloor) {
   const Pose T_true = TrueCamera();
   const PointCloud camera_points = Transform(T_true.inverse(), FloorScene(0.0, 3));
   Pose error = Pose::Identity();
-  error.linear() = ExpSO3(3.0 * kDeg * Vec3(0.0, 0.0, 1.0));
+  error.linear() = ExpSO3(3.0 * kDegToRad * Vec3(0.0, 0.0, 1.0));
   const GroundResult r = LevelCamera(camera_points, error * T_true, GroundOptions{});
   ASSERT_TRUE(r.accepted);
   // Forward direction projected on the floor keeps its heading.
   const Vec3 f_true = T_true.linear() * Vec3::UnitZ();
   const Vec3 f = r.T_world_camera.linear() * Vec3::UnitZ();
-  EXPECT_NEAR(std::atan2(f.x(), f.z()), std::atan2(f_true.x(), f_true.z()), 0.05 * kDeg);
+  EXPECT_NEAR(std::atan2(f.x(), f.z()), std::atan2(f_true.x(), f_true.z()), 0.05 * kDegToRad);
 }
 
 TEST(LevelCamera, RejectsCorrectionBeyondBoundsAndKeepsPose) {

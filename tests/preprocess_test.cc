@@ -13,8 +13,6 @@
 namespace rigfit {
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
-
 double AngleRad(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
 
 /// Uniform samples of the square [-half, half]^2 of the plane through `centre` with unit

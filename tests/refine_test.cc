@@ -14,8 +14,6 @@
 namespace rigfit {
 namespace {
 
-constexpr double kDeg = M_PI / 180.0;
-
 /// Largest relative-pose errors (deg, m) and tilt (deg) of an estimate (EvaluateRig).
 struct MaxErrors {
   double rotation_deg = 0.0;
@@ -25,7 +23,7 @@ struct MaxErrors {
 
 MaxErrors Errors(const PoseMap& est, const PoseMap& gt) {
   const RigErrors e = EvaluateRig(est, gt);
-  return {e.max_rotation_rad / kDeg, e.max_translation_m, e.max_tilt_rad / kDeg};
+  return {e.max_rotation_rad / kDegToRad, e.max_translation_m, e.max_tilt_rad / kDegToRad};
 }
 
 /// Two neighbouring cameras of a simulated 4-camera rig (two cameras alone would face each
@@ -247,7 +245,7 @@ TEST(Refine, OneCameraIsLeveledAndReported) {
   EXPECT_FALSE(r.success);
   EXPECT_NE(r.message.find("one camera"), std::string::npos) << r.message;
   const Pose& leveled = r.refined.at(SimSerial(0));
-  EXPECT_LT(TiltErrorRad(leveled, rig.gt.at(SimSerial(0))) / kDeg, 0.05);
+  EXPECT_LT(TiltErrorRad(leveled, rig.gt.at(SimSerial(0))) / kDegToRad, 0.05);
 }
 
 }  // namespace

@@ -36,7 +36,6 @@ using ::testing::HasSubstr;
 constexpr int kWidth = 160;
 constexpr int kHeight = 90;
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr double kRadToDeg = 180.0 / M_PI;
 /// A camera that is not refined is written with its leveled pose, computed here as
 /// T_leveled_input * T_input from the report: equal up to the round-off of that product.
 constexpr double kKeptPoseTolerance = 1e-12;

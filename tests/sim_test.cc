@@ -15,7 +15,6 @@
 namespace rigfit {
 namespace {
 
-constexpr double kDegToRad = M_PI / 180.0;
 /// Noise-free points must lie on the scene surface to well under a millimetre (the depth
 /// is stored as float32: 1 ulp at 8 m is 1e-6 m).
 constexpr double kOnSurfaceTolerance = 1e-4;
