@@ -56,6 +56,67 @@ std::vector<StabilityAccumulator> Stability(const std::vector<CameraView>& views
   return stability;
 }
 
+/// The cameras whose poses are free: connected, and not the reference.
+std::vector<bool> FreeCameras(const std::vector<bool>& connected, int reference) {
+  std::vector<bool> free = connected;
+  if (reference >= 0 && reference < static_cast<int>(free.size())) free[reference] = false;
+  return free;
+}
+
+/// Adds the gravity prior of every free camera to `problem` (its blocks already added).
+/// Returns their residual blocks (none when options.gravity_weight is 0).
+std::vector<ceres::ResidualBlockId> AddGravityPriors(ceres::Problem* problem,
+                                                     const std::vector<RegistrationCamera>& cameras,
+                                                     const std::vector<bool>& free,
+                                                     const IcpOptions& options,
+                                                     std::vector<PoseBlock>& blocks) {
+  std::vector<ceres::ResidualBlockId> ids;
+  if (options.gravity_weight <= 0.0) return ids;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (!free[i]) continue;
+    ids.push_back(problem->AddResidualBlock(
+        GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
+        nullptr, blocks[i].data()));
+  }
+  return ids;
+}
+
+/// The pose blocks of the free cameras, in camera order.
+std::vector<double*> FreeBlocks(std::vector<PoseBlock>& blocks, const std::vector<bool>& free) {
+  std::vector<double*> out;
+  for (size_t i = 0; i < blocks.size(); ++i) {
+    if (free[i]) out.push_back(blocks[i].data());
+  }
+  return out;
+}
+
+/// SharedNoiseCovariance of the free cameras (in camera order, 6 each) over `terms`, with
+/// the free cameras' gravity priors as the independent prior information.
+Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& cameras,
+                                   std::vector<PoseBlock>& blocks,
+                                   const std::vector<CameraView>& views,
+                                   const std::vector<bool>& free,
+                                   const std::vector<MatchedViews>& terms,
+                                   const IcpOptions& options, int num_threads) {
+  std::vector<int> column(cameras.size(), -1);
+  int count = 0;
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (free[i]) column[i] = 6 * count++;
+  }
+  const std::unique_ptr<ceres::Problem> problem = NewProblem();
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    if (free[i])
+      problem->AddParameterBlock(blocks[i].data(), kPoseAmbientSize, SharedPoseManifold());
+  }
+  const std::vector<ceres::ResidualBlockId> priors =
+      AddGravityPriors(problem.get(), cameras, free, options, blocks);
+  const Eigen::MatrixXd prior = priors.empty()
+                                    ? Eigen::MatrixXd::Zero(6 * count, 6 * count)
+                                    : Information(problem.get(), FreeBlocks(blocks, free), priors,
+                                                  /*scale_by_residuals=*/false);
+  return SharedNoiseCovariance(views, column, terms, options, prior, num_threads);
+}
+
 }  // namespace
 
 JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
@@ -190,12 +251,9 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
                       HoldInformation(result.weak[i], kHoldSigmaM), cameras[i].T_world_camera)),
               nullptr, start_blocks[i].data(), blocks[i].data());
         }
-        if (static_cast<int>(i) != reference && options.gravity_weight > 0.0) {
-          problem->AddResidualBlock(
-              GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
-              nullptr, blocks[i].data());
-        }
       }
+      AddGravityPriors(problem.get(), cameras, FreeCameras(result.connected, reference), options,
+                       blocks);
       problem->SetParameterBlockConstant(blocks[reference].data());
       ceres::Solver::Summary summary;
       ceres::Solve(solver_options, problem.get(), &summary);
@@ -233,32 +291,18 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     // The covariance of the last iteration's terms and priors (not the holding ones: it
     // reports what the data alone determine) at the final poses, each point's depth noise
     // shared by every term it is in (SharedNoiseCovariance), the gravity priors independent.
-    std::vector<int> column(n, -1);
-    std::vector<double*> free_blocks;
+    const std::vector<bool> free = FreeCameras(result.connected, reference);
     for (size_t i = 0; i < n; ++i) {
-      if (!result.connected[i] || static_cast<int>(i) == reference) continue;
-      column[i] = 6 * static_cast<int>(free_blocks.size());
-      free_blocks.push_back(blocks[i].data());
-      views[i].T_world_camera = PoseFromParameters(blocks[i].data());
+      if (free[i]) views[i].T_world_camera = PoseFromParameters(blocks[i].data());
     }
-    const std::unique_ptr<ceres::Problem> priors = NewProblem();
-    std::vector<ceres::ResidualBlockId> prior_blocks;
-    for (size_t i = 0; i < n; ++i) {
-      if (column[i] < 0 || options.gravity_weight <= 0.0) continue;
-      priors->AddParameterBlock(blocks[i].data(), kPoseAmbientSize, SharedPoseManifold());
-      prior_blocks.push_back(priors->AddResidualBlock(
-          GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
-          nullptr, blocks[i].data()));
-    }
-    const int dim = 6 * static_cast<int>(free_blocks.size());
-    const Eigen::MatrixXd prior = prior_blocks.empty()
-                                      ? Eigen::MatrixXd::Zero(dim, dim)
-                                      : Information(priors.get(), free_blocks, prior_blocks, false);
     const Eigen::MatrixXd covariance =
-        SharedNoiseCovariance(views, column, linked_terms(), options, prior, num_threads);
+        FreePoseCovariance(cameras, blocks, views, free, linked_terms(), options, num_threads);
     result.covariance_ok = covariance.size() > 0;
+    int k = 0;  // the free cameras, in camera order
     for (size_t i = 0; i < n && result.covariance_ok; ++i) {
-      if (column[i] >= 0) result.covariance[i] = covariance.block<6, 6>(column[i], column[i]);
+      if (!free[i]) continue;
+      result.covariance[i] = covariance.block<6, 6>(6 * k, 6 * k);
+      ++k;
     }
     result.covariance_s = SecondsSince(start);
   }
@@ -305,32 +349,6 @@ FinestTerms FindFinestTerms(const std::vector<RegistrationCamera>& cameras,
   return f;
 }
 
-/// Adds the gravity prior of every camera but the reference to `problem` (blocks already
-/// added). Returns their residual blocks (none when options.gravity_weight is 0).
-std::vector<ceres::ResidualBlockId> AddGravityPriors(ceres::Problem* problem,
-                                                     const std::vector<RegistrationCamera>& cameras,
-                                                     int reference, const IcpOptions& options,
-                                                     std::vector<PoseBlock>& blocks) {
-  std::vector<ceres::ResidualBlockId> ids;
-  if (options.gravity_weight <= 0.0) return ids;
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    if (static_cast<int>(i) == reference) continue;
-    ids.push_back(problem->AddResidualBlock(
-        GravityPriorCost::Create(cameras[i].T_world_camera.linear(), options.gravity_weight),
-        nullptr, blocks[i].data()));
-  }
-  return ids;
-}
-
-/// The pose blocks of every camera but the reference, in camera order.
-std::vector<double*> FreeBlocks(std::vector<PoseBlock>& blocks, int reference) {
-  std::vector<double*> free;
-  for (size_t i = 0; i < blocks.size(); ++i) {
-    if (static_cast<int>(i) != reference) free.push_back(blocks[i].data());
-  }
-  return free;
-}
-
 }  // namespace
 
 Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
@@ -351,12 +369,13 @@ Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
                                TermStorage::kCompressed);
     if (id != nullptr) residual_blocks.push_back(id);
   }
+  const std::vector<bool> free = FreeCameras(std::vector<bool>(cameras.size(), true), reference);
   for (ceres::ResidualBlockId id :
-       AddGravityPriors(problem.get(), cameras, reference, options, f.blocks)) {
+       AddGravityPriors(problem.get(), cameras, free, options, f.blocks)) {
     residual_blocks.push_back(id);
   }
   if (residual_blocks.empty()) return {};
-  return Information(problem.get(), FreeBlocks(f.blocks, reference), residual_blocks,
+  return Information(problem.get(), FreeBlocks(f.blocks, free), residual_blocks,
                      /*scale_by_residuals=*/false);
 }
 
@@ -367,23 +386,9 @@ Eigen::MatrixXd JointSharedNoiseCovariance(const std::vector<RegistrationCamera>
     return {};
   }
   FinestTerms f = FindFinestTerms(cameras, pairs, options, num_threads);
-  std::vector<int> column(cameras.size(), -1);
-  int free = 0;
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    if (static_cast<int>(i) != reference) column[i] = 6 * free++;
-  }
-  Eigen::MatrixXd prior = Eigen::MatrixXd::Zero(6 * free, 6 * free);
-  const std::unique_ptr<ceres::Problem> problem = NewProblem();
-  for (PoseBlock& b : f.blocks) {
-    problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
-  }
-  const std::vector<ceres::ResidualBlockId> priors =
-      AddGravityPriors(problem.get(), cameras, reference, options, f.blocks);
-  if (!priors.empty()) {
-    prior = Information(problem.get(), FreeBlocks(f.blocks, reference), priors,
-                        /*scale_by_residuals=*/false);
-  }
-  return SharedNoiseCovariance(f.views, column, f.terms, options, prior, num_threads);
+  return FreePoseCovariance(cameras, f.blocks, f.views,
+                            FreeCameras(std::vector<bool>(cameras.size(), true), reference),
+                            f.terms, options, num_threads);
 }
 
 }  // namespace rigfit
