@@ -411,8 +411,15 @@ Eigen::MatrixXd SharedNoise(const std::vector<CameraView>& views, const std::vec
         std::vector<Score> factors(free);
         std::vector<int> used;
         for (size_t i = 0; i < count; ++i) {
-          const Mat3 L =
-              PointNoise(view, view.level->points[i], options, point_floor_share).llt().matrixL();
+          const Mat3 C = PointNoise(view, view.level->points[i], options, point_floor_share);
+          const Eigen::LLT<Mat3> llt(C);
+          Mat3 L = llt.matrixL();
+          if (llt.info() != Eigen::Success || !L.allFinite()) {
+            // Singular (no depth noise, or no plane share): L = V sqrt(lambda).
+            Eigen::SelfAdjointEigenSolver<Mat3> eig;
+            eig.computeDirect(C);
+            L = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+          }
           used.clear();
           for (int w = 0; w < free; ++w) {
             if (scores[i * free + w].isZero(0.0)) continue;

@@ -201,10 +201,23 @@ TEST_F(SharedNoiseTest, EveryPointInOneTermGivesTheInverseInformation) {
   // Point-to-plane weights are exactly the noise the points carry: with each point in one
   // term the sandwich collapses to the inverse of the information.
   const std::vector<MatchedViews> one_way = {{&views_[0], &views_[1], &matches_}};
-  const IcpOptions options;
+  IcpOptions options;
   const Eigen::MatrixXd shared = Shared(one_way, options);
   ASSERT_EQ(shared.rows(), 6);
   EXPECT_LT(RelativeDifference(shared, InverseInformation(one_way, options)), 1e-9);
+  // Without depth noise or plane share (points cameras; the noise is all the floor's), the
+  // points carry no noise of their own, which is no reason to lose the covariance.
+  views_[0].depth_noise = views_[1].depth_noise = 0.0;
+  const Eigen::MatrixXd floor_only = Shared(one_way, options);
+  ASSERT_EQ(floor_only.rows(), 6);
+  EXPECT_LT(RelativeDifference(floor_only, InverseInformation(one_way, options)), 1e-9);
+  // Depth noise without plane share: each point's noise is along its ray only (rank 1,
+  // factored by an eigen-decomposition, whose rounding is about 1e-8 here).
+  views_[0].depth_noise = views_[1].depth_noise = 0.003;
+  options.plane_noise_share = 0.0;
+  const Eigen::MatrixXd ray_only = Shared(one_way, options);
+  ASSERT_EQ(ray_only.rows(), 6);
+  EXPECT_LT(RelativeDifference(ray_only, InverseInformation(one_way, options)), 1e-7);
 }
 
 TEST_F(SharedNoiseTest, CountingThePointsTwiceLeavesTheCovariance) {
