@@ -274,17 +274,14 @@ Eigen::MatrixXd Gram(const ceres::CRSMatrix& J) {
   return JtJ;
 }
 
-/// H^+ of a symmetric positive semi-definite matrix: directions with eigenvalues below
-/// 1e-12 of the largest are left out. Empty when H has no positive eigenvalue.
-Eigen::MatrixXd PseudoInverse(const Eigen::MatrixXd& H) {
+/// The inverse of a symmetric positive semi-definite matrix; empty when it is singular or
+/// nearly so (an eigenvalue at most 1e-12 of the largest): a direction nothing constrains has
+/// no finite covariance, and reporting it as 0 would read as "known exactly".
+Eigen::MatrixXd InverseOrEmpty(const Eigen::MatrixXd& H) {
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
   const Eigen::VectorXd& lambda = eig.eigenvalues();
-  if (!(lambda.maxCoeff() > 0.0)) return {};
-  Eigen::VectorXd inverse = Eigen::VectorXd::Zero(lambda.size());
-  for (int k = 0; k < lambda.size(); ++k) {
-    if (lambda(k) > 1e-12 * lambda.maxCoeff()) inverse(k) = 1.0 / lambda(k);
-  }
-  return eig.eigenvectors() * inverse.asDiagonal() * eig.eigenvectors().transpose();
+  if (!(lambda.minCoeff() > 1e-12 * lambda.maxCoeff())) return {};
+  return eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
 }
 
 }  // namespace
@@ -316,10 +313,13 @@ struct Linearised {
   Eigen::Matrix<double, kRows, 3> D_source, D_target;
 };
 
+/// The term's linearisation at the views' pose blocks; plus_* are the blocks' PlusJacobians
+/// and R_* their rotations.
 template <typename Term>
 Linearised<Term> Linearise(const Term& term, const CameraView& source, const CameraView& target,
                            const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_source,
-                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_target) {
+                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_target,
+                           const Mat3& R_source, const Mat3& R_target) {
   constexpr int kRows = Term::kNumResiduals;
   double r[kRows];
   Eigen::Matrix<double, kRows, 7, Eigen::RowMajor> Ja, Jb;
@@ -330,8 +330,8 @@ Linearised<Term> Linearise(const Term& term, const CameraView& source, const Cam
   // r depends on p through T_source p and on q through T_target q only (both methods), so
   // its derivative with respect to a point is that with respect to the pose's translation
   // (the point in the world) times the pose's rotation.
-  l.D_source = Ja.template rightCols<3>() * source.T_world_camera.linear();
-  l.D_target = Jb.template rightCols<3>() * target.T_world_camera.linear();
+  l.D_source = Ja.template rightCols<3>() * R_source;
+  l.D_target = Jb.template rightCols<3>() * R_target;
   return l;
 }
 
@@ -351,8 +351,11 @@ Eigen::MatrixXd SharedNoise(const std::vector<CameraView>& views, const std::vec
   using Score = Eigen::Matrix<double, 6, 3>;
   const size_t n = views.size();
   std::vector<Plus> plus(n);
-  for (size_t v = 0; v < n; ++v)
+  std::vector<Mat3> rotation(n);
+  for (size_t v = 0; v < n; ++v) {
     SharedPoseManifold()->PlusJacobian(views[v].pose_block, plus[v].data());
+    rotation[v] = PoseFromParameters(views[v].pose_block).linear();
+  }
   const auto index = [&](const CameraView* view) {
     return static_cast<size_t>(view - views.data());
   };
@@ -382,7 +385,8 @@ Eigen::MatrixXd SharedNoise(const std::vector<CameraView>& views, const std::vec
           };
           for (const Correspondence& c : *m.matches) {
             const Term term = make_term(*m.source, *m.target, c);
-            const Linearised<Term> l = Linearise(term, *m.source, *m.target, plus[s], plus[t]);
+            const Linearised<Term> l =
+                Linearise(term, *m.source, *m.target, plus[s], plus[t], rotation[s], rotation[t]);
             if (s == static_cast<size_t>(v)) {
               // Each term once, with its source's view.
               AddBlock(&H[v], cs, cs, l.J_source, l.J_source);
@@ -439,9 +443,9 @@ Eigen::MatrixXd SharedNoise(const std::vector<CameraView>& views, const std::vec
     H_total += H[v];
     M_total += M[v];
   }
-  const Eigen::MatrixXd H_plus = PseudoInverse(H_total);
-  if (H_plus.size() == 0) return {};
-  Eigen::MatrixXd covariance = H_plus * M_total * H_plus;
+  const Eigen::MatrixXd H_inverse = InverseOrEmpty(H_total);
+  if (H_inverse.size() == 0) return {};
+  Eigen::MatrixXd covariance = H_inverse * M_total * H_inverse;
   if (!covariance.allFinite()) return {};
   return covariance;
 }

@@ -138,17 +138,18 @@ struct MatchedViews {
 /// + (plane_noise_share k z^2)^2 I (plane error) in its camera frame, and that same error
 /// enters every term the point is in, as source or target, in every pair. The residual
 /// floor min_noise_m is independent per term (point-to-plane) or half of it per point (GICP),
-/// as in the weights. Linearised at the views' poses (pose blocks, and T_world_camera for
-/// the GICP weights):
+/// as in the weights. Linearised at the views' pose blocks (T_world_camera gives the GICP
+/// weights' rotations and the point-to-plane noise projection; keep the two equal):
 ///   C = H^-1 (sum_p s_p C_p s_p^T + sum_t J_t^T F_t J_t + P) H^-1,
 ///   H = sum_t J_t^T J_t + P,   s_p = sum over the terms t of point p of J_t^T dr_t/dp,
 /// with r_t the whitened residuals, J_t their tangent Jacobians, F_t their independent
 /// variance and P = prior_information (the gravity priors', independent of the points).
-/// When every point is in one term, C = H^-1, the inverse of what the terms' independence
-/// gives; counting the same points twice leaves C unchanged where it halves H^-1.
-/// `column[v]` is the first of view v's 6 tangent columns of C, -1 for a view held fixed; C
-/// is prior_information's size. Directions with information below 1e-12 of the largest are
-/// left out of H^-1. Empty when there are no terms or free views. The views' points are
+/// For point-to-plane, whose weights are exactly that noise, C = H^-1 when every point is in
+/// one term; counting the same points twice leaves C unchanged where it halves H^-1 (both
+/// methods). `column[v]` is 6 times view v's index among the free views (its first tangent
+/// column of C), -1 for a view held fixed; C is prior_information's size. Empty when there
+/// are no terms or free views, or when H is singular (information below 1e-12 of the
+/// largest in some direction, e.g. a free view in no term). The views' points are
 /// split over up to num_threads threads; the result does not depend on it.
 Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
                                       const std::vector<int>& column,
