@@ -70,9 +70,9 @@ void PrintBound(const SimulateArgs& a) {
   }
   if (b.estimator_ok) {
     std::printf(
-        "rigfit's joint estimator under the same noise, each point's noise shared by all its "
-        "terms (what its errors should be; not a bound): RMS relative rotation %.4f deg, RMS "
-        "relative translation %.2f mm, RMS tilt %.4f deg\n",
+        "rigfit's joint estimator under its own noise model (depth noise plus plane_noise_share), "
+        "each point's noise shared by all its terms (what its errors should be; not a bound): "
+        "RMS relative rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",
         b.estimator_rms_rotation_rad * kRadToDeg, b.estimator_rms_translation_m * 1e3,
         b.estimator_rms_tilt_rad * kRadToDeg);
   }
