@@ -112,59 +112,62 @@ TEST(MeasureOverlap, FitnessWithinTheCoarsestScalesDistanceRmseWithinTheViewsOwn
   EXPECT_EQ(MeasureOverlap(f, t, 0.08, IcpOptions(), 1).rmse_m, 0.0);
 }
 
+/// The three faces of a box corner (normals along the world axes, towards the cameras) near
+/// (0, 0, 2.5) m: per_face random points on each face.
+struct BoxCorner {
+  PointCloud points, normals;
+  BoxCorner(int per_face, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0.1, 1.0);
+    for (int face = 0; face < 3; ++face) {
+      for (int i = 0; i < per_face; ++i) {
+        Vec3 p(u(rng), u(rng), u(rng));
+        p(face) = 0.0;
+        points.push_back(p + Vec3(-0.5, -0.5, 2.5));
+        normals.push_back(-Vec3::Unit(face));
+      }
+    }
+  }
+};
+
+/// The corner as the camera at T of view `view` sees it: a finest-scale level of its points,
+/// normals and plane-shaped covariances. Point i moves by 0.001 ((view i) mod 7) m along x,
+/// so that the views' points differ (view 0's do not move).
+ScaleLevel CornerLevel(const BoxCorner& corner, const Pose& T, size_t view) {
+  ScaleLevel level;
+  level.voxel_size = 0.02;
+  level.normal_support = 0.05;
+  for (size_t i = 0; i < corner.points.size(); ++i) {
+    level.points.push_back(T.inverse() * corner.points[i] +
+                           Vec3(0.001 * ((view * i) % 7), 0.0, 0.0));
+    const Vec3 n = T.linear().transpose() * corner.normals[i];
+    level.geometry.normals.push_back(n);
+    level.geometry.covariances.push_back(Mat3::Identity() - (1.0 - 1e-3) * n * n.transpose());
+  }
+  level.geometry.planarity.assign(corner.points.size(), 1.0);
+  return level;
+}
+
 /// Two views of the three faces of a box corner (normals along the world axes), noisy depth
 /// k = 0.003 /m, from two poses; point i of one is point i of the other (correspondence
 /// i <-> i at distance 0).
 class SharedNoiseTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    std::mt19937 rng(5);
-    std::uniform_real_distribution<double> u(0.1, 1.0);
-    PointCloud world, normals;
-    for (int face = 0; face < 3; ++face) {
-      for (int i = 0; i < 40; ++i) {
-        Vec3 p(u(rng), u(rng), u(rng));
-        p(face) = 0.0;
-        world.push_back(p + Vec3(-0.5, -0.5, 2.5));
-        normals.push_back(-Vec3::Unit(face));
-      }
-    }
+    const BoxCorner corner(40, 5);
     const Pose T_source =
         PoseFromParameters(std::array<double, 7>{0.05, -0.1, 0.02, 0.99, 0.3, -0.1, 0.2}.data());
     const Pose T_target =
         PoseFromParameters(std::array<double, 7>{-0.03, 0.04, 0.1, 0.99, -0.2, 0.1, 0.05}.data());
-    // The points and normals of the world in a camera at T.
-    const auto seen_from = [&](const Pose& T, PointCloud* points, PointCloud* normals_in) {
-      for (size_t i = 0; i < world.size(); ++i) {
-        points->push_back(T.inverse() * world[i]);
-        normals_in->push_back(T.linear().transpose() * normals[i]);
-      }
-    };
-    PointCloud source_points, source_normals, target_points, target_normals;
-    seen_from(T_source, &source_points, &source_normals);
-    seen_from(T_target, &target_points, &target_normals);
-    for (size_t i = 0; i < world.size(); ++i) {
+    for (size_t i = 0; i < corner.points.size(); ++i) {
       matches_.push_back({static_cast<int>(i), static_cast<int>(i), 0.0});
     }
-    source_ = Level(source_points, source_normals);
-    target_ = Level(target_points, target_normals);
+    source_ = CornerLevel(corner, T_source, 0);
+    target_ = CornerLevel(corner, T_target, 0);
     PoseToParameters(T_source, blocks_[0].data());
     PoseToParameters(T_target, blocks_[1].data());
     views_ = {{&source_, T_source, blocks_[0].data(), 0.003},
               {&target_, T_target, blocks_[1].data(), 0.003}};
-  }
-
-  static ScaleLevel Level(const PointCloud& points, const PointCloud& normals) {
-    ScaleLevel level;
-    level.voxel_size = 0.02;
-    level.normal_support = 0.05;
-    level.points = points;
-    level.geometry.normals = normals;
-    for (const Vec3& n : normals) {
-      level.geometry.covariances.push_back(Mat3::Identity() - (1.0 - 1e-3) * n * n.transpose());
-    }
-    level.geometry.planarity.assign(points.size(), 1.0);
-    return level;
   }
 
   /// SharedNoiseCovariance of the source pose (the target held) over `terms`.
@@ -243,7 +246,7 @@ TEST_F(SharedNoiseTest, CountingThePointsTwiceLeavesTheCovariance) {
   }
 }
 
-/// Three views of the box corner of SharedNoiseTest with their own depth noise, and four
+/// Three views of a box corner with their own depth noise, and four
 /// pair directions with different matchings, for the dense reference below.
 struct ThreeViews {
   std::vector<ScaleLevel> levels = std::vector<ScaleLevel>(3);
@@ -253,38 +256,18 @@ struct ThreeViews {
   std::vector<MatchedViews> terms;
 
   ThreeViews() {
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<double> u(0.1, 1.0);
-    PointCloud world, normals;
-    for (int face = 0; face < 3; ++face) {
-      for (int i = 0; i < 30; ++i) {
-        Vec3 p(u(rng), u(rng), u(rng));
-        p(face) = 0.0;
-        world.push_back(p + Vec3(-0.5, -0.5, 2.5));
-        normals.push_back(-Vec3::Unit(face));
-      }
-    }
+    const BoxCorner corner(30, 7);
     const std::array<std::array<double, 7>, 3> poses = {{{0.05, -0.1, 0.02, 0.99, 0.3, -0.1, 0.2},
                                                          {-0.03, 0.04, 0.1, 0.99, -0.2, 0.1, 0.05},
                                                          {0.1, 0.02, -0.05, 0.99, 0.1, 0.3, -0.2}}};
     const std::array<double, 3> depth_noise = {0.003, 0.002, 0.004};
     for (size_t v = 0; v < 3; ++v) {
       const Pose T = PoseFromParameters(poses[v].data());
-      ScaleLevel& level = levels[v];
-      level.voxel_size = 0.02;
-      level.normal_support = 0.05;
-      for (size_t i = 0; i < world.size(); ++i) {
-        // Millimetre offsets along x make the views' points differ.
-        level.points.push_back(T.inverse() * world[i] + Vec3(0.001 * ((v * i) % 7), 0.0, 0.0));
-        const Vec3 n = T.linear().transpose() * normals[i];
-        level.geometry.normals.push_back(n);
-        level.geometry.covariances.push_back(Mat3::Identity() - (1.0 - 1e-3) * n * n.transpose());
-      }
-      level.geometry.planarity.assign(world.size(), 1.0);
+      levels[v] = CornerLevel(corner, T, v);
       PoseToParameters(T, blocks[v].data());
-      views[v] = {&level, T, blocks[v].data(), depth_noise[v]};
+      views[v] = {&levels[v], T, blocks[v].data(), depth_noise[v]};
     }
-    const int n = static_cast<int>(world.size());
+    const int n = static_cast<int>(corner.points.size());
     for (int i = 0; i < n; ++i) {
       matches[0].push_back({i, i, 0.0});
       matches[1].push_back({i, (i + 3) % n, 0.0});
