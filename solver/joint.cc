@@ -9,6 +9,7 @@
 #include <deque>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "core/geometry.h"
@@ -319,16 +320,22 @@ struct FinestTerms {
   std::vector<CameraView> views;
   std::vector<std::vector<Correspondence>> matches;  ///< pair k: 2k a -> b, 2k + 1 b -> a
   std::vector<MatchedViews> terms;
+  std::vector<bool> free;  ///< every camera but the reference (the gauge)
 };
 
-FinestTerms FindFinestTerms(const std::vector<RegistrationCamera>& cameras,
-                            const std::vector<CandidatePair>& pairs, const IcpOptions& options,
-                            int num_threads) {
+/// Empty with fewer than two cameras or no pyramid levels.
+std::optional<FinestTerms> FindFinestTerms(const std::vector<RegistrationCamera>& cameras,
+                                           const std::vector<CandidatePair>& pairs, int reference,
+                                           const IcpOptions& options, int num_threads) {
+  if (cameras.size() < 2 || cameras[0].pyramid == nullptr || cameras[0].pyramid->levels.empty()) {
+    return std::nullopt;
+  }
   const size_t n = cameras.size();
   const size_t finest = cameras[0].pyramid->levels.size() - 1;
   const double max_distance =
       options.max_correspondence_distance_factor * cameras[0].pyramid->levels[finest].voxel_size;
   FinestTerms f;
+  f.free = FreeCameras(std::vector<bool>(n, true), reference);
   f.blocks.resize(n);
   f.views.resize(n);
   for (size_t i = 0; i < n; ++i) {
@@ -354,10 +361,10 @@ FinestTerms FindFinestTerms(const std::vector<RegistrationCamera>& cameras,
 Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
                                  const std::vector<CandidatePair>& pairs, int reference,
                                  const IcpOptions& options, int num_threads) {
-  if (cameras.size() < 2 || cameras[0].pyramid == nullptr || cameras[0].pyramid->levels.empty()) {
-    return {};
-  }
-  FinestTerms f = FindFinestTerms(cameras, pairs, options, num_threads);
+  std::optional<FinestTerms> finest =
+      FindFinestTerms(cameras, pairs, reference, options, num_threads);
+  if (!finest) return {};
+  FinestTerms& f = *finest;
   const std::unique_ptr<ceres::Problem> problem = NewProblem();
   for (PoseBlock& b : f.blocks) {
     problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
@@ -369,26 +376,21 @@ Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
                                TermStorage::kCompressed);
     if (id != nullptr) residual_blocks.push_back(id);
   }
-  const std::vector<bool> free = FreeCameras(std::vector<bool>(cameras.size(), true), reference);
   for (ceres::ResidualBlockId id :
-       AddGravityPriors(problem.get(), cameras, free, options, f.blocks)) {
+       AddGravityPriors(problem.get(), cameras, f.free, options, f.blocks)) {
     residual_blocks.push_back(id);
   }
   if (residual_blocks.empty()) return {};
-  return Information(problem.get(), FreeBlocks(f.blocks, free), residual_blocks,
+  return Information(problem.get(), FreeBlocks(f.blocks, f.free), residual_blocks,
                      /*scale_by_residuals=*/false);
 }
 
 Eigen::MatrixXd JointSharedNoiseCovariance(const std::vector<RegistrationCamera>& cameras,
                                            const std::vector<CandidatePair>& pairs, int reference,
                                            const IcpOptions& options, int num_threads) {
-  if (cameras.size() < 2 || cameras[0].pyramid == nullptr || cameras[0].pyramid->levels.empty()) {
-    return {};
-  }
-  FinestTerms f = FindFinestTerms(cameras, pairs, options, num_threads);
-  return FreePoseCovariance(cameras, f.blocks, f.views,
-                            FreeCameras(std::vector<bool>(cameras.size(), true), reference),
-                            f.terms, options, num_threads);
+  std::optional<FinestTerms> f = FindFinestTerms(cameras, pairs, reference, options, num_threads);
+  if (!f) return {};
+  return FreePoseCovariance(cameras, f->blocks, f->views, f->free, f->terms, options, num_threads);
 }
 
 }  // namespace rigfit
