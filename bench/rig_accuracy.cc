@@ -13,7 +13,28 @@
 #include "solver/crlb.h"
 #include "solver/refine.h"
 
-namespace {}  // namespace
+namespace {
+
+/// Over the seeds: a reference's RMS errors (the bound, or the estimator's prediction) and
+/// rigfit's errors divided by them.
+struct AgainstReference {
+  double r2 = 0.0, t2 = 0.0, ratio_r2 = 0.0, ratio_t2 = 0.0;
+  int seeds = 0;
+
+  void Add(double rotation_rad, double translation_m, const rigfit::RigErrors& after) {
+    r2 += rotation_rad * rotation_rad;
+    t2 += translation_m * translation_m;
+    ratio_r2 += std::pow(after.rms_rotation_rad / rotation_rad, 2);
+    ratio_t2 += std::pow(after.rms_translation_m / translation_m, 2);
+    ++seeds;
+  }
+  double RmsRotationDeg() const { return std::sqrt(r2 / seeds) * rigfit::kRadToDeg; }
+  double RmsTranslationMm() const { return std::sqrt(t2 / seeds) * 1e3; }
+  double RmsRatioRotation() const { return std::sqrt(ratio_r2 / seeds); }
+  double RmsRatioTranslation() const { return std::sqrt(ratio_t2 / seeds); }
+};
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace rigfit;
@@ -56,9 +77,7 @@ int main(int argc, char** argv) {
               "trans mm", "tilt", "rot deg", "trans mm", "tilt", "max mm", "level", "prep", "solve",
               "result");
   double sum_r2 = 0, sum_t2 = 0, sum_tilt2 = 0, worst_t = 0;
-  double sum_ratio_r2 = 0, sum_ratio_t2 = 0, sum_bound_r2 = 0, sum_bound_t2 = 0;
-  double sum_est_ratio_r2 = 0, sum_est_ratio_t2 = 0, sum_est_r2 = 0, sum_est_t2 = 0;
-  int estimator_seeds = 0;
+  AgainstReference bound, estimator;
   int runs_with_weak = 0;
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
@@ -100,10 +119,7 @@ int main(int argc, char** argv) {
                     b.rms_rotation_rad * kRadToDeg, b.rms_translation_m * 1e3,
                     b.rms_tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms_rotation_rad,
                     after.rms_translation_m / b.rms_translation_m);
-        sum_ratio_r2 += std::pow(after.rms_rotation_rad / b.rms_rotation_rad, 2);
-        sum_ratio_t2 += std::pow(after.rms_translation_m / b.rms_translation_m, 2);
-        sum_bound_r2 += std::pow(b.rms_rotation_rad, 2);
-        sum_bound_t2 += std::pow(b.rms_translation_m, 2);
+        bound.Add(b.rms_rotation_rad, b.rms_translation_m, after);
         if (b.estimator_ok) {
           std::printf(
               "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
@@ -112,11 +128,7 @@ int main(int argc, char** argv) {
               b.estimator_rms_tilt_rad * kRadToDeg,
               after.rms_rotation_rad / b.estimator_rms_rotation_rad,
               after.rms_translation_m / b.estimator_rms_translation_m);
-          sum_est_ratio_r2 += std::pow(after.rms_rotation_rad / b.estimator_rms_rotation_rad, 2);
-          sum_est_ratio_t2 += std::pow(after.rms_translation_m / b.estimator_rms_translation_m, 2);
-          sum_est_r2 += std::pow(b.estimator_rms_rotation_rad, 2);
-          sum_est_t2 += std::pow(b.estimator_rms_translation_m, 2);
-          ++estimator_seeds;
+          estimator.Add(b.estimator_rms_rotation_rad, b.estimator_rms_translation_m, after);
         }
       } else {
         std::printf("       bound: not available: %s\n", b.message.c_str());
@@ -164,21 +176,19 @@ int main(int argc, char** argv) {
         "rotation, %.2f translation over %d cameras\n",
         std::sqrt(sum_nr2 / normalised), std::sqrt(sum_nt2 / normalised), normalised);
   }
-  if (crlb) {
+  if (crlb && bound.seeds > 0) {
     std::printf(
         "bound: RMS %.4f deg %.2f mm; RMS of error / bound over the seeds: %.2f "
         "rotation, %.2f translation\n",
-        std::sqrt(sum_bound_r2 / seeds) * kRadToDeg, std::sqrt(sum_bound_t2 / seeds) * 1e3,
-        std::sqrt(sum_ratio_r2 / seeds), std::sqrt(sum_ratio_t2 / seeds));
-    if (estimator_seeds > 0) {
-      std::printf(
-          "estimator under shared point noise: RMS %.4f deg %.2f mm; RMS of error / it over "
-          "%d seeds: %.2f rotation, %.2f translation\n",
-          std::sqrt(sum_est_r2 / estimator_seeds) * kRadToDeg,
-          std::sqrt(sum_est_t2 / estimator_seeds) * 1e3, estimator_seeds,
-          std::sqrt(sum_est_ratio_r2 / estimator_seeds),
-          std::sqrt(sum_est_ratio_t2 / estimator_seeds));
-    }
+        bound.RmsRotationDeg(), bound.RmsTranslationMm(), bound.RmsRatioRotation(),
+        bound.RmsRatioTranslation());
+  }
+  if (crlb && estimator.seeds > 0) {
+    std::printf(
+        "estimator under shared point noise: RMS %.4f deg %.2f mm; RMS of error / it over "
+        "%d seeds: %.2f rotation, %.2f translation\n",
+        estimator.RmsRotationDeg(), estimator.RmsTranslationMm(), estimator.seeds,
+        estimator.RmsRatioRotation(), estimator.RmsRatioTranslation());
   }
   return 0;
 }
