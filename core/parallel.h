@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <thread>
 #include <vector>
 
@@ -23,14 +24,22 @@ void ParallelForChunks(int n, int chunks, const Body& body) {
   for (std::thread& worker : workers) worker.join();
 }
 
-/// Calls body(i) for every i in [0, n) on up to num_threads threads, with at least
-/// min_per_thread indices per thread. body must be safe to call concurrently for
+/// Calls body(i) for every i in [0, n) on up to num_threads threads, at most one per
+/// min_per_thread indices. The threads take the indices in blocks of at most
+/// min_per_thread, each the next block left, so that uneven work (queries that miss
+/// against queries that match) evens out. body must be safe to call concurrently for
 /// different i.
 template <typename Body>
 void ParallelFor(int n, int num_threads, const Body& body, int min_per_thread = 1000) {
-  const int chunks = std::max(1, std::min(num_threads, n / std::max(1, min_per_thread)));
-  ParallelForChunks(n, chunks, [&](int, int begin, int end) {
-    for (int i = begin; i < end; ++i) body(i);
+  const int threads = std::max(1, std::min(num_threads, n / std::max(1, min_per_thread)));
+  // At least 8 blocks per thread, as long as they hold min_per_thread indices or fewer.
+  const int block = std::max(1, std::min(min_per_thread, n / (8 * threads)));
+  std::atomic<int> next{0};
+  ParallelForChunks(threads, threads, [&](int, int, int) {
+    for (int begin = next.fetch_add(block); begin < n; begin = next.fetch_add(block)) {
+      const int end = std::min(n, begin + block);
+      for (int i = begin; i < end; ++i) body(i);
+    }
   });
 }
 
