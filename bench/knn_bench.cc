@@ -28,6 +28,7 @@
 
 #include "core/geometry.h"
 #include "solver/knn.h"
+#include "solver/point_grid.h"
 #include "solver/preprocess.h"
 
 namespace rigfit {
@@ -224,15 +225,17 @@ void BM_Build(benchmark::State& state, KnnBackend backend) {
   state.counters["points"] = static_cast<double>(points.size());
 }
 
-void RunNearest(benchmark::State& state, const KdTree& tree, const PointCloud& queries,
+/// Bounded nearest-neighbour queries on any index with KdTree's Nearest (KdTree, PointGrid).
+template <typename Index>
+void RunNearest(benchmark::State& state, const Index& index, const PointCloud& queries,
                 double max_distance) {
   int matched = 0;
   for (auto _ : state) {
     matched = 0;
     for (const Vec3& q : queries) {
-      int index;
+      int found;
       double squared_distance;
-      matched += tree.Nearest(q, max_distance, &index, &squared_distance);
+      matched += index.Nearest(q, max_distance, &found, &squared_distance);
     }
     benchmark::DoNotOptimize(matched);
   }
@@ -261,6 +264,16 @@ void BM_Nearest(benchmark::State& state, KnnBackend backend) {
   RunNearest(state, tree, queries, 1.4 * MeanSpacing(n));
 }
 
+/// The correspondence search's grid (solver/point_grid.h) on the same queries, built for
+/// the query radius.
+void BM_GridNearest(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const double radius = 1.4 * MeanSpacing(n);
+  const PointGrid grid(CachedBand(n), radius);
+  static const PointCloud queries = MovedQueries(30000);
+  RunNearest(state, grid, queries, radius);
+}
+
 void BM_KNearest20(benchmark::State& state, KnnBackend backend) {
   const PointCloud& points = CachedBand(static_cast<int>(state.range(0)));
   const KdTree tree(points, backend);
@@ -283,6 +296,12 @@ void BM_RealNearest(benchmark::State& state, KnnBackend backend) {
   RunNearest(state, tree, Real().source_in_target, 1.0);
 }
 
+void BM_RealGridNearest(benchmark::State& state) {
+  if (Real().target.empty()) return state.SkipWithError("small_gicp data not readable");
+  const PointGrid grid(Real().target, 1.0);
+  RunNearest(state, grid, Real().source_in_target, 1.0);
+}
+
 void BM_RealKNearest20(benchmark::State& state, KnnBackend backend) {
   if (Real().target.empty()) return state.SkipWithError("small_gicp data not readable");
   const KdTree tree(Real().target, backend);
@@ -297,9 +316,16 @@ RIGFIT_BACKENDS(BM_Build, ->Arg(5000)->Arg(10000)->Arg(20000)->Arg(40000)->Arg(1
                               benchmark::kMillisecond));
 RIGFIT_BACKENDS(
     BM_Nearest, ->Arg(5000)->Arg(20000)->Arg(40000)->Arg(100000)->Unit(benchmark::kMillisecond));
+BENCHMARK(BM_GridNearest)
+    ->Arg(5000)
+    ->Arg(20000)
+    ->Arg(40000)
+    ->Arg(100000)
+    ->Unit(benchmark::kMillisecond);
 RIGFIT_BACKENDS(BM_KNearest20, ->Arg(5000)->Arg(20000)->Arg(40000)->Unit(benchmark::kMillisecond));
 RIGFIT_BACKENDS(BM_RealBuild, ->Unit(benchmark::kMillisecond));
 RIGFIT_BACKENDS(BM_RealNearest, ->Unit(benchmark::kMillisecond));
+BENCHMARK(BM_RealGridNearest)->Unit(benchmark::kMillisecond);
 RIGFIT_BACKENDS(BM_RealKNearest20, ->Unit(benchmark::kMillisecond));
 
 // ---------------------------------------------------------------------------------------
@@ -487,7 +513,8 @@ void BM_CameraPyramid(benchmark::State& state) {
   const std::vector<double> voxel_sizes = {0.08, 0.04, 0.02};
   const int threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    benchmark::DoNotOptimize(BuildPyramid(Camera().band, voxel_sizes, 20, Vec3::Zero(), threads));
+    benchmark::DoNotOptimize(
+        BuildPyramid(Camera().band, voxel_sizes, 20, Vec3::Zero(), 1.4, threads));
   }
   CameraCounters(state);
 }

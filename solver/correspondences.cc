@@ -86,7 +86,7 @@ std::vector<Correspondence> FindCorrespondences(const CameraView& source, const 
     if (!src.geometry.IsValid(i)) return;
     int j = 0;
     double d2 = 0.0;
-    if (!tgt.tree->Nearest(T_target_source * src.points[i], max_distance, &j, &d2) ||
+    if (!tgt.Nearest(T_target_source * src.points[i], max_distance, &j, &d2) ||
         !tgt.geometry.IsValid(j)) {
       return;
     }

@@ -147,8 +147,20 @@ LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree
   return geometry;
 }
 
+bool ScaleLevel::Nearest(const Vec3& query, double max_distance, int* index,
+                         double* squared_distance) const {
+  if (grid) {
+    const bool within = max_distance <= grid->radius();
+    if (grid->Nearest(query, within ? max_distance : grid->radius(), index, squared_distance)) {
+      return true;
+    }
+    if (within) return false;
+  }
+  return tree->Nearest(query, max_distance, index, squared_distance);
+}
+
 CloudPyramid BuildPyramid(const PointCloud& points, const std::vector<double>& voxel_sizes, int k,
-                          const Vec3& viewpoint, int num_threads) {
+                          const Vec3& viewpoint, double search_factor, int num_threads) {
   CloudPyramid pyramid;
   pyramid.levels.resize(voxel_sizes.size());
   for (size_t i = 0; i < voxel_sizes.size(); ++i) {
@@ -157,6 +169,7 @@ CloudPyramid BuildPyramid(const PointCloud& points, const std::vector<double>& v
     level.normal_support = voxel_sizes[i] * std::sqrt(k / M_PI);
     level.points = VoxelDownsample(points, voxel_sizes[i]);
     level.tree = std::make_unique<KdTree>(level.points);
+    level.grid = std::make_unique<PointGrid>(level.points, search_factor * voxel_sizes[i]);
     level.geometry = EstimateLocalGeometry(level.points, *level.tree, k, viewpoint, num_threads);
   }
   return pyramid;

@@ -9,6 +9,7 @@
 
 #include "core/types.h"
 #include "solver/knn.h"
+#include "solver/point_grid.h"
 
 namespace rigfit {
 
@@ -57,9 +58,9 @@ struct LocalGeometry {
 LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree, int k,
                                     const Vec3& viewpoint, int num_threads = 1);
 
-/// One scale of a camera's cloud: its downsampled points, a tree over them and their local
-/// geometry. The tree refers to `points`: never modify or move `points` out of a level
-/// (moving the whole ScaleLevel or CloudPyramid is fine).
+/// One scale of a camera's cloud: its downsampled points, a tree and a grid over them and
+/// their local geometry. The tree refers to `points`: never modify or move `points` out of a
+/// level (moving the whole ScaleLevel or CloudPyramid is fine).
 struct ScaleLevel {
   double voxel_size = 0.0;
   /// Radius (m) of the neighbourhood each normal is fitted to: k neighbours on a surface
@@ -67,7 +68,14 @@ struct ScaleLevel {
   double normal_support = 0.0;
   PointCloud points;
   std::unique_ptr<KdTree> tree;
+  /// For the correspondence search within the scale's correspondence distance; may be null.
+  std::unique_ptr<PointGrid> grid;
   LocalGeometry geometry;
+
+  /// The nearest point strictly closer than max_distance, as KdTree::Nearest. The grid
+  /// answers when max_distance is within its radius, or first, up to that radius, since a
+  /// point found there is the nearest at any distance; the tree answers the rest.
+  bool Nearest(const Vec3& query, double max_distance, int* index, double* squared_distance) const;
 };
 
 /// A camera's cloud at every scale, built once and shared by both solvers.
@@ -76,10 +84,11 @@ struct CloudPyramid {
 };
 
 /// Downsamples `points` (in their own frame) once per voxel size, each level directly from
-/// the input, and builds each level's tree and local geometry (k neighbours, normals toward
-/// viewpoint, num_threads threads for the geometry). Throws std::invalid_argument as
-/// VoxelDownsample and EstimateLocalGeometry do.
+/// the input, and builds each level's tree, grid (radius search_factor x its voxel size: the
+/// correspondence distance) and local geometry (k neighbours, normals toward viewpoint,
+/// num_threads threads for the geometry). Throws std::invalid_argument as VoxelDownsample,
+/// EstimateLocalGeometry and PointGrid do.
 CloudPyramid BuildPyramid(const PointCloud& points, const std::vector<double>& voxel_sizes, int k,
-                          const Vec3& viewpoint, int num_threads = 2);
+                          const Vec3& viewpoint, double search_factor, int num_threads = 2);
 
 }  // namespace rigfit

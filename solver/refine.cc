@@ -222,8 +222,9 @@ PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
         const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
         rig.band_points[i] = static_cast<int>(band.size());
         boxes[i] = RobustGroundBox(Transform(leveled[i], band));
-        rig.pyramids[i] = BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors,
-                                       Vec3::Zero(), threads_per_camera);
+        rig.pyramids[i] =
+            BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(),
+                         options.icp.max_correspondence_distance_factor, threads_per_camera);
         if (floor_leveled[i]) {
           SnapFloorNormals(&rig.pyramids[i], FloorModel{leveled[i], depth_noise[i],
                                                         options.ground.ransac_distance_m});

@@ -268,7 +268,7 @@ TEST(BuildPyramid, LevelsShrinkWithVoxelSizeAndStayUsableAfterAMove) {
   const Vec3 normal = Vec3(0.05, -1.0, 0.3).normalized();
   const PointCloud points = NoisyPlane(Vec3(0.2, 1.5, 3.0), normal, 1.5, 60000, 0.002, 9);
   const std::vector<double> voxel_sizes = {0.08, 0.04, 0.02};
-  CloudPyramid built = BuildPyramid(points, voxel_sizes, 20, Vec3::Zero());
+  CloudPyramid built = BuildPyramid(points, voxel_sizes, 20, Vec3::Zero(), 1.4);
   ASSERT_EQ(built.levels.size(), 3u);
   // 3 m x 3 m at v: about (3 / v)^2 voxels, a plane crossing some voxels twice in depth.
   for (size_t l = 0; l < 3; ++l) {
@@ -277,6 +277,8 @@ TEST(BuildPyramid, LevelsShrinkWithVoxelSizeAndStayUsableAfterAMove) {
     EXPECT_EQ(level.points, VoxelDownsample(points, voxel_sizes[l]));
     ASSERT_TRUE(level.tree);
     EXPECT_EQ(level.tree->size(), level.points.size());
+    ASSERT_TRUE(level.grid);
+    EXPECT_DOUBLE_EQ(level.grid->radius(), 1.4 * voxel_sizes[l]);
     EXPECT_EQ(level.geometry.size(), level.points.size());
     const double grid_cells = std::pow(3.0 / voxel_sizes[l], 2);
     EXPECT_GT(level.points.size(), 0.9 * grid_cells);
@@ -293,8 +295,12 @@ TEST(BuildPyramid, LevelsShrinkWithVoxelSizeAndStayUsableAfterAMove) {
     ASSERT_TRUE(level.tree->Nearest(query, 0.01, &index, &squared_distance));
     EXPECT_EQ(index, static_cast<int>(level.points.size() / 3));
     EXPECT_EQ(squared_distance, 0.0);
+    index = -1;
+    ASSERT_TRUE(level.grid->Nearest(query, 0.01, &index, &squared_distance));
+    EXPECT_EQ(index, static_cast<int>(level.points.size() / 3));
   }
-  EXPECT_TRUE(BuildPyramid(PointCloud(), voxel_sizes, 20, Vec3::Zero()).levels[0].points.empty());
+  EXPECT_TRUE(
+      BuildPyramid(PointCloud(), voxel_sizes, 20, Vec3::Zero(), 1.4).levels[0].points.empty());
 }
 
 }  // namespace
