@@ -240,6 +240,13 @@ OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
   return stats;
 }
 
+double FitRmse(const CameraView& source, const CameraView& target, const IcpOptions& options,
+               int num_threads) {
+  // A coarsest voxel of 0 makes the fitness distance the view's own, so the one search stays
+  // within it.
+  return MeasureOverlap(source, target, 0.0, options, num_threads).rmse_m;
+}
+
 namespace {
 
 /// The Jacobian (PoseManifold tangents of `blocks`, in order) and residuals of the given

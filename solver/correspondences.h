@@ -116,6 +116,11 @@ struct OverlapStats {
 OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
                             double coarsest_voxel_size, const IcpOptions& options, int num_threads);
 
+/// MeasureOverlap(...).rmse_m alone, from a search within the view's own scale's
+/// correspondence distance only (the grid's radius), not the coarsest one: cheaper.
+double FitRmse(const CameraView& source, const CameraView& target, const IcpOptions& options,
+               int num_threads);
+
 /// Information of the given pose blocks (PoseManifold tangents, in the order given,
 /// 6 per block) from the given residual blocks: J^T J / sigma^2 with sigma^2 = sum r^2 /
 /// (m - 6 k) when scale_by_residuals, else J^T J (residuals already whitened by a known

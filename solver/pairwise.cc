@@ -57,7 +57,7 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
   const double coarsest_voxel = source.levels.front().voxel_size;
   {
     const auto [src, tgt] = views(finest, result.T_world_source);
-    result.rmse_before_m = MeasureOverlap(src, tgt, coarsest_voxel, options, num_threads).rmse_m;
+    result.rmse_before_m = FitRmse(src, tgt, options, num_threads);
   }
 
   const ceres::Solver::Options solver_options = StepSolverOptions();

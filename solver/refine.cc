@@ -116,12 +116,12 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
                                                     RefineResult* result) {
   const size_t finest = options.scales.size() - 1;
   const double coarsest_voxel = options.scales.front() * options.voxel_size;
-  const auto overlap = [&](const CandidatePair& pair, const Pose& T_a, const Pose& T_b) {
-    const CameraView a{&cameras[pair.a].pyramid->levels[finest], T_a, nullptr,
-                       cameras[pair.a].depth_noise};
-    const CameraView b{&cameras[pair.b].pyramid->levels[finest], T_b, nullptr,
-                       cameras[pair.b].depth_noise};
-    return MeasureOverlap(b, a, coarsest_voxel, options, num_threads);
+  // The finest views of a pair at the given poses: (b, a), b the source.
+  const auto views = [&](const CandidatePair& pair, const Pose& T_a, const Pose& T_b) {
+    return std::make_pair(CameraView{&cameras[pair.b].pyramid->levels[finest], T_b, nullptr,
+                                     cameras[pair.b].depth_noise},
+                          CameraView{&cameras[pair.a].pyramid->levels[finest], T_a, nullptr,
+                                     cameras[pair.a].depth_noise});
   };
   // Registration time includes the pairs' fit before and after, as in the pairwise mode.
   const auto start = std::chrono::steady_clock::now();
@@ -130,8 +130,8 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
     report.serial_a = result->cameras[pair.a].serial;
     report.serial_b = result->cameras[pair.b].serial;
     report.overlap_area_m2 = pair.overlap_area_m2;
-    report.rmse_before_m =
-        overlap(pair, cameras[pair.a].T_world_camera, cameras[pair.b].T_world_camera).rmse_m;
+    const auto [b, a] = views(pair, cameras[pair.a].T_world_camera, cameras[pair.b].T_world_camera);
+    report.rmse_before_m = FitRmse(b, a, options, num_threads);
   }
   log.Info("joint: " + std::to_string(cameras.size()) + " cameras, " +
            std::to_string(candidates.size()) + " pairs");
@@ -160,8 +160,9 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
   }
   for (size_t k = 0; k < candidates.size(); ++k) {
     PairReport& report = result->pairs[k];
-    const OverlapStats after =
-        overlap(candidates[k], joint.poses[candidates[k].a], joint.poses[candidates[k].b]);
+    const auto [b, a] =
+        views(candidates[k], joint.poses[candidates[k].a], joint.poses[candidates[k].b]);
+    const OverlapStats after = MeasureOverlap(b, a, coarsest_voxel, options, num_threads);
     report.fitness = after.fitness;
     report.rmse_after_m = after.rmse_m;
     report.correspondences = joint.pair_correspondences[k];

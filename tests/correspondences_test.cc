@@ -105,11 +105,14 @@ TEST(MeasureOverlap, FitnessWithinTheCoarsestScalesDistanceRmseWithinTheViewsOwn
   const OverlapStats stats = MeasureOverlap(s, t, 0.08, IcpOptions(), 2);
   EXPECT_DOUBLE_EQ(stats.fitness, 4.0 / 5.0);
   EXPECT_NEAR(stats.rmse_m, std::sqrt((0.01 * 0.01 + 0.02 * 0.02) / 2.0), 1e-12);
+  // The RMSE alone, from the narrower search, is the same.
+  EXPECT_EQ(FitRmse(s, t, IcpOptions(), 2), stats.rmse_m);
   // No source point near the target: no fitness, no RMSE.
   const ScaleLevel far = FacingLevel({Vec3(0.0, 0.0, 1.0)});
   const CameraView f{&far, Pose::Identity(), nullptr, 0.0};
   EXPECT_EQ(MeasureOverlap(f, t, 0.08, IcpOptions(), 1).fitness, 0.0);
   EXPECT_EQ(MeasureOverlap(f, t, 0.08, IcpOptions(), 1).rmse_m, 0.0);
+  EXPECT_EQ(FitRmse(f, t, IcpOptions(), 1), 0.0);
 }
 
 /// The three faces of a box corner (normals along the world axes, towards the cameras) near
