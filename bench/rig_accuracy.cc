@@ -21,11 +21,11 @@ struct AgainstReference {
   double r2 = 0.0, t2 = 0.0, ratio_r2 = 0.0, ratio_t2 = 0.0;
   int seeds = 0;
 
-  void Add(double rotation_rad, double translation_m, const rigfit::RigErrors& after) {
-    r2 += rotation_rad * rotation_rad;
-    t2 += translation_m * translation_m;
-    ratio_r2 += std::pow(after.rms_rotation_rad / rotation_rad, 2);
-    ratio_t2 += std::pow(after.rms_translation_m / translation_m, 2);
+  void Add(const rigfit::SampledErrors& reference, const rigfit::RigErrors& after) {
+    r2 += reference.rotation_rad * reference.rotation_rad;
+    t2 += reference.translation_m * reference.translation_m;
+    ratio_r2 += std::pow(after.rms_rotation_rad / reference.rotation_rad, 2);
+    ratio_t2 += std::pow(after.rms_translation_m / reference.translation_m, 2);
     ++seeds;
   }
   double RmsRotationDeg() const { return std::sqrt(r2 / seeds) * rigfit::kRadToDeg; }
@@ -116,19 +116,19 @@ int main(int argc, char** argv) {
                                 kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
       if (b.ok) {
         std::printf("       bound: %.4f deg %.2f mm tilt %.4f deg; error / bound: %.2f %.2f\n",
-                    b.rms_rotation_rad * kRadToDeg, b.rms_translation_m * 1e3,
-                    b.rms_tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms_rotation_rad,
-                    after.rms_translation_m / b.rms_translation_m);
-        bound.Add(b.rms_rotation_rad, b.rms_translation_m, after);
+                    b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
+                    b.rms.tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms.rotation_rad,
+                    after.rms_translation_m / b.rms.translation_m);
+        bound.Add(b.rms, after);
         if (b.estimator_ok) {
           std::printf(
               "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
               "error / it: %.2f %.2f\n",
-              b.estimator_rms_rotation_rad * kRadToDeg, b.estimator_rms_translation_m * 1e3,
-              b.estimator_rms_tilt_rad * kRadToDeg,
-              after.rms_rotation_rad / b.estimator_rms_rotation_rad,
-              after.rms_translation_m / b.estimator_rms_translation_m);
-          estimator.Add(b.estimator_rms_rotation_rad, b.estimator_rms_translation_m, after);
+              b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
+              b.estimator_rms.tilt_rad * kRadToDeg,
+              after.rms_rotation_rad / b.estimator_rms.rotation_rad,
+              after.rms_translation_m / b.estimator_rms.translation_m);
+          estimator.Add(b.estimator_rms, after);
         }
       } else {
         std::printf("       bound: not available: %s\n", b.message.c_str());

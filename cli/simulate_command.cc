@@ -59,8 +59,8 @@ void PrintBound(const SimulateArgs& a) {
   std::printf(
       "Cramer-Rao bound (joint problem at the true poses, noise %g, %d draws): RMS relative "
       "rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",
-      a.sim.noise, b.samples, b.rms_rotation_rad * kRadToDeg, b.rms_translation_m * 1e3,
-      b.rms_tilt_rad * kRadToDeg);
+      a.sim.noise, b.samples, b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
+      b.rms.tilt_rad * kRadToDeg);
   std::printf("  1-sigma against reference %s:   yaw deg  tilt deg     x mm     y mm     z mm\n",
               b.reference.c_str());
   for (size_t k = 0; k < b.serials.size(); ++k) {
@@ -73,8 +73,8 @@ void PrintBound(const SimulateArgs& a) {
         "rigfit's joint estimator under its own noise model (depth noise plus plane_noise_share), "
         "each point's noise shared by all its terms (what its errors should be; not a bound): "
         "RMS relative rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",
-        b.estimator_rms_rotation_rad * kRadToDeg, b.estimator_rms_translation_m * 1e3,
-        b.estimator_rms_tilt_rad * kRadToDeg);
+        b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
+        b.estimator_rms.tilt_rad * kRadToDeg);
   }
 }
 

@@ -58,8 +58,7 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
   for (size_t i = 0; i < n; ++i) {
     if (static_cast<int>(i) != reference) bound.serials.push_back(noise_free.cameras[i].serial);
   }
-  const auto draw = [&](const Eigen::MatrixXd& covariance, double* rotation, double* translation,
-                        double* tilt) {
+  const auto draw = [&](const Eigen::MatrixXd& covariance) {
     // Draws delta = L z, L L^T = covariance, z ~ N(0, I): poses Exp(delta_i) T_i.
     const Eigen::MatrixXd L = Eigen::LLT<Eigen::MatrixXd>(covariance).matrixL();
     std::mt19937_64 rng(seed);
@@ -79,21 +78,20 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
       sum_t2 += e.rms_translation_m * e.rms_translation_m;
       sum_tilt2 += e.rms_tilt_rad * e.rms_tilt_rad;
     }
+    SampledErrors rms;
     if (samples > 0) {
-      *rotation = std::sqrt(sum_r2 / samples);
-      *translation = std::sqrt(sum_t2 / samples);
-      *tilt = std::sqrt(sum_tilt2 / samples);
+      rms.rotation_rad = std::sqrt(sum_r2 / samples);
+      rms.translation_m = std::sqrt(sum_t2 / samples);
+      rms.tilt_rad = std::sqrt(sum_tilt2 / samples);
     }
+    return rms;
   };
-  draw(bound.covariance, &bound.rms_rotation_rad, &bound.rms_translation_m, &bound.rms_tilt_rad);
+  bound.rms = draw(bound.covariance);
   // The estimator's own weights and noise model (options.icp) at the points.
   bound.estimator_covariance =
       JointSharedNoiseCovariance(cameras, rig.candidates, reference, options.icp, num_threads);
   bound.estimator_ok = bound.estimator_covariance.size() == bound.covariance.size();
-  if (bound.estimator_ok) {
-    draw(bound.estimator_covariance, &bound.estimator_rms_rotation_rad,
-         &bound.estimator_rms_translation_m, &bound.estimator_rms_tilt_rad);
-  }
+  if (bound.estimator_ok) bound.estimator_rms = draw(bound.estimator_covariance);
   bound.samples = samples;
   bound.ok = true;
   return bound;

@@ -17,6 +17,14 @@ namespace rigfit {
 /// report (m): the simulator's depth noise has none, 1 mm keeps grazing points finite.
 inline constexpr double kCramerRaoNoiseFloorM = 1e-3;
 
+/// RMS over pose samples of the benchmark errors (core/evaluate.h): of the RMS over camera
+/// pairs of the relative rotation and translation errors, and of the RMS tilt.
+struct SampledErrors {
+  double rotation_rad = 0.0;
+  double translation_m = 0.0;
+  double tilt_rad = 0.0;
+};
+
 struct CramerRaoBound {
   bool ok = false;
   std::string message;  ///< why there is no bound
@@ -26,11 +34,8 @@ struct CramerRaoBound {
   /// Joint covariance of the free cameras' poses (PoseManifold tangents, 6 each, in the
   /// order of serials): the inverse of the Fisher information.
   Eigen::MatrixXd covariance;
-  /// RMS over the samples of the benchmark errors (RMS over camera pairs of the relative
-  /// rotation and translation errors, RMS tilt) of poses drawn from the bound.
-  double rms_rotation_rad = 0.0;
-  double rms_translation_m = 0.0;
-  double rms_tilt_rad = 0.0;
+  /// The errors of poses drawn from the bound.
+  SampledErrors rms;
   int samples = 0;
 
   /// The same for the joint estimator as rigfit runs it (options.icp: method, weights and
@@ -41,9 +46,7 @@ struct CramerRaoBound {
   /// a lower bound; estimator_ok false when it is not available.
   bool estimator_ok = false;
   Eigen::MatrixXd estimator_covariance;
-  double estimator_rms_rotation_rad = 0.0;
-  double estimator_rms_translation_m = 0.0;
-  double estimator_rms_tilt_rad = 0.0;
+  SampledErrors estimator_rms;
 };
 
 /// The bound for a capture of noise-free depth taken at the true poses T_true, sensor noise

@@ -32,17 +32,17 @@ TEST(CramerRaoBound, ScalesWithTheNoiseAndMatchesItsCovariance) {
   ASSERT_EQ(k.serials.size(), 2u);
   EXPECT_EQ(k.reference, rig.capture.cameras.front().serial);
   // Same draws, twice the noise: twice the errors (to the first order of the small motions).
-  EXPECT_NEAR(k2.rms_rotation_rad / k.rms_rotation_rad, 2.0, 0.01);
-  EXPECT_NEAR(k2.rms_translation_m / k.rms_translation_m, 2.0, 0.01);
+  EXPECT_NEAR(k2.rms.rotation_rad / k.rms.rotation_rad, 2.0, 0.01);
+  EXPECT_NEAR(k2.rms.translation_m / k.rms.translation_m, 2.0, 0.01);
   EXPECT_NEAR(k2.covariance(3, 3) / k.covariance(3, 3), 4.0, 1e-6);
   // Sub-millimetre to centimetre at this noise, never zero: a bound of a real problem.
-  EXPECT_GT(k.rms_translation_m, 1e-5);
-  EXPECT_LT(k.rms_translation_m, 0.02);
+  EXPECT_GT(k.rms.translation_m, 1e-5);
+  EXPECT_LT(k.rms.translation_m, 0.02);
   // The sampled tilt error of a camera is its covariance's tilt: sqrt(C_xx + C_zz).
   // RMS over the three cameras, the reference's tilt being exact.
   const double tilt_variance =
       (k.covariance(0, 0) + k.covariance(2, 2) + k.covariance(6, 6) + k.covariance(8, 8)) / 3.0;
-  EXPECT_NEAR(k.rms_tilt_rad / std::sqrt(tilt_variance), 1.0, 0.1);
+  EXPECT_NEAR(k.rms.tilt_rad / std::sqrt(tilt_variance), 1.0, 0.1);
 }
 
 TEST(CramerRaoBound, CamerasThatShareNothingHaveNoBound) {
