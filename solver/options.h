@@ -99,9 +99,11 @@ struct IcpOptions {
   /// Camera held constant (gauge); empty means the first serial.
   std::string reference;
   /// A camera whose change against the rig (after removing the motion common to all
-  /// connected cameras) exceeds these keeps its leveled pose (warning).
+  /// connected cameras) exceeds these keeps its leveled pose (warning). They must admit
+  /// the corrections of the rough starts rigfit supports: +-3 deg of yaw and +-10 cm in x
+  /// and z (up to 14 cm, plus the yaw's lever arm not common to the rig).
   double max_rotation_deg = 5.0;
-  double max_translation_m = 0.1;
+  double max_translation_m = 0.2;
 };
 
 struct RefineOptions {

@@ -57,8 +57,8 @@ class CliRefineTest : public ::testing::Test {
   /// One small simulated rig shared by every test: 3 cameras, 320 x 180, noise-free depth (the
   /// solver's accuracy under noise is tests/refine_test.cc's job), and a perturbation small
   /// enough that the true change of every camera, reference shift included, is within the
-  /// default safety bounds (icp.max_translation_m 0.1: a 2 deg yaw of the reference would
-  /// already move a camera 3 m away by 0.1 m).
+  /// default safety bounds (icp.max_translation_m 0.2: a 4 deg yaw of the reference would
+  /// already move a camera 3 m away by 0.2 m).
   static void SetUpTestSuite() {
     root_ = fs::temp_directory_path() / ("rigfit_cli_refine_test_" + std::to_string(::getpid()));
     fs::remove_all(root_);

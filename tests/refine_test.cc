@@ -233,6 +233,32 @@ TEST_P(BothModes, SafetyBoundsKeepTheLeveledPose) {
   }
 }
 
+TEST_P(BothModes, DefaultBoundsAdmitTheSupportedStartRange) {
+  // The roughest start rigfit supports, +-3 deg of yaw and +-10 cm in x and z on every
+  // camera, the reference too: on this seed (4 cameras, noise-free) one camera's correction
+  // against the rig is 0.12 m, which a 0.1 m bound rejected. The default bounds must let
+  // every camera be refined.
+  SimOptions sim;
+  sim.seed = 4;
+  sim.noise = 0.0;
+  sim.perturb_yaw_deg = 3.0;
+  sim.perturb_xz_m = 0.1;
+  const SimulatedRig rig = SimulateRig(sim);
+  RefineOptions options;
+  options.icp.mode = GetParam();
+  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  ASSERT_TRUE(r.success) << r.message;
+  double largest = 0.0;
+  for (const CameraReport& c : r.cameras) {
+    EXPECT_TRUE(c.accepted) << c.serial << ": " << c.message;
+    largest = std::max(largest, c.own_translation_m);
+  }
+  EXPECT_GT(largest, 0.1);
+  const MaxErrors after = Errors(r.refined, rig.gt);
+  EXPECT_LT(after.rotation_deg, 0.01);
+  EXPECT_LT(after.translation_m, 0.001);
+}
+
 INSTANTIATE_TEST_SUITE_P(Modes, BothModes,
                          ::testing::Values(RefineMode::kJoint, RefineMode::kPairwise),
                          [](const auto& info) {
