@@ -250,17 +250,28 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   std::vector<PointCloud> points(n);
   std::vector<Pose> leveled(n);
   result.cameras.resize(n);
+  for (size_t i = 0; i < n; ++i) leveled[i] = initial.at(capture.cameras[i].serial);
+  // The cameras in parallel (each RANSAC has its own seeded generator), then the log in
+  // camera order.
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int i) {
+        const CameraCapture& camera = capture.cameras[i];
+        CameraReport& report = result.cameras[i];
+        points[i] = RegistrationPoints(camera, options.region);
+        report.points = static_cast<int>(points[i].size());
+        if (options.ground.enabled) {
+          report.ground = LevelCamera(points[i], leveled[i], options.ground);
+          leveled[i] = report.ground.T_world_camera;
+        }
+      },
+      /*min_per_thread=*/1);
   for (size_t i = 0; i < n; ++i) {
     const CameraCapture& camera = capture.cameras[i];
     CameraReport& report = result.cameras[i];
     report.serial = camera.serial;
     report.reference = static_cast<int>(i) == reference;
-    points[i] = RegistrationPoints(camera, options.region);
-    report.points = static_cast<int>(points[i].size());
-    leveled[i] = initial.at(camera.serial);
     if (options.ground.enabled) {
-      report.ground = LevelCamera(points[i], leveled[i], options.ground);
-      leveled[i] = report.ground.T_world_camera;
       if (report.ground.accepted) {
         log.Info("camera " + camera.serial + ": floor leveled (" +
                  Fixed(report.ground.correction_rotation_deg, 3) + " deg, " +

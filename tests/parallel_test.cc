@@ -7,6 +7,8 @@
 #include <condition_variable>
 #include <mutex>
 #include <set>
+#include <stdexcept>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -82,6 +84,28 @@ TEST(ParallelFor, UnevenWorkIsShared) {
       },
       /*min_per_thread=*/1);
   EXPECT_EQ(heavy.count(), 2u);
+}
+
+TEST(ParallelFor, AnExceptionOnAnyThreadReachesTheCaller) {
+  for (const int threads : {1, 2, 4}) {
+    for (const int thrower : {0, 63}) {  // the first index (the caller's) and the last
+      std::atomic<int> calls{0};
+      EXPECT_THROW(ParallelFor(
+                       64, threads,
+                       [&](int i) {
+                         ++calls;
+                         if (i == thrower) throw std::runtime_error("index " + std::to_string(i));
+                       },
+                       /*min_per_thread=*/1),
+                   std::runtime_error)
+          << threads << " threads, index " << thrower;
+      EXPECT_GE(calls.load(), 1);
+    }
+  }
+  // Several throwing: one of them arrives, and nothing terminates.
+  EXPECT_THROW(ParallelFor(
+                   1000, 2, [](int) { throw std::logic_error("every index"); }, 10),
+               std::logic_error);
 }
 
 }  // namespace
