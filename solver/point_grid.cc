@@ -23,6 +23,7 @@ PointGrid::PointGrid(const PointCloud& points, double radius) : radius_(radius) 
     throw std::invalid_argument("PointGrid: radius must be finite and > 0");
   }
   cell_size_ = 2.0 * radius;
+  if (!std::isfinite(cell_size_)) throw std::invalid_argument("PointGrid: radius too large");
   std::vector<int> finite;
   finite.reserve(points.size());
   Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity());
@@ -34,6 +35,9 @@ PointGrid::PointGrid(const PointCloud& points, double radius) : radius_(radius) 
     hi = hi.cwiseMax(points[i]);
   }
   if (finite.empty()) return;
+  if (!(hi - lo).allFinite()) {
+    throw std::invalid_argument("PointGrid: the points span more than a double can hold");
+  }
   cell_size_ =
       std::max(cell_size_, (hi - lo).maxCoeff() / static_cast<double>(kMaxCellsPerAxis - 1));
   origin_ = lo;
@@ -108,6 +112,8 @@ bool PointGrid::Nearest(const Vec3& query, double max_distance, int* index,
   int best_n = -1;
   const auto scan = [&](int begin, int end) {
     for (int n = begin; n < end; ++n) {
+      // Summed in x, y, z order as nanoflann's L2_Simple_Adaptor does, so that the squared
+      // distances equal the k-d tree's to the bit.
       const Vec3 d = points_[n] - query;
       const double d2 = d.x() * d.x() + d.y() * d.y() + d.z() * d.z();
       if (d2 < best) {

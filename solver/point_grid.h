@@ -2,7 +2,7 @@
 // correspondence search's index (a scale's correspondence distance is fixed when the scale
 // is built). On rigfit's clouds it answers those queries faster than the k-d tree of
 // solver/knn.h, which stays the index for k nearest neighbours and for wider radii
-// (docs/benchmarks.md, "Correspondence search on a grid").
+// (docs/benchmarks.md, "Issue 5: correspondence search on a grid").
 #pragma once
 
 #include <cstdint>
@@ -19,9 +19,10 @@ namespace rigfit {
 /// so the cloud may change or go away; queries are const and may run concurrently.
 class PointGrid {
  public:
-  /// Throws std::invalid_argument unless radius is finite and > 0. Non-finite points are
-  /// left out (never found). Over a cloud wider than 2^21 - 2 cells the cells grow to fit,
-  /// which costs speed, not exactness.
+  /// Throws std::invalid_argument unless radius is finite and > 0 and the cloud's finite
+  /// points span a finite extent. Non-finite points are left out (never found). Over a cloud
+  /// wider than 2^21 - 2 cells the cells grow to fit, which costs speed, not exactness: one
+  /// outlier far away makes every cell, and every query, larger.
   PointGrid(const PointCloud& points, double radius);
 
   /// The nearest point strictly closer than max_distance, as KdTree::Nearest: its index in

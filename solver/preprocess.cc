@@ -149,6 +149,7 @@ LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree
 
 bool ScaleLevel::Nearest(const Vec3& query, double max_distance, int* index,
                          double* squared_distance) const {
+  if (!(max_distance > 0.0)) return false;  // NaN too, as the tree
   if (grid) {
     const bool within = max_distance <= grid->radius();
     if (grid->Nearest(query, within ? max_distance : grid->radius(), index, squared_distance)) {

@@ -126,6 +126,10 @@ TEST(PointGrid, EmptyNonFiniteAndInvalidArguments) {
   EXPECT_THROW(PointGrid(points, 0.0), std::invalid_argument);
   EXPECT_THROW(PointGrid(points, -1.0), std::invalid_argument);
   EXPECT_THROW(PointGrid(points, kInf), std::invalid_argument);
+  EXPECT_THROW(PointGrid(points, 1e308), std::invalid_argument);  // cells of 2e308
+  const double huge = std::numeric_limits<double>::max();
+  EXPECT_THROW(PointGrid(PointCloud{Vec3(-huge, 0, 0), Vec3(huge, 0, 0)}, 0.1),
+               std::invalid_argument);
 }
 
 TEST(PointGrid, DuplicatesReturnEitherCopy) {
@@ -139,10 +143,32 @@ TEST(PointGrid, DuplicatesReturnEitherCopy) {
   EXPECT_EQ(squared_distance, 0.0);
 }
 
-TEST(PointGrid, ACloudWiderThanTheKeysAllowStaysExact) {
+TEST(PointGrid, PointsOnCellBoundariesAreFound) {
+  // A lattice of spacing 2 x radius = the cell size, from the origin of the grid (its
+  // lowest point): every point lies on cell faces, edges and corners.
+  const double radius = 0.05;
+  PointCloud points;
+  for (int i = 0; i < 8; ++i) {
+    for (int j = 0; j < 8; ++j) {
+      for (int k = 0; k < 3; ++k) points.emplace_back(0.1 * i, 0.1 * j, 0.1 * k);
+    }
+  }
+  const PointGrid grid(points, radius);
+  PointCloud queries;
+  for (const Vec3& p : points) {
+    for (const Vec3& offset : {Vec3(0.0, 0.0, 0.0), Vec3(0.049, 0.0, 0.0), Vec3(-0.049, 0.0, 0.0),
+                               Vec3(0.0, -0.03, 0.03), Vec3(0.02, 0.02, -0.02)}) {
+      queries.push_back(p + offset);
+    }
+  }
+  queries.push_back(Vec3(-0.2, 0.0, 0.0));  // beyond the lowest cells, nothing in range
+  ExpectMatchesBruteForce(grid, points, queries, {0.03, 0.05, 0.12});
+}
+
+TEST(PointGrid, ACloudWiderThanTheKeysSpanStaysExact) {
   // 1 km across at a 0.1 mm radius: 5 million cells per axis, more than a key holds, so the
-  // cells grow; queries stay exact. At 5 cm a query's cube covers more cells than are
-  // occupied, so the grid reads every point instead.
+  // cells grow (not observable from outside: this checks that queries stay exact). At 5 cm a
+  // query's cube covers more cells than are occupied, so the grid reads every point instead.
   PointCloud points = RandomCloud(2000, 8);
   points.push_back(Vec3(1000.0, 0.0, 0.0));
   const PointGrid grid(points, 1e-4);
@@ -159,7 +185,7 @@ TEST(ScaleLevel, NearestUsesTheGridWithinItsRadiusAndTheTreeBeyond) {
   level.points = points;
   level.tree = std::make_unique<KdTree>(level.points);
   level.grid = std::make_unique<PointGrid>(level.points, 0.02);
-  PointCloud queries = RandomCloud(300, 11);
+  const PointCloud queries = RandomCloud(300, 11);
   for (const double max_distance : {0.01, 0.02, 0.05, kInf}) {
     for (const Vec3& q : queries) {
       const auto truth = BruteForceNearest(points, q, max_distance);
@@ -172,12 +198,35 @@ TEST(ScaleLevel, NearestUsesTheGridWithinItsRadiusAndTheTreeBeyond) {
       }
     }
   }
-  // Without a grid the tree answers everything.
-  level.grid.reset();
   int index = -1;
   double squared_distance = -1.0;
-  ASSERT_TRUE(level.Nearest(queries[0], kInf, &index, &squared_distance));
-  EXPECT_EQ(index, BruteForceNearest(points, queries[0], kInf).second);
+  for (const double bad : {0.0, -1.0, std::nan("")}) {
+    EXPECT_FALSE(level.Nearest(queries[0], bad, &index, &squared_distance)) << bad;
+  }
+  EXPECT_EQ(index, -1);
+}
+
+TEST(ScaleLevel, TheGridAnswersWithinItsRadiusTheTreeOnlyBeyond) {
+  // Two indexes over different clouds tell which one answered: the grid holds one point
+  // more than the tree, at index 2.
+  ScaleLevel level;
+  level.points = {Vec3(0.0, 0.0, 0.0), Vec3(1.0, 0.0, 0.0)};
+  level.tree = std::make_unique<KdTree>(level.points);
+  level.grid = std::make_unique<PointGrid>(
+      PointCloud{Vec3(0.0, 0.0, 0.0), Vec3(1.0, 0.0, 0.0), Vec3(0.5, 0.0, 0.0)}, 0.1);
+  int index = -1;
+  double squared_distance = -1.0;
+  // Within the grid's radius the grid answers, wider searches ask it first.
+  ASSERT_TRUE(level.Nearest(Vec3(0.52, 0.0, 0.0), 0.05, &index, &squared_distance));
+  EXPECT_EQ(index, 2);
+  ASSERT_TRUE(level.Nearest(Vec3(0.52, 0.0, 0.0), kInf, &index, &squared_distance));
+  EXPECT_EQ(index, 2);
+  // Nothing within the grid's radius: the tree answers the wider search.
+  ASSERT_TRUE(level.Nearest(Vec3(0.75, 0.0, 0.0), 0.3, &index, &squared_distance));
+  EXPECT_EQ(index, 1);
+  EXPECT_NEAR(squared_distance, 0.0625, 1e-15);
+  // Within its radius the grid's "none" is final.
+  EXPECT_FALSE(level.Nearest(Vec3(0.75, 0.0, 0.0), 0.1, &index, &squared_distance));
 }
 
 }  // namespace
