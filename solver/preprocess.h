@@ -1,7 +1,7 @@
 // Per-camera preprocessing shared by the joint and pairwise solvers: voxel downsampling,
 // normals and GICP covariances from k nearest neighbours, and a coarse-to-fine pyramid that
-// caches all of it (with a k-d tree and a grid) per scale. Everything stays in the frame of the input
-// points (the camera frame): the solvers move the points with the current pose.
+// caches all of it (with a k-d tree and a grid) per scale. Everything stays in the frame of the
+// input points (the camera frame): the solvers move the points with the current pose.
 #pragma once
 
 #include <memory>
