@@ -1,6 +1,6 @@
 // Speed of the rig-capture HDF5 writer and reader on a 4-camera 640x360 capture (the size of
 // a ZED rig at its depth resolution), float32 and uint16 depth, with the compression WriteCapture
-// uses. Run: build/bench/io_bench
+// uses, and the command line's guarded read. Run: build/bench/io_bench
 #include <benchmark/benchmark.h>
 #include <unistd.h>
 
@@ -65,6 +65,16 @@ void BM_ReadCapture(benchmark::State& state) {
   std::filesystem::remove(path);
 }
 BENCHMARK(BM_ReadCapture)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+/// The command line's read: in a forked child, the capture sent back through a pipe.
+void BM_ReadCaptureGuarded(benchmark::State& state) {
+  const std::string path = BenchPath("guarded.h5");
+  WriteCapture(path, FourCameraCapture());
+  for (auto _ : state) benchmark::DoNotOptimize(ReadCaptureGuarded(path));
+  state.SetLabel("float32");
+  std::filesystem::remove(path);
+}
+BENCHMARK(BM_ReadCaptureGuarded)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace rigfit

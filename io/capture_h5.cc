@@ -1,11 +1,13 @@
 #include "io/capture_h5.h"
 
+#include <fcntl.h>
 #include <hdf5.h>
 #include <poll.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -16,6 +18,7 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -767,6 +770,94 @@ void WriteFile(const std::string& tmp_path, const RigCapture& capture,
   if (H5Fclose(file.release()) < 0) where.Fail("", "cannot finish writing '" + tmp_path + "'");
 }
 
+/// A capture as bytes, for the guarded read's pipe: each field in order, sizes as uint64.
+class CaptureBytes {
+ public:
+  static std::string Encode(const RigCapture& capture) {
+    CaptureBytes out;
+    out.Put<std::uint64_t>(capture.cameras.size());
+    for (const CameraCapture& c : capture.cameras) {
+      out.PutVector(std::vector<char>(c.serial.begin(), c.serial.end()));
+      out.Put(c.width);
+      out.Put(c.height);
+      out.PutVector(c.depth_m);
+      out.Put(c.intrinsics);
+      out.PutVector(c.confidence);
+      out.PutVector(c.color);
+      out.PutVector(c.points);
+      out.PutVector(c.normals);
+    }
+    return std::move(out.bytes_);
+  }
+
+  /// Throws std::runtime_error on bytes that Encode did not write (a truncated transfer).
+  static RigCapture Decode(std::string bytes) {
+    CaptureBytes in;
+    in.bytes_ = std::move(bytes);
+    RigCapture capture;
+    capture.cameras.resize(in.Get<std::uint64_t>());
+    for (CameraCapture& c : capture.cameras) {
+      const std::vector<char> serial = in.GetVector<char>();
+      c.serial.assign(serial.begin(), serial.end());
+      c.width = in.Get<int>();
+      c.height = in.Get<int>();
+      c.depth_m = in.GetVector<float>();
+      c.intrinsics = in.Get<PinholeIntrinsics>();
+      c.confidence = in.GetVector<float>();
+      c.color = in.GetVector<std::uint8_t>();
+      c.points = in.GetVector<Vec3>();
+      c.normals = in.GetVector<Vec3>();
+    }
+    if (in.read_ != in.bytes_.size()) throw std::runtime_error("trailing bytes");
+    return capture;
+  }
+
+ private:
+  template <typename T>
+  void Put(const T& value) {
+    bytes_.append(reinterpret_cast<const char*>(&value), sizeof(T));
+  }
+  template <typename V>
+  void PutVector(const V& values) {
+    Put<std::uint64_t>(values.size());
+    bytes_.append(reinterpret_cast<const char*>(values.data()),
+                  values.size() * sizeof(typename V::value_type));
+  }
+  void Take(void* to, std::size_t size) {
+    if (size > bytes_.size() - read_) throw std::runtime_error("truncated");
+    std::memcpy(to, bytes_.data() + read_, size);
+    read_ += size;
+  }
+  template <typename T>
+  T Get() {
+    T value;
+    Take(&value, sizeof(T));
+    return value;
+  }
+  template <typename T>
+  std::vector<T> GetVector() {
+    const std::uint64_t size = Get<std::uint64_t>();
+    if (size > (bytes_.size() - read_) / sizeof(T)) throw std::runtime_error("truncated");
+    std::vector<T> values(size);
+    Take(values.data(), size * sizeof(T));
+    return values;
+  }
+
+  std::string bytes_;
+  std::size_t read_ = 0;
+};
+
+/// Writes all of `bytes` to fd (blocking); false on an error.
+bool WriteAll(int fd, const std::string& bytes) {
+  for (std::size_t done = 0; done < bytes.size();) {
+    const ssize_t n = write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;
+    done += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
 }  // namespace
 
 RigCapture ReadCapture(const std::string& path) {
@@ -785,6 +876,8 @@ RigCapture ReadCapture(const std::string& path) {
 RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
   int channel[2];
   if (pipe(channel) != 0) return ReadCapture(path);  // no pipe, no guard: read as usual
+  // A wider pipe than the 64 KiB default: fewer switches between writer and reader.
+  fcntl(channel[1], F_SETPIPE_SZ, 1 << 20);
   const pid_t child = fork();
   if (child < 0) {
     close(channel[0]);
@@ -792,57 +885,79 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
     return ReadCapture(path);
   }
   if (child == 0) {
-    // The trial read. _exit: no atexit handlers, no destructors of the parent's objects.
+    // The read. _exit: no atexit handlers, no destructors of the parent's objects. Exit code
+    // 0 sends the capture's bytes, 2 and 3 an error message.
     close(channel[0]);
     int code = 0;
-    std::string message;
+    std::string bytes;
     try {
-      ReadCapture(path);
+      bytes = CaptureBytes::Encode(ReadCapture(path));
     } catch (const InputError& e) {
       code = 2;
-      message = e.what();
+      bytes = e.what();
     } catch (const std::exception& e) {
       code = 3;
-      message = e.what();
+      bytes = e.what();
     }
-    message = message.substr(0, 4000);  // one line: below the pipe's buffer
-    if (!message.empty() && write(channel[1], message.data(), message.size()) < 0) code = 4;
+    if (!WriteAll(channel[1], bytes)) code = 4;
     _exit(code);
   }
   close(channel[1]);
+  // Read until the child closes its end (it exits), or the deadline.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  std::string bytes;
+  std::vector<char> chunk(1 << 20);
+  bool timed_out = false;
+  for (;;) {
+    const double left =
+        std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
+    if (left <= 0.0) {
+      timed_out = true;
+      break;
+    }
+    pollfd wait_for = {channel[0], POLLIN, 0};
+    const int ready = poll(&wait_for, 1, static_cast<int>(std::min(left * 1000.0 + 1.0, 1e9)));
+    if (ready == 0 || (ready < 0 && errno == EINTR)) continue;
+    if (ready < 0) {  // cannot wait for the child: no guard, read as usual
+      close(channel[0]);
+      kill(child, SIGKILL);
+      waitpid(child, nullptr, 0);
+      return ReadCapture(path);
+    }
+    const ssize_t got = read(channel[0], chunk.data(), chunk.size());
+    if (got < 0 && (errno == EINTR || errno == EAGAIN)) continue;
+    if (got <= 0) break;  // end of file: the child is done
+    bytes.append(chunk.data(), static_cast<std::size_t>(got));
+  }
+  close(channel[0]);
+  if (timed_out) kill(child, SIGKILL);
   int status = 0;
   pid_t done = 0;
-  while ((done = waitpid(child, &status, WNOHANG)) == 0) {
-    if (std::chrono::steady_clock::now() > deadline) {
-      kill(child, SIGKILL);
-      waitpid(child, &status, 0);
-      close(channel[0]);
-      throw InputError(path + ": reading it did not finish in " +
-                       std::to_string(static_cast<int>(timeout_s)) +
-                       " s (a loop inside the HDF5 library?): damaged file?");
-    }
-    pollfd wait_for = {channel[0], 0, 0};
-    poll(&wait_for, 1, 20);  // 20 ms between checks
+  while ((done = waitpid(child, &status, 0)) < 0 && errno == EINTR) {
   }
-  std::string message(4096, '\0');
-  const ssize_t got = read(channel[0], message.data(), message.size());
-  message.resize(got > 0 ? static_cast<size_t>(got) : 0);
-  close(channel[0]);
-  if (done < 0) return ReadCapture(path);  // the child was reaped elsewhere: no verdict
+  if (done != child) return ReadCapture(path);  // the child was reaped elsewhere: no verdict
+  if (timed_out) {
+    throw InputError(path + ": reading it did not finish in " +
+                     std::to_string(static_cast<int>(timeout_s)) +
+                     " s (a loop inside the HDF5 library?): damaged file?");
+  }
   if (WIFSIGNALED(status)) {
     throw InputError(path + ": the HDF5 library crashed reading it (" +
                      strsignal(WTERMSIG(status)) + "): damaged file?");
   }
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  if (code == 2 && !message.empty()) throw InputError(message);
-  if (code != 0) {
-    throw InputError(
-        path + ": reading it failed" +
-        (message.empty() ? " (exit code " + std::to_string(code) + ")" : ": " + message) +
-        ": damaged file?");
+  if (code == 0) {
+    try {
+      return CaptureBytes::Decode(std::move(bytes));
+    } catch (const std::runtime_error&) {
+      throw InputError(path + ": reading it failed (the capture came back incomplete)");
+    }
   }
-  return ReadCapture(path);
+  if (code == 2 && !bytes.empty()) throw InputError(bytes);
+  throw InputError(
+      path + ": reading it failed" +
+      (bytes.empty() || code != 3 ? " (exit code " + std::to_string(code) + ")" : ": " + bytes) +
+      ": damaged file?");
 }
 
 RigCapture ReadCaptureFromMemory(const void* data, std::size_t size, const std::string& name) {

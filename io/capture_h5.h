@@ -19,12 +19,12 @@ namespace rigfit {
 /// the image size, non-finite points/normals/confidence.
 RigCapture ReadCapture(const std::string& path);
 
-/// ReadCapture for the command line: the file is first read in a forked child process, so
-/// that a crash or a hang inside the HDF5 library on a damaged file (libhdf5 1.10.8 has both,
+/// ReadCapture for the command line: the file is read in a forked child process, so that a
+/// crash or a hang inside the HDF5 library on a damaged file (libhdf5 1.10.8 has both,
 /// docs/reliability.md) becomes an InputError naming the file instead of killing or stalling
-/// rigfit; the child's own InputError message is passed on unchanged. Only a file the child
-/// read completely is then read here (the same code on the same bytes). A child still busy
-/// after timeout_s seconds is killed. Call it before starting threads (fork).
+/// rigfit; the child's own InputError message is passed on unchanged. The child sends the
+/// capture it read back through a pipe; the file is read once. A child still busy after
+/// timeout_s seconds is killed. Call it before starting threads (fork).
 RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s = 300.0);
 
 /// ReadCapture from an in-memory image of an HDF5 file (HDF5 core driver, nothing touches the

@@ -658,18 +658,47 @@ TEST_F(CaptureTest, EveryMalformedInputNamesFileCameraAndDataset) {
 }
 
 TEST_F(CaptureTest, GuardedReadGivesTheSameCaptureAndTheSameMessages) {
+  // Every field comes back from the child process: depth with NaN, confidence, colour,
+  // intrinsics, and a points camera with normals.
   std::mt19937 rng(12);
   RigCapture capture;
-  capture.cameras = {DepthCamera("b", 8, 6, rng), DepthCamera("a", 5, 4, rng)};
+  CameraCapture b = DepthCamera("b", 8, 6, rng);
+  b.confidence.resize(48);
+  b.color.resize(3 * 48);
+  for (size_t i = 0; i < b.confidence.size(); ++i) b.confidence[i] = 0.25f * i;
+  for (size_t i = 0; i < b.color.size(); ++i) b.color[i] = static_cast<std::uint8_t>(5 * i);
+  CameraCapture p;
+  p.serial = "points-camera";
+  for (int i = 0; i < 7; ++i) {
+    p.points.emplace_back(0.1 * i, -1.0 / 3.0, 2.0 + i);
+    p.normals.push_back(Vec3(i, 1.0, 0.5).normalized());
+  }
+  capture.cameras = {b, DepthCamera("a", 5, 4, rng), p};
   const std::string path = Path("capture.h5");
   WriteCapture(path, capture);
   const RigCapture guarded = ReadCaptureGuarded(path);
   const RigCapture plain = ReadCapture(path);
-  ASSERT_THAT(guarded.cameras, SizeIs(2));
-  for (size_t i = 0; i < 2; ++i) {
-    EXPECT_EQ(guarded.cameras[i].serial, plain.cameras[i].serial);
-    ExpectSameDepth(guarded.cameras[i].depth_m, plain.cameras[i].depth_m, 0.0);
+  ASSERT_THAT(guarded.cameras, SizeIs(3));
+  for (size_t i = 0; i < 3; ++i) {
+    const CameraCapture& g = guarded.cameras[i];
+    const CameraCapture& r = plain.cameras[i];
+    SCOPED_TRACE(r.serial);
+    EXPECT_EQ(g.serial, r.serial);
+    EXPECT_EQ(g.width, r.width);
+    EXPECT_EQ(g.height, r.height);
+    ExpectSameDepth(g.depth_m, r.depth_m, 0.0);
+    EXPECT_EQ(g.intrinsics.fx, r.intrinsics.fx);
+    EXPECT_EQ(g.intrinsics.fy, r.intrinsics.fy);
+    EXPECT_EQ(g.intrinsics.cx, r.intrinsics.cx);
+    EXPECT_EQ(g.intrinsics.cy, r.intrinsics.cy);
+    EXPECT_EQ(g.confidence, r.confidence);
+    EXPECT_EQ(g.color, r.color);
+    EXPECT_EQ(g.points, r.points);
+    EXPECT_EQ(g.normals, r.normals);
   }
+  EXPECT_EQ(guarded.cameras[1].confidence, b.confidence);
+  EXPECT_EQ(guarded.cameras[1].color, b.color);
+  EXPECT_THAT(guarded.cameras[2].normals, SizeIs(7));
   // The child's InputError reaches the caller unchanged, for every malformed case.
   for (const MalformedCase& c : MalformedCases()) {
     SCOPED_TRACE(c.name);
