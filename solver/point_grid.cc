@@ -13,6 +13,9 @@ namespace {
 constexpr int kKeyBits = 21;
 constexpr std::int64_t kMaxCellsPerAxis = (std::int64_t{1} << kKeyBits) - 1;
 
+/// The largest occupancy bitmap, in cells (4 MiB).
+constexpr double kMaxOccupancyBits = 1 << 25;
+
 /// Fibonacci hashing: the key times 2^64 / golden ratio, top bits.
 constexpr std::uint64_t kHashMultiplier = 0x9E3779B97F4A7C15ull;
 
@@ -74,6 +77,19 @@ PointGrid::PointGrid(const PointCloud& points, double radius) : radius_(radius) 
     table_[slot] = {key, static_cast<int>(begin), static_cast<int>(end)};
     begin = end;
   }
+  if (static_cast<double>(cells_[0]) * static_cast<double>(cells_[1]) *
+          static_cast<double>(cells_[2]) <=
+      kMaxOccupancyBits) {
+    occupancy_.assign((cells_[0] * cells_[1] * cells_[2] + 63) / 64, 0);
+    for (size_t n = 0; n < finite.size(); ++n) {
+      const std::uint64_t key = keys[n];
+      const std::int64_t mask = kMaxCellsPerAxis;
+      const std::int64_t bit = Bit(static_cast<std::int64_t>(key >> (2 * kKeyBits)) & mask,
+                                   static_cast<std::int64_t>(key >> kKeyBits) & mask,
+                                   static_cast<std::int64_t>(key) & mask);
+      occupancy_[bit >> 6] |= std::uint64_t{1} << (bit & 63);
+    }
+  }
 }
 
 std::uint64_t PointGrid::Key(std::int64_t x, std::int64_t y, std::int64_t z) {
@@ -129,6 +145,10 @@ bool PointGrid::Nearest(const Vec3& query, double max_distance, int* index,
     for (std::int64_t x = lo[0]; x <= hi[0]; ++x) {
       for (std::int64_t y = lo[1]; y <= hi[1]; ++y) {
         for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+          if (!occupancy_.empty()) {
+            const std::int64_t bit = Bit(x, y, z);
+            if (!(occupancy_[bit >> 6] >> (bit & 63) & 1)) continue;
+          }
           if (const Cell* cell = Find(Key(x, y, z))) scan(cell->begin, cell->end);
         }
       }

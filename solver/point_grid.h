@@ -46,6 +46,10 @@ class PointGrid {
   static std::uint64_t Key(std::int64_t x, std::int64_t y, std::int64_t z);
   size_t Slot(std::uint64_t key) const;
   const Cell* Find(std::uint64_t key) const;
+  /// Bit number of a cell of the occupied range in occupancy_.
+  std::int64_t Bit(std::int64_t x, std::int64_t y, std::int64_t z) const {
+    return (x * cells_[1] + y) * cells_[2] + z;
+  }
 
   double radius_;
   double cell_size_;
@@ -53,8 +57,11 @@ class PointGrid {
   std::int64_t cells_[3] = {0, 0, 0};  ///< cells per axis
   int hash_shift_ = 0;                 ///< 64 - log2(table_.size())
   std::vector<Cell> table_;            ///< open addressing, linear probing, half full at most
-  PointCloud points_;                  ///< the finite points in cell order
-  std::vector<int> indices_;           ///< their indices in the input cloud
+  /// One bit per cell of the occupied range, x-major (empty when the range has more than
+  /// kMaxOccupancyBits cells): an empty cell is skipped without a probe of the table.
+  std::vector<std::uint64_t> occupancy_;
+  PointCloud points_;         ///< the finite points in cell order
+  std::vector<int> indices_;  ///< their indices in the input cloud
 };
 
 }  // namespace rigfit

@@ -179,6 +179,24 @@ TEST(PointGrid, ACloudWiderThanTheKeysSpanStaysExact) {
   ExpectMatchesBruteForce(grid, points, queries, {1e-4, 0.05});
 }
 
+TEST(PointGrid, ManyCellsStayExactWithAndWithoutTheOccupancyBitmap) {
+  // Empty cells are skipped through a bitmap of the occupied range when it has at most 2^25
+  // cells, through the hash table alone beyond. At a 1 mm radius the random cloud spans
+  // 1000 x 1000 x 300 cells (no bitmap), at 5 mm 200 x 200 x 60 (bitmap); queries near points
+  // and in the empty space between them.
+  const PointCloud points = RandomCloud(3000, 14);
+  PointCloud queries = RandomCloud(300, 15);
+  for (size_t i = 0; i < 150; ++i) {
+    const double offset = i < 100 ? 0.8e-3 : 3e-3;
+    queries[i] = points[i] + offset * (queries[i] - points[i]).normalized();
+  }
+  for (const double radius : {1e-3, 5e-3}) {
+    SCOPED_TRACE(radius);
+    const PointGrid grid(points, radius);
+    ExpectMatchesBruteForce(grid, points, queries, {radius, 4 * radius});
+  }
+}
+
 TEST(ScaleLevel, NearestUsesTheGridWithinItsRadiusAndTheTreeBeyond) {
   const PointCloud points = RandomCloud(3000, 10);
   ScaleLevel level;
