@@ -37,23 +37,28 @@ constexpr double kHoldSigmaM = 1e-4;
 
 /// Per camera, the constraint rows of the correspondences it is the source of (world
 /// points and the target normals they are matched against, weighted by the inverse
-/// variance of their residual), for the stability analysis.
+/// variance of their residual), for the stability analysis. The cameras in parallel.
 std::vector<StabilityAccumulator> Stability(const std::vector<CameraView>& views,
                                             const std::vector<CandidatePair>& pairs,
                                             const std::vector<std::vector<Correspondence>>& matches,
-                                            const IcpOptions& options) {
+                                            const IcpOptions& options, int num_threads) {
   std::vector<StabilityAccumulator> stability(views.size());
-  for (size_t k = 0; k < matches.size(); ++k) {
-    const int source = k % 2 == 0 ? pairs[k / 2].a : pairs[k / 2].b;
-    const int target = k % 2 == 0 ? pairs[k / 2].b : pairs[k / 2].a;
-    const CameraView& s = views[source];
-    const CameraView& t = views[target];
-    for (const Correspondence& c : matches[k]) {
-      stability[source].Add(s.T_world_camera * s.level->points[c.source],
-                            t.T_world_camera.linear() * t.level->geometry.normals[c.target],
-                            1.0 / PointToPlaneVariance(s, t, c, options));
-    }
-  }
+  ParallelFor(
+      static_cast<int>(views.size()), num_threads,
+      [&](int source) {
+        for (size_t k = 0; k < matches.size(); ++k) {
+          if ((k % 2 == 0 ? pairs[k / 2].a : pairs[k / 2].b) != source) continue;
+          const int target = k % 2 == 0 ? pairs[k / 2].b : pairs[k / 2].a;
+          const CameraView& s = views[source];
+          const CameraView& t = views[target];
+          for (const Correspondence& c : matches[k]) {
+            stability[source].Add(s.T_world_camera * s.level->points[c.source],
+                                  t.T_world_camera.linear() * t.level->geometry.normals[c.target],
+                                  1.0 / PointToPlaneVariance(s, t, c, options));
+          }
+        }
+      },
+      /*min_per_thread=*/1);
   return stability;
 }
 
@@ -150,7 +155,8 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
   std::vector<std::vector<Correspondence>> matches;
   // The weak directions of the connected cameras at the views' poses.
   const auto find_weak_directions = [&] {
-    const std::vector<StabilityAccumulator> stability = Stability(views, pairs, matches, options);
+    const std::vector<StabilityAccumulator> stability =
+        Stability(views, pairs, matches, options, num_threads);
     for (size_t i = 0; i < n; ++i) {
       result.weak[i] = result.connected[i]
                            ? stability[i].WeakDirections(views[i].T_world_camera.translation(),
@@ -203,13 +209,18 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
       }
       auto start = std::chrono::steady_clock::now();
       matches.assign(2 * pairs.size(), {});
+      // Every pair in both directions, one search per task: fewer thread starts than
+      // splitting each search.
+      ParallelFor(
+          static_cast<int>(matches.size()), num_threads,
+          [&](int m) {
+            const CandidatePair& pair = pairs[m / 2];
+            const CameraView& a = views[m % 2 == 0 ? pair.a : pair.b];
+            const CameraView& b = views[m % 2 == 0 ? pair.b : pair.a];
+            matches[m] = FindCorrespondences(a, b, max_distance, options.max_normal_angle_deg, 1);
+          },
+          /*min_per_thread=*/1);
       for (size_t k = 0; k < pairs.size(); ++k) {
-        const CameraView& a = views[pairs[k].a];
-        const CameraView& b = views[pairs[k].b];
-        matches[2 * k] =
-            FindCorrespondences(a, b, max_distance, options.max_normal_angle_deg, num_threads);
-        matches[2 * k + 1] =
-            FindCorrespondences(b, a, max_distance, options.max_normal_angle_deg, num_threads);
         result.pair_correspondences[k] =
             static_cast<int>(matches[2 * k].size() + matches[2 * k + 1].size());
       }
