@@ -124,15 +124,23 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
                                      cameras[pair.a].depth_noise});
   };
   // Registration time includes the pairs' fit before and after, as in the pairwise mode.
+  // The pairs in parallel, one search each.
+  const int pair_count = static_cast<int>(candidates.size());
   const auto start = std::chrono::steady_clock::now();
-  for (const CandidatePair& pair : candidates) {
-    PairReport& report = result->pairs.emplace_back();
-    report.serial_a = result->cameras[pair.a].serial;
-    report.serial_b = result->cameras[pair.b].serial;
-    report.overlap_area_m2 = pair.overlap_area_m2;
-    const auto [b, a] = views(pair, cameras[pair.a].T_world_camera, cameras[pair.b].T_world_camera);
-    report.rmse_before_m = FitRmse(b, a, options, num_threads);
-  }
+  result->pairs.assign(candidates.size(), PairReport{});
+  ParallelFor(
+      pair_count, num_threads,
+      [&](int k) {
+        const CandidatePair& pair = candidates[k];
+        PairReport& report = result->pairs[k];
+        report.serial_a = result->cameras[pair.a].serial;
+        report.serial_b = result->cameras[pair.b].serial;
+        report.overlap_area_m2 = pair.overlap_area_m2;
+        const auto [b, a] =
+            views(pair, cameras[pair.a].T_world_camera, cameras[pair.b].T_world_camera);
+        report.rmse_before_m = FitRmse(b, a, options, 1);
+      },
+      /*min_per_thread=*/1);
   log.Info("joint: " + std::to_string(cameras.size()) + " cameras, " +
            std::to_string(candidates.size()) + " pairs");
   const JointResult joint =
@@ -158,11 +166,18 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
                (options.hold_weak_directions ? "; held at its leveled pose" : ""));
     }
   }
+  std::vector<OverlapStats> overlap(candidates.size());
+  ParallelFor(
+      pair_count, num_threads,
+      [&](int k) {
+        const auto [b, a] =
+            views(candidates[k], joint.poses[candidates[k].a], joint.poses[candidates[k].b]);
+        overlap[k] = MeasureOverlap(b, a, coarsest_voxel, options, 1);
+      },
+      /*min_per_thread=*/1);
   for (size_t k = 0; k < candidates.size(); ++k) {
     PairReport& report = result->pairs[k];
-    const auto [b, a] =
-        views(candidates[k], joint.poses[candidates[k].a], joint.poses[candidates[k].b]);
-    const OverlapStats after = MeasureOverlap(b, a, coarsest_voxel, options, num_threads);
+    const OverlapStats& after = overlap[k];
     report.fitness = after.fitness;
     report.rmse_after_m = after.rmse_m;
     report.correspondences = joint.pair_correspondences[k];
