@@ -57,6 +57,16 @@ void GicpTerm::AddNormal(double weight2, double* normal) const {
   }
 }
 
+void GicpTerm::ResidualAt(const double* theta, double* residuals) const {
+  // L^T (R_a p + t_a - R_b q - t_b), R x = sum_j x_j R e_j.
+  const Eigen::Map<const Eigen::Matrix<double, kFeatureSize, 1>> f(theta);
+  const Vec3 d = point_a(0) * f.segment<3>(0) + point_a(1) * f.segment<3>(3) +
+                 point_a(2) * f.segment<3>(6) + f.segment<3>(9) - point_b(0) * f.segment<3>(12) -
+                 point_b(1) * f.segment<3>(15) - point_b(2) * f.segment<3>(18) - f.segment<3>(21);
+  Eigen::Map<Vec3> r(residuals);
+  r = sqrt_information * d;
+}
+
 void GicpTerm::Features(const double* pose_a, const double* pose_b, double* theta, double* dtheta_a,
                         double* dtheta_b) {
   Eigen::Map<Eigen::Matrix<double, kFeatureSize, 1>> f(theta);

@@ -89,6 +89,10 @@ struct GicpTerm {
   /// Adds weight2 Phi^T Phi to the lower triangle of `normal` (kFeatureSize^2, column-major).
   void AddNormal(double weight2, double* normal) const;
 
+  /// r = Phi theta at features theta (Features): Evaluate's residuals without the poses'
+  /// rotations, for many terms of the same pair of poses.
+  void ResidualAt(const double* theta, double* residuals) const;
+
   /// theta at the pose blocks and, where not null, d theta/dx_a and d theta/dx_b
   /// (kFeatureSize x 7 each, row-major).
   static void Features(const double* pose_a, const double* pose_b, double* theta, double* dtheta_a,

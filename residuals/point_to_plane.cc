@@ -45,6 +45,14 @@ void PointToPlaneTerm::AddNormal(double weight2, double* normal) const {
   }
 }
 
+void PointToPlaneTerm::ResidualAt(const double* theta, double* residual) const {
+  // n^T (R p + t - q), R p = sum_j p_j R e_j.
+  const Eigen::Map<const Eigen::Matrix<double, kFeatureSize, 1>> f(theta);
+  const Vec3 moved = point_a(0) * f.segment<3>(0) + point_a(1) * f.segment<3>(3) +
+                     point_a(2) * f.segment<3>(6) + f.segment<3>(9) - point_b;
+  residual[0] = normal_b.dot(moved);
+}
+
 void PointToPlaneTerm::Features(const double* pose_a, const double* pose_b, double* theta,
                                 double* dtheta_a, double* dtheta_b) {
   const Eigen::Map<const Eigen::Quaterniond> q_a(pose_a);

@@ -81,6 +81,10 @@ struct PointToPlaneTerm {
   /// Adds weight2 phi^T phi to the lower triangle of `normal` (kFeatureSize^2, column-major).
   void AddNormal(double weight2, double* normal) const;
 
+  /// r = phi . theta at features theta (Features): Evaluate's residual without the poses'
+  /// rotations, for many terms of the same pair of poses.
+  void ResidualAt(const double* theta, double* residual) const;
+
   /// theta at the pose blocks and, where not null, d theta/dx_a and d theta/dx_b
   /// (kFeatureSize x 7 each, row-major).
   static void Features(const double* pose_a, const double* pose_b, double* theta, double* dtheta_a,

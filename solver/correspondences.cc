@@ -159,14 +159,16 @@ std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
     const IcpOptions& options, const CameraView& source, const CameraView& target,
     const std::vector<Correspondence>& correspondences, const ceres::LossFunction* loss,
     TermStorage storage) {
-  const double* parameters[2] = {source.pose_block, target.pose_block};
-  // term(c) of every correspondence c into `cost`, weighted by the loss at the views' poses.
+  // term(c) of every correspondence c into `cost`, weighted by the loss at the views' poses
+  // (the residuals from the poses' features, computed once).
   const auto add_terms = [&](auto* cost, const auto& term) {
+    using Term = std::decay_t<decltype(term(correspondences.front()))>;
+    double theta[Term::kFeatureSize];
+    Term::Features(source.pose_block, target.pose_block, theta, nullptr, nullptr);
     for (const Correspondence& c : correspondences) {
-      const auto t = term(c);
-      using Term = std::decay_t<decltype(t)>;
+      const Term t = term(c);
       double r[Term::kNumResiduals];
-      t.Evaluate(parameters[0], parameters[1], r, nullptr, nullptr);
+      t.ResidualAt(theta, r);
       cost->Add(t, RobustWeight(loss, r, Term::kNumResiduals));
     }
   };
