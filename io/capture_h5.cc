@@ -795,7 +795,14 @@ class CaptureBytes {
     CaptureBytes in;
     in.bytes_ = std::move(bytes);
     RigCapture capture;
-    capture.cameras.resize(in.Get<std::uint64_t>());
+    // The fewest bytes a camera takes: five sizes, width, height and the intrinsics.
+    constexpr std::size_t kMinCameraBytes =
+        5 * sizeof(std::uint64_t) + 2 * sizeof(int) + sizeof(PinholeIntrinsics);
+    const std::uint64_t count = in.Get<std::uint64_t>();
+    if (count > (in.bytes_.size() - in.read_) / kMinCameraBytes) {
+      throw std::runtime_error("truncated");
+    }
+    capture.cameras.resize(count);
     for (CameraCapture& c : capture.cameras) {
       const std::vector<char> serial = in.GetVector<char>();
       c.serial.assign(serial.begin(), serial.end());
@@ -847,16 +854,54 @@ class CaptureBytes {
   std::size_t read_ = 0;
 };
 
-/// Writes all of `bytes` to fd (blocking); false on an error.
+/// Writes all of `bytes` to fd (blocking), after its length as a uint64; false on an error.
 bool WriteAll(int fd, const std::string& bytes) {
-  for (std::size_t done = 0; done < bytes.size();) {
-    const ssize_t n = write(fd, bytes.data() + done, bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += static_cast<std::size_t>(n);
+  const std::uint64_t length = bytes.size();
+  const std::string framed(reinterpret_cast<const char*>(&length), sizeof(length));
+  for (const std::string* part : {&framed, &bytes}) {
+    for (std::size_t done = 0; done < part->size();) {
+      const ssize_t n = write(fd, part->data() + done, part->size() - done);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) return false;
+      done += static_cast<std::size_t>(n);
+    }
   }
   return true;
 }
+
+/// waitpid, again after a signal; its result.
+pid_t Reap(pid_t pid, int* status) {
+  pid_t done = 0;
+  while ((done = waitpid(pid, status, 0)) < 0 && errno == EINTR) {
+  }
+  return done;
+}
+
+/// The guarded read's child process and the read end of its pipe: on every way out of the
+/// parent (an exception too), the pipe is closed and a child still running is killed and
+/// reaped.
+struct ReadingChild {
+  pid_t pid = -1;
+  int fd = -1;
+
+  ReadingChild(pid_t p, int f) : pid(p), fd(f) {}
+  ReadingChild(const ReadingChild&) = delete;
+  ReadingChild& operator=(const ReadingChild&) = delete;
+  ~ReadingChild() { Stop(); }
+
+  void ClosePipe() {
+    if (fd >= 0) close(fd);
+    fd = -1;
+  }
+  void Stop() {
+    ClosePipe();
+    if (pid > 0) {
+      kill(pid, SIGKILL);
+      Reap(pid, nullptr);
+    }
+    pid = -1;
+  }
+};
 
 }  // namespace
 
@@ -874,19 +919,23 @@ RigCapture ReadCapture(const std::string& path) {
 }
 
 RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
+  if (std::isnan(timeout_s)) throw std::invalid_argument("ReadCaptureGuarded: timeout is NaN");
+  timeout_s = std::clamp(timeout_s, 0.0, 1e9);  // 1e9 s: no deadline
   int channel[2];
-  if (pipe(channel) != 0) return ReadCapture(path);  // no pipe, no guard: read as usual
+  // Close-on-exec: a process another thread starts must not hold the write end open.
+  if (pipe2(channel, O_CLOEXEC) != 0) return ReadCapture(path);  // no pipe, no guard
   // A wider pipe than the 64 KiB default: fewer switches between writer and reader.
   fcntl(channel[1], F_SETPIPE_SZ, 1 << 20);
-  const pid_t child = fork();
-  if (child < 0) {
+  std::vector<char> chunk(1 << 20);
+  const pid_t pid = fork();
+  if (pid < 0) {
     close(channel[0]);
     close(channel[1]);
     return ReadCapture(path);
   }
-  if (child == 0) {
+  if (pid == 0) {
     // The read. _exit: no atexit handlers, no destructors of the parent's objects. Exit code
-    // 0 sends the capture's bytes, 2 and 3 an error message.
+    // 0 sends the capture's bytes, 2 and 3 an error message, each after its length.
     close(channel[0]);
     int code = 0;
     std::string bytes;
@@ -903,61 +952,67 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
     _exit(code);
   }
   close(channel[1]);
+  ReadingChild child(pid, channel[0]);
   // Read until the child closes its end (it exits), or the deadline.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   std::string bytes;
-  std::vector<char> chunk(1 << 20);
-  bool timed_out = false;
+  bool reserved = false;
   for (;;) {
     const double left =
         std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
     if (left <= 0.0) {
-      timed_out = true;
-      break;
+      child.Stop();
+      throw InputError(path + ": reading it did not finish in " +
+                       std::to_string(static_cast<long long>(timeout_s)) +
+                       " s (a loop inside the HDF5 library?): damaged file?");
     }
-    pollfd wait_for = {channel[0], POLLIN, 0};
+    pollfd wait_for = {child.fd, POLLIN, 0};
     const int ready = poll(&wait_for, 1, static_cast<int>(std::min(left * 1000.0 + 1.0, 1e9)));
     if (ready == 0 || (ready < 0 && errno == EINTR)) continue;
-    if (ready < 0) {  // cannot wait for the child: no guard, read as usual
-      close(channel[0]);
-      kill(child, SIGKILL);
-      waitpid(child, nullptr, 0);
+    const ssize_t got = ready < 0 ? -1 : read(child.fd, chunk.data(), chunk.size());
+    if (got < 0 && (errno == EINTR || errno == EAGAIN)) continue;
+    if (got < 0) {  // cannot wait for the child: no guard, read as usual
+      child.Stop();
       return ReadCapture(path);
     }
-    const ssize_t got = read(channel[0], chunk.data(), chunk.size());
-    if (got < 0 && (errno == EINTR || errno == EAGAIN)) continue;
-    if (got <= 0) break;  // end of file: the child is done
+    if (got == 0) break;  // end of file: the child is done
     bytes.append(chunk.data(), static_cast<std::size_t>(got));
+    if (!reserved && bytes.size() >= sizeof(std::uint64_t)) {
+      std::uint64_t length = 0;
+      std::memcpy(&length, bytes.data(), sizeof(length));
+      bytes.reserve(sizeof(length) + std::min<std::uint64_t>(length, std::uint64_t{1} << 36));
+      reserved = true;
+    }
   }
-  close(channel[0]);
-  if (timed_out) kill(child, SIGKILL);
+  child.ClosePipe();
   int status = 0;
-  pid_t done = 0;
-  while ((done = waitpid(child, &status, 0)) < 0 && errno == EINTR) {
-  }
-  if (done != child) return ReadCapture(path);  // the child was reaped elsewhere: no verdict
-  if (timed_out) {
-    throw InputError(path + ": reading it did not finish in " +
-                     std::to_string(static_cast<int>(timeout_s)) +
-                     " s (a loop inside the HDF5 library?): damaged file?");
-  }
+  const pid_t done = Reap(pid, &status);
+  child.pid = -1;
+  // The payload: the bytes after their length, complete if the length says they all came.
+  std::uint64_t length = 0;
+  if (bytes.size() >= sizeof(length)) std::memcpy(&length, bytes.data(), sizeof(length));
+  const bool complete = bytes.size() >= sizeof(length) && length == bytes.size() - sizeof(length);
+  std::string payload = std::move(bytes);
+  payload.erase(0, std::min(payload.size(), sizeof(length)));
+  if (done != pid) return ReadCapture(path);  // the child was reaped elsewhere: no verdict
   if (WIFSIGNALED(status)) {
     throw InputError(path + ": the HDF5 library crashed reading it (" +
                      strsignal(WTERMSIG(status)) + "): damaged file?");
   }
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  if (code == 4) return ReadCapture(path);  // the child read the file but could not send it
   if (code == 0) {
     try {
-      return CaptureBytes::Decode(std::move(bytes));
+      if (complete) return CaptureBytes::Decode(std::move(payload));
     } catch (const std::runtime_error&) {
-      throw InputError(path + ": reading it failed (the capture came back incomplete)");
     }
+    throw InputError(path + ": reading it failed (the capture came back incomplete)");
   }
-  if (code == 2 && !bytes.empty()) throw InputError(bytes);
-  throw InputError(
-      path + ": reading it failed" +
-      (bytes.empty() || code != 3 ? " (exit code " + std::to_string(code) + ")" : ": " + bytes) +
-      ": damaged file?");
+  if (code == 2 && !payload.empty()) throw InputError(payload);
+  throw InputError(path + ": reading it failed" +
+                   (payload.empty() || code != 3 ? " (exit code " + std::to_string(code) + ")"
+                                                 : ": " + payload) +
+                   ": damaged file?");
 }
 
 RigCapture ReadCaptureFromMemory(const void* data, std::size_t size, const std::string& name) {

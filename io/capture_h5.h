@@ -24,7 +24,10 @@ RigCapture ReadCapture(const std::string& path);
 /// docs/reliability.md) becomes an InputError naming the file instead of killing or stalling
 /// rigfit; the child's own InputError message is passed on unchanged. The child sends the
 /// capture it read back through a pipe; the file is read once. A child still busy after
-/// timeout_s seconds is killed. Call it before starting threads (fork).
+/// timeout_s seconds (infinity: no deadline; NaN throws std::invalid_argument) is killed.
+/// Where no guard can be had (no pipe or fork, a failing poll or read, the child reaped
+/// elsewhere, or a child that read the file but could not send it) the file is read here,
+/// as ReadCapture does. Call it before starting threads (fork).
 RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s = 300.0);
 
 /// ReadCapture from an in-memory image of an HDF5 file (HDF5 core driver, nothing touches the

@@ -6,6 +6,7 @@
 #include <functional>
 #include <limits>
 #include <random>
+#include <stdexcept>
 
 #include "io/capture_h5.h"
 #include "io_test_util.h"
@@ -723,6 +724,18 @@ TEST_F(CaptureTest, GuardedReadThatDoesNotFinishInTimeIsAnError) {
   WriteCapture(path, capture);
   EXPECT_THAT(io_test::InputErrorMessage([&] { ReadCaptureGuarded(path, 0.0); }),
               HasSubstr(path + ": reading it did not finish in 0 s"));
+}
+
+TEST_F(CaptureTest, GuardedReadTimeoutIsCheckedAndMayBeInfinite) {
+  std::mt19937 rng(14);
+  RigCapture capture;
+  capture.cameras = {DepthCamera("a", 6, 4, rng)};
+  const std::string path = Path("capture.h5");
+  WriteCapture(path, capture);
+  EXPECT_THROW(ReadCaptureGuarded(path, std::nan("")), std::invalid_argument);
+  const RigCapture read = ReadCaptureGuarded(path, std::numeric_limits<double>::infinity());
+  ASSERT_THAT(read.cameras, SizeIs(1));
+  ExpectSameDepth(read.cameras[0].depth_m, capture.cameras[0].depth_m, 0.0);
 }
 
 TEST_F(CaptureTest, UnreadableFilesNameTheFile) {
