@@ -827,11 +827,13 @@ class CaptureBytes {
   template <typename V>
   void PutVector(const V& values) {
     Put<std::uint64_t>(values.size());
+    if (values.empty()) return;  // data() may be null
     bytes_.append(reinterpret_cast<const char*>(values.data()),
                   values.size() * sizeof(typename V::value_type));
   }
   void Take(void* to, std::size_t size) {
     if (size > bytes_.size() - read_) throw std::runtime_error("truncated");
+    if (size == 0) return;  // `to` may be an empty vector's null data()
     std::memcpy(to, bytes_.data() + read_, size);
     read_ += size;
   }
