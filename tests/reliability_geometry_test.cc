@@ -108,7 +108,7 @@ class ReliabilityGeometryTest : public ::testing::TestWithParam<std::string> {
     EXPECT_THAT(result_.exit_code, AnyOf(Eq(0), Eq(3))) << Describe(result_);
     if (!fs::exists(out)) {
       ADD_FAILURE() << "no output\n" << Describe(result_);
-      return Json::object();
+      return Json::object();  // empty: the callers stop there
     }
     const Json doc = Json::parse(ReadText(out));
     const Json& icp = doc["_meta"]["icp_refined"];
@@ -178,6 +178,7 @@ TEST_P(ReliabilityGeometryTest, CameraWithEntirelyInvalidDepthKeepsItsPoseAndThe
   CameraCapture& dead = Camera(2);
   std::fill(dead.depth_m.begin(), dead.depth_m.end(), kNaN);
   const Json doc = RefineAndCheck();
+  ASSERT_FALSE(doc.empty()) << "no output: the reads below need one";
   EXPECT_EQ(result_.exit_code, 0) << Describe(result_);
   const Json& icp = doc["_meta"]["icp_refined"];
   const Json& camera = icp["cameras"][dead.serial];
@@ -200,6 +201,7 @@ TEST_P(ReliabilityGeometryTest, EveryCameraInvalidExitsThreeWithTheInputPoses) {
     for (size_t i = 0; i < camera.depth_m.size(); ++i) camera.depth_m[i] = invalid[i % 5];
   }
   const Json doc = RefineAndCheck();
+  ASSERT_FALSE(doc.empty()) << "no output: the reads below need one";
   EXPECT_EQ(result_.exit_code, 3) << Describe(result_);
   const PoseMap written = ReadExtrinsics((dir_ / "out.json").string()).poses;
   for (const auto& [serial, T] : rig_.init) EXPECT_TRUE(written.at(serial).isApprox(T, 0.0));
@@ -218,6 +220,7 @@ TEST_P(ReliabilityGeometryTest, CameraSeeingOnlyAWallKeepsItsPose) {
   wall.color.clear();
   rig_.init[wall.serial] = T_world_camera;
   const Json doc = RefineAndCheck();
+  ASSERT_FALSE(doc.empty()) << "no output: the reads below need one";
   EXPECT_EQ(result_.exit_code, 0) << Describe(result_);
   EXPECT_EQ(doc["_meta"]["ground_refined"]["cameras"][wall.serial]["accepted"], false);
   EXPECT_EQ(doc["_meta"]["icp_refined"]["cameras"][wall.serial]["accepted"], false);
@@ -234,6 +237,7 @@ TEST_P(ReliabilityGeometryTest, TwoCamerasWithIdenticalViews) {
 TEST_P(ReliabilityGeometryTest, CameraFarFromTheOthersKeepsItsLeveledPose) {
   rig_.init[Camera(2).serial].translation() += Vec3(100.0, 0.0, -50.0);
   const Json doc = RefineAndCheck();
+  ASSERT_FALSE(doc.empty()) << "no output: the reads below need one";
   const Json& camera = doc["_meta"]["icp_refined"]["cameras"][Camera(2).serial];
   EXPECT_EQ(camera["connected"], false);
   EXPECT_EQ(camera["accepted"], false);
