@@ -43,7 +43,9 @@ void ExpectSameCapture(const RigCapture& actual, const RigCapture& expected) {
     EXPECT_EQ(a.height, e.height);
     ASSERT_EQ(a.depth_m.size(), e.depth_m.size());
     // Bit for bit, NaN included.
-    EXPECT_EQ(std::memcmp(a.depth_m.data(), e.depth_m.data(), e.depth_m.size() * sizeof(float)), 0);
+    for (size_t k = 0; k < e.depth_m.size(); ++k) {
+      EXPECT_EQ(std::memcmp(&a.depth_m[k], &e.depth_m[k], sizeof(float)), 0) << k;
+    }
     EXPECT_EQ(a.intrinsics.fx, e.intrinsics.fx);
     EXPECT_EQ(a.intrinsics.fy, e.intrinsics.fy);
     EXPECT_EQ(a.intrinsics.cx, e.intrinsics.cx);
