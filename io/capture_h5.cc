@@ -873,7 +873,8 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
   // Read until the child closes its end (it exits), or the deadline.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   std::string bytes;
-  bool reserved = false;
+  std::uint64_t length = 0;  // of the payload, once its 8 bytes are in
+  bool have_length = false;
   for (;;) {
     const double left =
         std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
@@ -894,11 +895,10 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
     }
     if (got == 0) break;  // end of file: the child is done
     bytes.append(chunk.data(), static_cast<std::size_t>(got));
-    if (!reserved && bytes.size() >= sizeof(std::uint64_t)) {
-      std::uint64_t length = 0;
+    if (!have_length && bytes.size() >= sizeof(length)) {
       std::memcpy(&length, bytes.data(), sizeof(length));
       bytes.reserve(sizeof(length) + std::min<std::uint64_t>(length, std::uint64_t{1} << 36));
-      reserved = true;
+      have_length = true;
     }
   }
   child.ClosePipe();
@@ -906,9 +906,7 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
   const pid_t done = Reap(pid, &status);
   child.pid = -1;
   // The payload: the bytes after their length, complete if the length says they all came.
-  std::uint64_t length = 0;
-  if (bytes.size() >= sizeof(length)) std::memcpy(&length, bytes.data(), sizeof(length));
-  const bool complete = bytes.size() >= sizeof(length) && length == bytes.size() - sizeof(length);
+  const bool complete = have_length && length == bytes.size() - sizeof(length);
   std::string payload = std::move(bytes);
   payload.erase(0, std::min(payload.size(), sizeof(length)));
   if (done != pid) return ReadCapture(path);  // the child was reaped elsewhere: no verdict

@@ -35,6 +35,17 @@ using PoseBlock = std::array<double, kPoseAmbientSize>;
 /// pose (m; rotations as arc length at the radius of the camera's matched points).
 constexpr double kHoldSigmaM = 1e-4;
 
+/// The cameras of search direction m over `pairs`: pair m / 2, a -> b when m is even and
+/// b -> a when it is odd (the order of every matches vector here).
+struct Direction {
+  int source;
+  int target;
+};
+Direction PairDirection(const std::vector<CandidatePair>& pairs, size_t m) {
+  const CandidatePair& pair = pairs[m / 2];
+  return m % 2 == 0 ? Direction{pair.a, pair.b} : Direction{pair.b, pair.a};
+}
+
 /// Per camera, the constraint rows of the correspondences it is the source of (world
 /// points and the target normals they are matched against, weighted by the inverse
 /// variance of their residual), for the stability analysis. The cameras in parallel.
@@ -47,10 +58,10 @@ std::vector<StabilityAccumulator> Stability(const std::vector<CameraView>& views
       static_cast<int>(views.size()), num_threads,
       [&](int source) {
         for (size_t k = 0; k < matches.size(); ++k) {
-          if ((k % 2 == 0 ? pairs[k / 2].a : pairs[k / 2].b) != source) continue;
-          const int target = k % 2 == 0 ? pairs[k / 2].b : pairs[k / 2].a;
+          const Direction d = PairDirection(pairs, k);
+          if (d.source != source) continue;
           const CameraView& s = views[source];
-          const CameraView& t = views[target];
+          const CameraView& t = views[d.target];
           for (const Correspondence& c : matches[k]) {
             stability[source].Add(s.T_world_camera * s.level->points[c.source],
                                   t.T_world_camera.linear() * t.level->geometry.normals[c.target],
@@ -173,8 +184,10 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
     std::vector<MatchedViews> terms;
     for (size_t k = 0; k < pairs.size(); ++k) {
       if (!linked(k)) continue;
-      terms.push_back({&views[pairs[k].a], &views[pairs[k].b], &matches[2 * k]});
-      terms.push_back({&views[pairs[k].b], &views[pairs[k].a], &matches[2 * k + 1]});
+      for (size_t m = 2 * k; m < 2 * k + 2; ++m) {
+        const Direction d = PairDirection(pairs, m);
+        terms.push_back({&views[d.source], &views[d.target], &matches[m]});
+      }
     }
     return terms;
   };
@@ -214,10 +227,9 @@ JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
       ParallelFor(
           static_cast<int>(matches.size()), num_threads,
           [&](int m) {
-            const CandidatePair& pair = pairs[m / 2];
-            const CameraView& a = views[m % 2 == 0 ? pair.a : pair.b];
-            const CameraView& b = views[m % 2 == 0 ? pair.b : pair.a];
-            matches[m] = FindCorrespondences(a, b, max_distance, options.max_normal_angle_deg, 1);
+            const Direction d = PairDirection(pairs, m);
+            matches[m] = FindCorrespondences(views[d.source], views[d.target], max_distance,
+                                             options.max_normal_angle_deg, 1);
           },
           /*min_per_thread=*/1);
       for (size_t k = 0; k < pairs.size(); ++k) {
@@ -355,14 +367,13 @@ std::optional<FinestTerms> FindFinestTerms(const std::vector<RegistrationCamera>
                   f.blocks[i].data(), cameras[i].depth_noise};
   }
   f.matches.resize(2 * pairs.size());
-  for (size_t k = 0; k < pairs.size(); ++k) {
-    for (size_t d = 0; d < 2; ++d) {
-      const CameraView& source = f.views[d == 0 ? pairs[k].a : pairs[k].b];
-      const CameraView& target = f.views[d == 0 ? pairs[k].b : pairs[k].a];
-      f.matches[2 * k + d] = FindCorrespondences(source, target, max_distance,
-                                                 options.max_normal_angle_deg, num_threads);
-      f.terms.push_back({&source, &target, &f.matches[2 * k + d]});
-    }
+  for (size_t m = 0; m < f.matches.size(); ++m) {
+    const Direction d = PairDirection(pairs, m);
+    const CameraView& source = f.views[d.source];
+    const CameraView& target = f.views[d.target];
+    f.matches[m] = FindCorrespondences(source, target, max_distance, options.max_normal_angle_deg,
+                                       num_threads);
+    f.terms.push_back({&source, &target, &f.matches[m]});
   }
   return f;
 }

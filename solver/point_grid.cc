@@ -47,11 +47,22 @@ PointGrid::PointGrid(const PointCloud& points, double radius) : radius_(radius) 
   for (int a = 0; a < 3; ++a) {
     cells_[a] = static_cast<std::int64_t>(std::floor((hi[a] - lo[a]) / cell_size_)) + 1;
   }
+  if (static_cast<double>(cells_[0]) * static_cast<double>(cells_[1]) *
+          static_cast<double>(cells_[2]) <=
+      kMaxOccupancyBits) {
+    occupancy_.assign((cells_[0] * cells_[1] * cells_[2] + 63) / 64, 0);
+  }
   std::vector<std::uint64_t> keys(finite.size());
   for (size_t n = 0; n < finite.size(); ++n) {
     const Vec3 cell = ((points[finite[n]] - origin_) / cell_size_).array().floor();
-    keys[n] = Key(static_cast<std::int64_t>(cell.x()), static_cast<std::int64_t>(cell.y()),
-                  static_cast<std::int64_t>(cell.z()));
+    const std::int64_t x = static_cast<std::int64_t>(cell.x());
+    const std::int64_t y = static_cast<std::int64_t>(cell.y());
+    const std::int64_t z = static_cast<std::int64_t>(cell.z());
+    keys[n] = Key(x, y, z);
+    if (!occupancy_.empty()) {
+      const std::int64_t bit = Bit(x, y, z);
+      occupancy_[bit >> 6] |= std::uint64_t{1} << (bit & 63);
+    }
   }
   std::vector<int> order(finite.size());
   std::iota(order.begin(), order.end(), 0);
@@ -76,19 +87,6 @@ PointGrid::PointGrid(const PointCloud& points, double radius) : radius_(radius) 
     while (table_[slot].key != kNoKey) slot = (slot + 1) & (table_.size() - 1);
     table_[slot] = {key, static_cast<int>(begin), static_cast<int>(end)};
     begin = end;
-  }
-  if (static_cast<double>(cells_[0]) * static_cast<double>(cells_[1]) *
-          static_cast<double>(cells_[2]) <=
-      kMaxOccupancyBits) {
-    occupancy_.assign((cells_[0] * cells_[1] * cells_[2] + 63) / 64, 0);
-    for (size_t n = 0; n < finite.size(); ++n) {
-      const std::uint64_t key = keys[n];
-      const std::int64_t mask = kMaxCellsPerAxis;
-      const std::int64_t bit = Bit(static_cast<std::int64_t>(key >> (2 * kKeyBits)) & mask,
-                                   static_cast<std::int64_t>(key >> kKeyBits) & mask,
-                                   static_cast<std::int64_t>(key) & mask);
-      occupancy_[bit >> 6] |= std::uint64_t{1} << (bit & 63);
-    }
   }
 }
 
