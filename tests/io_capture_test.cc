@@ -680,23 +680,7 @@ TEST_F(CaptureTest, GuardedReadGivesTheSameCaptureAndTheSameMessages) {
   const RigCapture guarded = ReadCaptureGuarded(path);
   const RigCapture plain = ReadCapture(path);
   ASSERT_THAT(guarded.cameras, SizeIs(3));
-  for (size_t i = 0; i < 3; ++i) {
-    const CameraCapture& g = guarded.cameras[i];
-    const CameraCapture& r = plain.cameras[i];
-    SCOPED_TRACE(r.serial);
-    EXPECT_EQ(g.serial, r.serial);
-    EXPECT_EQ(g.width, r.width);
-    EXPECT_EQ(g.height, r.height);
-    ExpectSameDepth(g.depth_m, r.depth_m, 0.0);
-    EXPECT_EQ(g.intrinsics.fx, r.intrinsics.fx);
-    EXPECT_EQ(g.intrinsics.fy, r.intrinsics.fy);
-    EXPECT_EQ(g.intrinsics.cx, r.intrinsics.cx);
-    EXPECT_EQ(g.intrinsics.cy, r.intrinsics.cy);
-    EXPECT_EQ(g.confidence, r.confidence);
-    EXPECT_EQ(g.color, r.color);
-    EXPECT_EQ(g.points, r.points);
-    EXPECT_EQ(g.normals, r.normals);
-  }
+  io_test::ExpectSameCapture(guarded, plain);
   EXPECT_EQ(guarded.cameras[1].confidence, b.confidence);
   EXPECT_EQ(guarded.cameras[1].color, b.color);
   EXPECT_THAT(guarded.cameras[2].normals, SizeIs(7));

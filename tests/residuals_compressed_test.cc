@@ -183,19 +183,24 @@ void ExpectRigSceneCompressionIsExact(unsigned seed, Make make) {
   ExpectCompressionIsExact(terms, weights, ComparisonPoses(s, rng), 1e-7);
 }
 
+/// Correspondence k of a rig scene as a point-to-plane term, whitened by sigma (m).
+PointToPlaneTerm ScenePointToPlaneTerm(const RigScene& s, size_t k, double sigma) {
+  return PointToPlaneTerm{s.p[k], s.q[k], s.n[k] / sigma};
+}
+
+/// Correspondence k of a rig scene as a GICP term with a plane-like covariance: 1 m^2 in the
+/// plane, sigma^2 along the normal.
+GicpTerm SceneGicpTerm(const RigScene& s, size_t k, double sigma) {
+  const Mat3 C = Mat3::Identity() - (1.0 - sigma * sigma) * s.n[k] * s.n[k].transpose();
+  return GicpCost::MakeTerm(s.p[k], s.q[k], C, C, s.T_a.linear(), s.T_b.linear());
+}
+
 TEST(CompressedCost, PointToPlaneEqualsItsStackToRounding) {
-  ExpectRigSceneCompressionIsExact<PointToPlaneTerm>(
-      5, [](const RigScene& s, size_t k, double sigma) {
-        return PointToPlaneTerm{s.p[k], s.q[k], s.n[k] / sigma};
-      });
+  ExpectRigSceneCompressionIsExact<PointToPlaneTerm>(5, ScenePointToPlaneTerm);
 }
 
 TEST(CompressedCost, GicpEqualsItsStackToRounding) {
-  ExpectRigSceneCompressionIsExact<GicpTerm>(6, [](const RigScene& s, size_t k, double sigma) {
-    // A plane-like covariance: 1 m^2 in the plane, sigma^2 along the normal.
-    const Mat3 C = Mat3::Identity() - (1.0 - sigma * sigma) * s.n[k] * s.n[k].transpose();
-    return GicpCost::MakeTerm(s.p[k], s.q[k], C, C, s.T_a.linear(), s.T_b.linear());
-  });
+  ExpectRigSceneCompressionIsExact<GicpTerm>(6, SceneGicpTerm);
 }
 
 /// Term::ResidualAt at the features of the poses equals Term::Evaluate there, on 200
@@ -223,17 +228,11 @@ void ExpectResidualAtMatchesEvaluate(unsigned seed, Make make) {
 }
 
 TEST(CompressedCost, PointToPlaneResidualAtFeaturesMatchesEvaluate) {
-  ExpectResidualAtMatchesEvaluate<PointToPlaneTerm>(
-      7, [](const RigScene& s, size_t k, double sigma) {
-        return PointToPlaneTerm{s.p[k], s.q[k], s.n[k] / sigma};
-      });
+  ExpectResidualAtMatchesEvaluate<PointToPlaneTerm>(7, ScenePointToPlaneTerm);
 }
 
 TEST(CompressedCost, GicpResidualAtFeaturesMatchesEvaluate) {
-  ExpectResidualAtMatchesEvaluate<GicpTerm>(8, [](const RigScene& s, size_t k, double sigma) {
-    const Mat3 C = Mat3::Identity() - (1.0 - sigma * sigma) * s.n[k] * s.n[k].transpose();
-    return GicpCost::MakeTerm(s.p[k], s.q[k], C, C, s.T_a.linear(), s.T_b.linear());
-  });
+  ExpectResidualAtMatchesEvaluate<GicpTerm>(8, SceneGicpTerm);
 }
 
 TEST(CompressedCost, PassesTheGradientCheck) {
