@@ -1,11 +1,14 @@
-// Accuracy of `rigfit refine` on simulated rigs: per seed, the gauge-free errors
-// (relative poses of every camera pair, tilt of every camera) before and after, and the
-// time per stage. Prints a table and a summary; runs in process (no file I/O), so the
-// times are the solver's. Usage: rig_accuracy --help.
+// Accuracy of `rigfit refine` on simulated rigs: per seed (and per draw of the pixel noise,
+// --noise-draws), the gauge-free errors (relative poses of every camera pair, tilt of every
+// camera) before and after, and the time per stage. Prints a table and a summary; runs in
+// process (no file I/O), so the times are the solver's. Usage: rig_accuracy --help.
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <string>
+#include <utility>
 
 #include "core/evaluate.h"
 #include "io/config_yaml.h"
@@ -34,6 +37,50 @@ struct AgainstReference {
   double RmsRatioTranslation() const { return std::sqrt(ratio_t2 / seeds); }
 };
 
+/// Bias against variance over draws of the pixel noise: per seed and camera pair, the
+/// relative pose errors (gt_ij^-1 est_ij as rotation vector and translation) of every draw.
+/// The bias of a pair is the mean error over its draws; its square, less the variance /
+/// draws that any finite mean carries, is the bias part of the pair's mean squared error.
+class BiasSplit {
+ public:
+  void Add(int seed, const std::string& pair, const rigfit::Pose& err) {
+    Draws& d = draws_[{seed, pair}];
+    const rigfit::Vec3 r = rigfit::LogSO3(err.linear());
+    const rigfit::Vec3& t = err.translation();
+    d.r_sum += r;
+    d.t_sum += t;
+    d.r2 += r.squaredNorm();
+    d.t2 += t.squaredNorm();
+    ++d.n;
+  }
+
+  /// Bias share of the mean squared error over all pairs: {rotation, translation}.
+  std::pair<double, double> Shares() const {
+    double r_bias = 0, r_mse = 0, t_bias = 0, t_mse = 0;
+    for (const auto& [key, d] : draws_) {
+      if (d.n < 2) continue;
+      const auto bias2 = [&](const rigfit::Vec3& sum, double sum2) {
+        const double mean2 = (sum / d.n).squaredNorm();
+        const double variance = (sum2 / d.n - mean2) * d.n / (d.n - 1);
+        return mean2 - variance / d.n;
+      };
+      r_bias += bias2(d.r_sum, d.r2);
+      t_bias += bias2(d.t_sum, d.t2);
+      r_mse += d.r2 / d.n;
+      t_mse += d.t2 / d.n;
+    }
+    return {r_bias / r_mse, t_bias / t_mse};
+  }
+
+ private:
+  struct Draws {
+    rigfit::Vec3 r_sum = rigfit::Vec3::Zero(), t_sum = rigfit::Vec3::Zero();
+    double r2 = 0.0, t2 = 0.0;
+    int n = 0;
+  };
+  std::map<std::pair<int, std::string>, Draws> draws_;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -56,6 +103,11 @@ int main(int argc, char** argv) {
   app.add_option("--mode", mode)->check(CLI::IsMember({"joint", "pairwise"}));
   app.add_option("--method", method)->check(CLI::IsMember({"point_to_plane", "gicp"}));
   app.add_option("--threads", threads);
+  int noise_draws = 1;
+  app.add_option("--noise-draws", noise_draws,
+                 "runs per seed, each with another draw of the pixel noise (same scene, cameras "
+                 "and start); more than 1 also splits the error into bias and variance")
+      ->check(CLI::PositiveNumber);
   std::string config;
   app.add_option("--config", config, "refine options (YAML); --mode and --method override");
   bool verbose = false, from_gt = false, verbose_sigma = false, crlb = false;
@@ -73,103 +125,126 @@ int main(int argc, char** argv) {
   std::printf("mode %s, method %s, %d cameras %dx%d, noise %g, perturbation %g deg %g m%s\n",
               mode.c_str(), method.c_str(), sim.cameras, sim.width, sim.height, sim.noise,
               sim.perturb_yaw_deg, sim.perturb_xz_m, sim.bare ? ", bare" : "");
-  std::printf("%4s | %8s %8s %7s | %8s %8s %7s %8s | %6s %6s %6s | %s\n", "seed", "rot deg",
-              "trans mm", "tilt", "rot deg", "trans mm", "tilt", "max mm", "level", "prep", "solve",
-              "result");
+  // With several draws a row is "seed:draw".
+  const int seed_width = noise_draws > 1 ? 7 : 4;
+  std::printf("%*s | %8s %8s %7s | %8s %8s %7s %8s | %6s %6s %6s | %s\n", seed_width, "seed",
+              "rot deg", "trans mm", "tilt", "rot deg", "trans mm", "tilt", "max mm", "level",
+              "prep", "solve", "result");
   double sum_r2 = 0, sum_t2 = 0, sum_tilt2 = 0, worst_t = 0;
   AgainstReference bound, estimator;
   int runs_with_weak = 0;
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
+  BiasSplit bias;
   for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-    sim.seed = static_cast<std::uint64_t>(seed);
-    const SimulatedRig rig = SimulateRig(sim);
-    Log log;
-    if (verbose) {
-      log.sink = [](LogLevel, const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
-    }
-    const PoseMap& start = from_gt ? rig.gt : rig.init;
-    const RefineResult r = Refine(rig.capture, start, options, true, threads, log);
-    const RigErrors before = EvaluateRig(start, rig.gt);
-    const RigErrors after = EvaluateRig(r.refined, rig.gt);
-    std::printf("%4d | %8.3f %8.2f %7.3f | %8.4f %8.2f %7.4f %8.2f | %6.3f %6.3f %6.3f | %s\n",
-                seed, before.rms_rotation_rad * kRadToDeg, before.rms_translation_m * 1e3,
-                before.rms_tilt_rad * kRadToDeg, after.rms_rotation_rad * kRadToDeg,
-                after.rms_translation_m * 1e3, after.rms_tilt_rad * kRadToDeg,
-                after.max_translation_m * 1e3, r.times.leveling_s, r.times.preprocessing_s,
-                r.times.registration_s + r.times.pose_graph_s,
-                r.success ? "ok" : r.message.c_str());
-    failures += r.success ? 0 : 1;
-    int weak = 0;
-    for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
-    runs_with_weak += weak > 0 ? 1 : 0;
-    if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
-    if (crlb) {
-      // The bound of this seed's rig: the same scene, cameras and noise model, noise-free.
-      SimOptions clean = sim;
-      clean.noise = 0.0;
-      const SimulatedRig truth = SimulateRig(clean);
-      RefineOptions bound_options = options;
-      bound_options.icp.reference = r.reference;
-      const CramerRaoBound b =
-          ComputeCramerRaoBound(truth.capture, truth.gt, bound_options, sim.noise,
-                                kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
-      if (b.ok) {
-        std::printf("       bound: %.4f deg %.2f mm tilt %.4f deg; error / bound: %.2f %.2f\n",
-                    b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
-                    b.rms.tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms.rotation_rad,
-                    after.rms_translation_m / b.rms.translation_m);
-        bound.Add(b.rms, after);
-        if (b.estimator_ok) {
-          std::printf(
-              "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
-              "error / it: %.2f %.2f\n",
-              b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
-              b.estimator_rms.tilt_rad * kRadToDeg,
-              after.rms_rotation_rad / b.estimator_rms.rotation_rad,
-              after.rms_translation_m / b.estimator_rms.translation_m);
-          estimator.Add(b.estimator_rms, after);
+    for (int draw = 0; draw < noise_draws; ++draw) {
+      sim.seed = static_cast<std::uint64_t>(seed);
+      sim.noise_draw = static_cast<std::uint64_t>(draw);
+      const std::string label =
+          std::to_string(seed) + (noise_draws > 1 ? ":" + std::to_string(draw) : "");
+      const SimulatedRig rig = SimulateRig(sim);
+      Log log;
+      if (verbose) {
+        log.sink = [](LogLevel, const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
+      }
+      const PoseMap& start = from_gt ? rig.gt : rig.init;
+      const RefineResult r = Refine(rig.capture, start, options, true, threads, log);
+      const RigErrors before = EvaluateRig(start, rig.gt);
+      const RigErrors after = EvaluateRig(r.refined, rig.gt);
+      std::printf("%*s | %8.3f %8.2f %7.3f | %8.4f %8.2f %7.4f %8.2f | %6.3f %6.3f %6.3f | %s\n",
+                  seed_width, label.c_str(), before.rms_rotation_rad * kRadToDeg,
+                  before.rms_translation_m * 1e3, before.rms_tilt_rad * kRadToDeg,
+                  after.rms_rotation_rad * kRadToDeg, after.rms_translation_m * 1e3,
+                  after.rms_tilt_rad * kRadToDeg, after.max_translation_m * 1e3, r.times.leveling_s,
+                  r.times.preprocessing_s, r.times.registration_s + r.times.pose_graph_s,
+                  r.success ? "ok" : r.message.c_str());
+      failures += r.success ? 0 : 1;
+      int weak = 0;
+      for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
+      runs_with_weak += weak > 0 ? 1 : 0;
+      if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
+      if (crlb) {
+        // The bound of this seed's rig: the same scene, cameras and noise model, noise-free.
+        SimOptions clean = sim;
+        clean.noise = 0.0;
+        const SimulatedRig truth = SimulateRig(clean);
+        RefineOptions bound_options = options;
+        bound_options.icp.reference = r.reference;
+        const CramerRaoBound b =
+            ComputeCramerRaoBound(truth.capture, truth.gt, bound_options, sim.noise,
+                                  kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
+        if (b.ok) {
+          std::printf("       bound: %.4f deg %.2f mm tilt %.4f deg; error / bound: %.2f %.2f\n",
+                      b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
+                      b.rms.tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms.rotation_rad,
+                      after.rms_translation_m / b.rms.translation_m);
+          bound.Add(b.rms, after);
+          if (b.estimator_ok) {
+            std::printf(
+                "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
+                "error / it: %.2f %.2f\n",
+                b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
+                b.estimator_rms.tilt_rad * kRadToDeg,
+                after.rms_rotation_rad / b.estimator_rms.rotation_rad,
+                after.rms_translation_m / b.estimator_rms.translation_m);
+            estimator.Add(b.estimator_rms, after);
+          }
+        } else {
+          std::printf("       bound: not available: %s\n", b.message.c_str());
         }
-      } else {
-        std::printf("       bound: not available: %s\n", b.message.c_str());
       }
-    }
-    // Errors of each camera relative to the reference against the predicted 1-sigma (joint
-    // mode): a reference that does not move makes its covariance that of T_ref^-1 T_i.
-    for (const CameraReport& c : r.cameras) {
-      if (!c.has_covariance) continue;
-      const Pose& ref_est = r.refined.at(r.reference);
-      const Pose& ref_gt = rig.gt.at(r.reference);
-      const RelativePoseError e =
-          RelativeError(ref_est, r.refined.at(c.serial), ref_gt, rig.gt.at(c.serial));
-      const double sigma_r = std::sqrt(c.covariance.topLeftCorner<3, 3>().trace());
-      const double sigma_t = std::sqrt(c.covariance.bottomRightCorner<3, 3>().trace());
-      if (verbose_sigma) {
-        std::printf("       %s: error %.4f deg %.2f mm, predicted %.4f deg %.2f mm\n",
-                    c.serial.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3,
-                    sigma_r * kRadToDeg, sigma_t * 1e3);
+      // Errors of each camera relative to the reference against the predicted 1-sigma (joint
+      // mode): a reference that does not move makes its covariance that of T_ref^-1 T_i.
+      for (const CameraReport& c : r.cameras) {
+        if (!c.has_covariance) continue;
+        const Pose& ref_est = r.refined.at(r.reference);
+        const Pose& ref_gt = rig.gt.at(r.reference);
+        const RelativePoseError e =
+            RelativeError(ref_est, r.refined.at(c.serial), ref_gt, rig.gt.at(c.serial));
+        const double sigma_r = std::sqrt(c.covariance.topLeftCorner<3, 3>().trace());
+        const double sigma_t = std::sqrt(c.covariance.bottomRightCorner<3, 3>().trace());
+        if (verbose_sigma) {
+          std::printf("       %s: error %.4f deg %.2f mm, predicted %.4f deg %.2f mm\n",
+                      c.serial.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3,
+                      sigma_r * kRadToDeg, sigma_t * 1e3);
+        }
+        sum_nr2 += std::pow(e.rotation_rad / sigma_r, 2);
+        sum_nt2 += std::pow(e.translation_m / sigma_t, 2);
+        ++normalised;
       }
-      sum_nr2 += std::pow(e.rotation_rad / sigma_r, 2);
-      sum_nt2 += std::pow(e.translation_m / sigma_t, 2);
-      ++normalised;
-    }
-    for (const PairError& p : after.pairs) {
-      sum_r2 += std::pow(p.error.rotation_rad, 2);
-      sum_t2 += std::pow(p.error.translation_m, 2);
-      worst_t = std::max(worst_t, p.error.translation_m);
-      ++pairs;
-    }
-    for (const auto& [serial, tilt] : after.tilt_rad) {
-      sum_tilt2 += tilt * tilt;
-      ++cameras;
+      for (const PairError& p : after.pairs) {
+        const Pose& gt_i = rig.gt.at(p.serial_i);
+        const Pose& est_i = r.refined.at(p.serial_i);
+        bias.Add(seed, p.serial_i + " " + p.serial_j,
+                 (gt_i.inverse() * rig.gt.at(p.serial_j)).inverse() *
+                     (est_i.inverse() * r.refined.at(p.serial_j)));
+        sum_r2 += std::pow(p.error.rotation_rad, 2);
+        sum_t2 += std::pow(p.error.translation_m, 2);
+        worst_t = std::max(worst_t, p.error.translation_m);
+        ++pairs;
+      }
+      for (const auto& [serial, tilt] : after.tilt_rad) {
+        sum_tilt2 += tilt * tilt;
+        ++cameras;
+      }
     }
   }
+  const int runs = seeds * noise_draws;
+  const char* unit = noise_draws > 1 ? "runs" : "seeds";
   std::printf(
-      "summary over %d seeds: RMS relative rotation %.4f deg, RMS relative translation "
+      "summary over %d %s: RMS relative rotation %.4f deg, RMS relative translation "
       "%.2f mm (worst pair %.2f mm), RMS tilt %.4f deg, %d runs not successful\n",
-      seeds, std::sqrt(sum_r2 / pairs) * kRadToDeg, std::sqrt(sum_t2 / pairs) * 1e3, worst_t * 1e3,
-      std::sqrt(sum_tilt2 / cameras) * kRadToDeg, failures);
-  std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, seeds);
+      noise_draws > 1 ? runs : seeds, unit, std::sqrt(sum_r2 / pairs) * kRadToDeg,
+      std::sqrt(sum_t2 / pairs) * 1e3, worst_t * 1e3, std::sqrt(sum_tilt2 / cameras) * kRadToDeg,
+      failures);
+  std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, runs);
+  if (noise_draws > 1) {
+    const auto [rotation, translation] = bias.Shares();
+    std::printf(
+        "bias (the error every draw of the noise repeats), share of the mean squared error over "
+        "%d seeds x %d draws: %.2f rotation, %.2f translation\n",
+        seeds, noise_draws, rotation, translation);
+  }
   if (normalised > 0) {
     std::printf(
         "normalised errors (error / predicted 1-sigma, joint covariance): RMS %.2f "
@@ -178,16 +253,16 @@ int main(int argc, char** argv) {
   }
   if (crlb && bound.seeds > 0) {
     std::printf(
-        "bound: RMS %.4f deg %.2f mm; RMS of error / bound over the seeds: %.2f "
+        "bound: RMS %.4f deg %.2f mm; RMS of error / bound over the %s: %.2f "
         "rotation, %.2f translation\n",
-        bound.RmsRotationDeg(), bound.RmsTranslationMm(), bound.RmsRatioRotation(),
+        bound.RmsRotationDeg(), bound.RmsTranslationMm(), unit, bound.RmsRatioRotation(),
         bound.RmsRatioTranslation());
   }
   if (crlb && estimator.seeds > 0) {
     std::printf(
         "estimator under shared point noise: RMS %.4f deg %.2f mm; RMS of error / it over "
-        "%d seeds: %.2f rotation, %.2f translation\n",
-        estimator.RmsRotationDeg(), estimator.RmsTranslationMm(), estimator.seeds,
+        "%d %s: %.2f rotation, %.2f translation\n",
+        estimator.RmsRotationDeg(), estimator.RmsTranslationMm(), estimator.seeds, unit,
         estimator.RmsRatioRotation(), estimator.RmsRatioTranslation());
   }
   return 0;

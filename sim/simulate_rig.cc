@@ -12,9 +12,11 @@
 namespace rigfit {
 namespace {
 
-// Random streams of a seed (sim/random.h); pixel noise of camera i uses kPixelStream + i.
+// Random streams of a seed (sim/random.h); pixel noise of camera i uses kPixelStream + i,
+// plus noise_draw x kNoiseDrawStreams for another draw of it.
 enum Stream : std::uint64_t { kRoomStream = 0, kCameraStream = 1, kPerturbStream = 2 };
 constexpr std::uint64_t kPixelStream = 1000;
+constexpr std::uint64_t kNoiseDrawStreams = std::uint64_t{1} << 32;  // above any camera index
 
 // Room and camera layout.
 constexpr double kWallHeight = 2.5;
@@ -268,10 +270,11 @@ Rgb Shade(const Scene& scene, const RayHit& hit, const Vec3& p_world) {
 
 /// Ray-casts one camera and corrupts its depth like a stereo camera (see SimulateRig).
 /// Every pixel draws its dropout and noise variates in row-major order, hit or not, so
-/// the noise of a pixel depends only on the seed, the camera and the pixel.
+/// the noise of a pixel depends only on the seed, the noise draw, the camera and the pixel.
 void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_world_camera,
                   int index, CameraCapture* camera) {
-  SimRng rng(options.seed, kPixelStream + static_cast<std::uint64_t>(index));
+  SimRng rng(options.seed, kPixelStream + options.noise_draw * kNoiseDrawStreams +
+                               static_cast<std::uint64_t>(index));
   const int w = options.width;
   const int h = options.height;
   const PinholeIntrinsics K = SimIntrinsics(w, h);

@@ -32,6 +32,9 @@ struct SimOptions {
   double dropout = 0.03;
   /// Measured depths beyond this are invalid (NaN).
   double max_depth_m = 10.0;
+  /// Which draw of the pixel noise and dropout: 0 is the seed's own; another value draws
+  /// them anew for the same scene, cameras and perturbation (bias against variance).
+  std::uint64_t noise_draw = 0;
 };
 
 /// A simulated rig: the capture, the true and the perturbed extrinsics, and the scene.

@@ -224,6 +224,31 @@ TEST(SimulateRig, SameSeedSameRigOtherSeedOtherRig) {
   EXPECT_NE(a.scene.size_x_m, c.scene.size_x_m);
 }
 
+TEST(SimulateRig, AnotherNoiseDrawKeepsTheRigAndRedrawsOnlyTheNoise) {
+  const SimOptions options = Small(SimOptions{});
+  SimOptions redrawn = options;
+  redrawn.noise_draw = 1;
+  const SimulatedRig a = SimulateRig(options);
+  const SimulatedRig b = SimulateRig(redrawn);
+  // Without noise and dropout the draws render the same depth.
+  SimOptions clean = options;
+  clean.noise = 0.0;
+  clean.dropout = 0.0;
+  SimOptions clean_redrawn = clean;
+  clean_redrawn.noise_draw = 1;
+  const SimulatedRig c = SimulateRig(clean);
+  const SimulatedRig d = SimulateRig(clean_redrawn);
+  ASSERT_EQ(a.capture.cameras.size(), b.capture.cameras.size());
+  for (size_t i = 0; i < a.capture.cameras.size(); ++i) {
+    const std::string& serial = a.capture.cameras[i].serial;
+    EXPECT_TRUE(a.gt.at(serial).isApprox(b.gt.at(serial), 0.0));
+    EXPECT_TRUE(a.init.at(serial).isApprox(b.init.at(serial), 0.0));
+    EXPECT_FALSE(SameBits(a.capture.cameras[i].depth_m, b.capture.cameras[i].depth_m));
+    EXPECT_TRUE(SameBits(c.capture.cameras[i].depth_m, d.capture.cameras[i].depth_m));
+  }
+  EXPECT_EQ(a.scene.size_x_m, b.scene.size_x_m);
+}
+
 TEST(SimulateRig, SerialsAreSortedAndCamerasStandAroundTheRoom) {
   SimOptions options = Small(SimOptions{});
   options.cameras = 6;
