@@ -8,9 +8,11 @@
 #include <cstdio>
 #include <map>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "core/evaluate.h"
+#include "core/geometry.h"
 #include "io/config_yaml.h"
 #include "sim/simulate_rig.h"
 #include "solver/crlb.h"
@@ -38,13 +40,14 @@ struct AgainstReference {
 };
 
 /// Bias against variance over draws of the pixel noise: per seed and camera pair, the
-/// relative pose errors (gt_ij^-1 est_ij as rotation vector and translation) of every draw.
-/// The bias of a pair is the mean error over its draws; its square, less the variance /
+/// relative pose errors (RelativeErrorPose, as rotation vector and translation) of every
+/// draw. The bias of a pair is the mean error over its draws; its square, less the variance /
 /// draws that any finite mean carries, is the bias part of the pair's mean squared error.
+/// The shares sum both parts over every seed and pair before dividing.
 class BiasSplit {
  public:
-  void Add(int seed, const std::string& pair, const rigfit::Pose& err) {
-    Draws& d = draws_[{seed, pair}];
+  void Add(int seed, const rigfit::PairError& pair, const rigfit::Pose& err) {
+    Draws& d = draws_[{seed, pair.serial_i, pair.serial_j}];
     const rigfit::Vec3 r = rigfit::LogSO3(err.linear());
     const rigfit::Vec3& t = err.translation();
     d.r_sum += r;
@@ -78,7 +81,7 @@ class BiasSplit {
     double r2 = 0.0, t2 = 0.0;
     int n = 0;
   };
-  std::map<std::pair<int, std::string>, Draws> draws_;
+  std::map<std::tuple<int, std::string, std::string>, Draws> draws_;
 };
 
 }  // namespace
@@ -105,8 +108,9 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads);
   int noise_draws = 1;
   app.add_option("--noise-draws", noise_draws,
-                 "runs per seed, each with another draw of the pixel noise (same scene, cameras "
-                 "and start); more than 1 also splits the error into bias and variance")
+                 "runs per seed, each with another draw of the pixel noise and dropout (same "
+                 "scene, cameras and start; draw 0 is the seed's own); more than 1 also splits "
+                 "the mean squared error into bias and variance")
       ->check(CLI::PositiveNumber);
   std::string config;
   app.add_option("--config", config, "refine options (YAML); --mode and --method override");
@@ -164,7 +168,8 @@ int main(int argc, char** argv) {
       runs_with_weak += weak > 0 ? 1 : 0;
       if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
       if (crlb) {
-        // The bound of this seed's rig: the same scene, cameras and noise model, noise-free.
+        // The bound of this run's rig: the same scene, cameras, dropout and noise model,
+        // noise-free (with several draws, once per draw: their dropout differs).
         SimOptions clean = sim;
         clean.noise = 0.0;
         const SimulatedRig truth = SimulateRig(clean);
@@ -213,11 +218,11 @@ int main(int argc, char** argv) {
         ++normalised;
       }
       for (const PairError& p : after.pairs) {
-        const Pose& gt_i = rig.gt.at(p.serial_i);
-        const Pose& est_i = r.refined.at(p.serial_i);
-        bias.Add(seed, p.serial_i + " " + p.serial_j,
-                 (gt_i.inverse() * rig.gt.at(p.serial_j)).inverse() *
-                     (est_i.inverse() * r.refined.at(p.serial_j)));
+        if (noise_draws > 1) {
+          bias.Add(seed, p,
+                   RelativeErrorPose(r.refined.at(p.serial_i), r.refined.at(p.serial_j),
+                                     rig.gt.at(p.serial_i), rig.gt.at(p.serial_j)));
+        }
         sum_r2 += std::pow(p.error.rotation_rad, 2);
         sum_t2 += std::pow(p.error.translation_m, 2);
         worst_t = std::max(worst_t, p.error.translation_m);
@@ -234,9 +239,8 @@ int main(int argc, char** argv) {
   std::printf(
       "summary over %d %s: RMS relative rotation %.4f deg, RMS relative translation "
       "%.2f mm (worst pair %.2f mm), RMS tilt %.4f deg, %d runs not successful\n",
-      noise_draws > 1 ? runs : seeds, unit, std::sqrt(sum_r2 / pairs) * kRadToDeg,
-      std::sqrt(sum_t2 / pairs) * 1e3, worst_t * 1e3, std::sqrt(sum_tilt2 / cameras) * kRadToDeg,
-      failures);
+      runs, unit, std::sqrt(sum_r2 / pairs) * kRadToDeg, std::sqrt(sum_t2 / pairs) * 1e3,
+      worst_t * 1e3, std::sqrt(sum_tilt2 / cameras) * kRadToDeg, failures);
   std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, runs);
   if (noise_draws > 1) {
     const auto [rotation, translation] = bias.Shares();

@@ -47,11 +47,13 @@ double RotationAngle(const Mat3& R) {
   return std::atan2(0.5 * s.norm(), c);
 }
 
+Pose RelativeErrorPose(const Pose& est_i, const Pose& est_j, const Pose& gt_i, const Pose& gt_j) {
+  return (gt_i.inverse() * gt_j).inverse() * (est_i.inverse() * est_j);
+}
+
 RelativePoseError RelativeError(const Pose& est_i, const Pose& est_j, const Pose& gt_i,
                                 const Pose& gt_j) {
-  const Pose est = est_i.inverse() * est_j;
-  const Pose gt = gt_i.inverse() * gt_j;
-  const Pose err = gt.inverse() * est;
+  const Pose err = RelativeErrorPose(est_i, est_j, gt_i, gt_j);
   return {RotationAngle(err.linear()), err.translation().norm()};
 }
 

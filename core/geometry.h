@@ -27,6 +27,10 @@ PointCloud CameraPoints(const CameraCapture& camera, const UnprojectOptions& opt
 /// T * p for every point.
 PointCloud Transform(const Pose& T, const PointCloud& points);
 
+/// The error of the relative pose T_i^-1 T_j of an estimate against ground truth, as a
+/// pose: (gt_i^-1 gt_j)^-1 (est_i^-1 est_j).
+Pose RelativeErrorPose(const Pose& est_i, const Pose& est_j, const Pose& gt_i, const Pose& gt_j);
+
 /// Error of the relative pose T_i^-1 T_j of an estimate against ground truth.
 struct RelativePoseError {
   double rotation_rad = 0.0;
