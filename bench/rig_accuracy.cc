@@ -140,101 +140,102 @@ int main(int argc, char** argv) {
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
   BiasSplit bias;
-  for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-    for (int draw = 0; draw < noise_draws; ++draw) {
-      sim.seed = static_cast<std::uint64_t>(seed);
-      sim.noise_draw = static_cast<std::uint64_t>(draw);
-      const std::string label =
-          std::to_string(seed) + (noise_draws > 1 ? ":" + std::to_string(draw) : "");
-      const SimulatedRig rig = SimulateRig(sim);
-      Log log;
-      if (verbose) {
-        log.sink = [](LogLevel, const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
-      }
-      const PoseMap& start = from_gt ? rig.gt : rig.init;
-      const RefineResult r = Refine(rig.capture, start, options, true, threads, log);
-      const RigErrors before = EvaluateRig(start, rig.gt);
-      const RigErrors after = EvaluateRig(r.refined, rig.gt);
-      std::printf("%*s | %8.3f %8.2f %7.3f | %8.4f %8.2f %7.4f %8.2f | %6.3f %6.3f %6.3f | %s\n",
-                  seed_width, label.c_str(), before.rms_rotation_rad * kRadToDeg,
-                  before.rms_translation_m * 1e3, before.rms_tilt_rad * kRadToDeg,
-                  after.rms_rotation_rad * kRadToDeg, after.rms_translation_m * 1e3,
-                  after.rms_tilt_rad * kRadToDeg, after.max_translation_m * 1e3, r.times.leveling_s,
-                  r.times.preprocessing_s, r.times.registration_s + r.times.pose_graph_s,
-                  r.success ? "ok" : r.message.c_str());
-      failures += r.success ? 0 : 1;
-      int weak = 0;
-      for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
-      runs_with_weak += weak > 0 ? 1 : 0;
-      if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
-      if (crlb) {
-        // The bound of this run's rig: the same scene, cameras, dropout and noise model,
-        // noise-free (with several draws, once per draw: their dropout differs).
-        SimOptions clean = sim;
-        clean.noise = 0.0;
-        const SimulatedRig truth = SimulateRig(clean);
-        RefineOptions bound_options = options;
-        bound_options.icp.reference = r.reference;
-        const CramerRaoBound b =
-            ComputeCramerRaoBound(truth.capture, truth.gt, bound_options, sim.noise,
-                                  kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
-        if (b.ok) {
-          std::printf("       bound: %.4f deg %.2f mm tilt %.4f deg; error / bound: %.2f %.2f\n",
-                      b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
-                      b.rms.tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms.rotation_rad,
-                      after.rms_translation_m / b.rms.translation_m);
-          bound.Add(b.rms, after);
-          if (b.estimator_ok) {
-            std::printf(
-                "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
-                "error / it: %.2f %.2f\n",
-                b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
-                b.estimator_rms.tilt_rad * kRadToDeg,
-                after.rms_rotation_rad / b.estimator_rms.rotation_rad,
-                after.rms_translation_m / b.estimator_rms.translation_m);
-            estimator.Add(b.estimator_rms, after);
-          }
-        } else {
-          std::printf("       bound: not available: %s\n", b.message.c_str());
+  // Every seed's draws in turn: run k is draw k % noise_draws of seed first_seed + k / noise_draws.
+  const int runs = seeds * noise_draws;
+  for (int run = 0; run < runs; ++run) {
+    const int seed = first_seed + run / noise_draws;
+    const int draw = run % noise_draws;
+    sim.seed = static_cast<std::uint64_t>(seed);
+    sim.noise_draw = static_cast<std::uint64_t>(draw);
+    const std::string label =
+        std::to_string(seed) + (noise_draws > 1 ? ":" + std::to_string(draw) : "");
+    const SimulatedRig rig = SimulateRig(sim);
+    Log log;
+    if (verbose) {
+      log.sink = [](LogLevel, const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
+    }
+    const PoseMap& start = from_gt ? rig.gt : rig.init;
+    const RefineResult r = Refine(rig.capture, start, options, true, threads, log);
+    const RigErrors before = EvaluateRig(start, rig.gt);
+    const RigErrors after = EvaluateRig(r.refined, rig.gt);
+    std::printf("%*s | %8.3f %8.2f %7.3f | %8.4f %8.2f %7.4f %8.2f | %6.3f %6.3f %6.3f | %s\n",
+                seed_width, label.c_str(), before.rms_rotation_rad * kRadToDeg,
+                before.rms_translation_m * 1e3, before.rms_tilt_rad * kRadToDeg,
+                after.rms_rotation_rad * kRadToDeg, after.rms_translation_m * 1e3,
+                after.rms_tilt_rad * kRadToDeg, after.max_translation_m * 1e3, r.times.leveling_s,
+                r.times.preprocessing_s, r.times.registration_s + r.times.pose_graph_s,
+                r.success ? "ok" : r.message.c_str());
+    failures += r.success ? 0 : 1;
+    int weak = 0;
+    for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
+    runs_with_weak += weak > 0 ? 1 : 0;
+    if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
+    if (crlb) {
+      // The bound of this run's rig: the same scene, cameras, dropout and noise model,
+      // noise-free (with several draws, once per draw: their dropout differs).
+      SimOptions clean = sim;
+      clean.noise = 0.0;
+      const SimulatedRig truth = SimulateRig(clean);
+      RefineOptions bound_options = options;
+      bound_options.icp.reference = r.reference;
+      const CramerRaoBound b =
+          ComputeCramerRaoBound(truth.capture, truth.gt, bound_options, sim.noise,
+                                kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
+      if (b.ok) {
+        std::printf("       bound: %.4f deg %.2f mm tilt %.4f deg; error / bound: %.2f %.2f\n",
+                    b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
+                    b.rms.tilt_rad * kRadToDeg, after.rms_rotation_rad / b.rms.rotation_rad,
+                    after.rms_translation_m / b.rms.translation_m);
+        bound.Add(b.rms, after);
+        if (b.estimator_ok) {
+          std::printf(
+              "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
+              "error / it: %.2f %.2f\n",
+              b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
+              b.estimator_rms.tilt_rad * kRadToDeg,
+              after.rms_rotation_rad / b.estimator_rms.rotation_rad,
+              after.rms_translation_m / b.estimator_rms.translation_m);
+          estimator.Add(b.estimator_rms, after);
         }
-      }
-      // Errors of each camera relative to the reference against the predicted 1-sigma (joint
-      // mode): a reference that does not move makes its covariance that of T_ref^-1 T_i.
-      for (const CameraReport& c : r.cameras) {
-        if (!c.has_covariance) continue;
-        const Pose& ref_est = r.refined.at(r.reference);
-        const Pose& ref_gt = rig.gt.at(r.reference);
-        const RelativePoseError e =
-            RelativeError(ref_est, r.refined.at(c.serial), ref_gt, rig.gt.at(c.serial));
-        const double sigma_r = std::sqrt(c.covariance.topLeftCorner<3, 3>().trace());
-        const double sigma_t = std::sqrt(c.covariance.bottomRightCorner<3, 3>().trace());
-        if (verbose_sigma) {
-          std::printf("       %s: error %.4f deg %.2f mm, predicted %.4f deg %.2f mm\n",
-                      c.serial.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3,
-                      sigma_r * kRadToDeg, sigma_t * 1e3);
-        }
-        sum_nr2 += std::pow(e.rotation_rad / sigma_r, 2);
-        sum_nt2 += std::pow(e.translation_m / sigma_t, 2);
-        ++normalised;
-      }
-      for (const PairError& p : after.pairs) {
-        if (noise_draws > 1) {
-          bias.Add(seed, p,
-                   RelativeErrorPose(r.refined.at(p.serial_i), r.refined.at(p.serial_j),
-                                     rig.gt.at(p.serial_i), rig.gt.at(p.serial_j)));
-        }
-        sum_r2 += std::pow(p.error.rotation_rad, 2);
-        sum_t2 += std::pow(p.error.translation_m, 2);
-        worst_t = std::max(worst_t, p.error.translation_m);
-        ++pairs;
-      }
-      for (const auto& [serial, tilt] : after.tilt_rad) {
-        sum_tilt2 += tilt * tilt;
-        ++cameras;
+      } else {
+        std::printf("       bound: not available: %s\n", b.message.c_str());
       }
     }
+    // Errors of each camera relative to the reference against the predicted 1-sigma (joint
+    // mode): a reference that does not move makes its covariance that of T_ref^-1 T_i.
+    for (const CameraReport& c : r.cameras) {
+      if (!c.has_covariance) continue;
+      const Pose& ref_est = r.refined.at(r.reference);
+      const Pose& ref_gt = rig.gt.at(r.reference);
+      const RelativePoseError e =
+          RelativeError(ref_est, r.refined.at(c.serial), ref_gt, rig.gt.at(c.serial));
+      const double sigma_r = std::sqrt(c.covariance.topLeftCorner<3, 3>().trace());
+      const double sigma_t = std::sqrt(c.covariance.bottomRightCorner<3, 3>().trace());
+      if (verbose_sigma) {
+        std::printf("       %s: error %.4f deg %.2f mm, predicted %.4f deg %.2f mm\n",
+                    c.serial.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3,
+                    sigma_r * kRadToDeg, sigma_t * 1e3);
+      }
+      sum_nr2 += std::pow(e.rotation_rad / sigma_r, 2);
+      sum_nt2 += std::pow(e.translation_m / sigma_t, 2);
+      ++normalised;
+    }
+    for (const PairError& p : after.pairs) {
+      if (noise_draws > 1) {
+        bias.Add(seed, p,
+                 RelativeErrorPose(r.refined.at(p.serial_i), r.refined.at(p.serial_j),
+                                   rig.gt.at(p.serial_i), rig.gt.at(p.serial_j)));
+      }
+      sum_r2 += std::pow(p.error.rotation_rad, 2);
+      sum_t2 += std::pow(p.error.translation_m, 2);
+      worst_t = std::max(worst_t, p.error.translation_m);
+      ++pairs;
+    }
+    for (const auto& [serial, tilt] : after.tilt_rad) {
+      sum_tilt2 += tilt * tilt;
+      ++cameras;
+    }
   }
-  const int runs = seeds * noise_draws;
   const char* unit = noise_draws > 1 ? "runs" : "seeds";
   std::printf(
       "summary over %d %s: RMS relative rotation %.4f deg, RMS relative translation "
