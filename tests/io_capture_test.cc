@@ -186,13 +186,7 @@ TEST_F(CaptureTest, Float32RoundTripOfEveryDatasetSortedBySerial) {
   const CameraCapture& b2 = back.cameras[1];
   EXPECT_EQ(b2.width, 8);
   EXPECT_EQ(b2.height, 6);
-  ExpectSameDepth(b2.depth_m, b.depth_m, 0.0);  // float32 stored as float32: exact
-  EXPECT_EQ(b2.intrinsics.fx, b.intrinsics.fx);
-  EXPECT_EQ(b2.intrinsics.fy, b.intrinsics.fy);
-  EXPECT_EQ(b2.intrinsics.cx, b.intrinsics.cx);
-  EXPECT_EQ(b2.intrinsics.cy, b.intrinsics.cy);
-  EXPECT_EQ(b2.confidence, b.confidence);
-  EXPECT_EQ(b2.color, b.color);
+  io_test::ExpectSameCamera(b2, b);  // float32 depth stored as float32: exact
   EXPECT_FALSE(b2.HasPoints());
 
   const CameraCapture& a2 = back.cameras[0];

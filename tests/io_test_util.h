@@ -68,29 +68,31 @@ std::string InputErrorMessage(F&& f) {
   return "";
 }
 
-/// Every field of every camera equal, depth bit for bit (NaN included).
+/// Every field of a camera equal, depth bit for bit (NaN included).
+inline void ExpectSameCamera(const CameraCapture& a, const CameraCapture& e) {
+  SCOPED_TRACE(e.serial);
+  EXPECT_EQ(a.serial, e.serial);
+  EXPECT_EQ(a.width, e.width);
+  EXPECT_EQ(a.height, e.height);
+  ASSERT_EQ(a.depth_m.size(), e.depth_m.size());
+  for (size_t k = 0; k < e.depth_m.size(); ++k) {
+    EXPECT_EQ(std::memcmp(&a.depth_m[k], &e.depth_m[k], sizeof(float)), 0) << k;
+  }
+  EXPECT_EQ(a.intrinsics.fx, e.intrinsics.fx);
+  EXPECT_EQ(a.intrinsics.fy, e.intrinsics.fy);
+  EXPECT_EQ(a.intrinsics.cx, e.intrinsics.cx);
+  EXPECT_EQ(a.intrinsics.cy, e.intrinsics.cy);
+  EXPECT_EQ(a.confidence, e.confidence);
+  EXPECT_EQ(a.color, e.color);
+  EXPECT_EQ(a.points, e.points);
+  EXPECT_EQ(a.normals, e.normals);
+}
+
+/// Every field of every camera equal (ExpectSameCamera).
 inline void ExpectSameCapture(const RigCapture& actual, const RigCapture& expected) {
   ASSERT_EQ(actual.cameras.size(), expected.cameras.size());
   for (size_t i = 0; i < expected.cameras.size(); ++i) {
-    const CameraCapture& a = actual.cameras[i];
-    const CameraCapture& e = expected.cameras[i];
-    SCOPED_TRACE(e.serial);
-    EXPECT_EQ(a.serial, e.serial);
-    EXPECT_EQ(a.width, e.width);
-    EXPECT_EQ(a.height, e.height);
-    ASSERT_EQ(a.depth_m.size(), e.depth_m.size());
-    // Bit for bit, NaN included.
-    for (size_t k = 0; k < e.depth_m.size(); ++k) {
-      EXPECT_EQ(std::memcmp(&a.depth_m[k], &e.depth_m[k], sizeof(float)), 0) << k;
-    }
-    EXPECT_EQ(a.intrinsics.fx, e.intrinsics.fx);
-    EXPECT_EQ(a.intrinsics.fy, e.intrinsics.fy);
-    EXPECT_EQ(a.intrinsics.cx, e.intrinsics.cx);
-    EXPECT_EQ(a.intrinsics.cy, e.intrinsics.cy);
-    EXPECT_EQ(a.confidence, e.confidence);
-    EXPECT_EQ(a.color, e.color);
-    EXPECT_EQ(a.points, e.points);
-    EXPECT_EQ(a.normals, e.normals);
+    ExpectSameCamera(actual.cameras[i], expected.cameras[i]);
   }
 }
 
