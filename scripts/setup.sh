@@ -10,7 +10,7 @@ packages=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libnanoflann-dev libflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libpng-dev libstb-dev clang-format
+  libpng-dev libstb-dev clang-format ccache
 )
 
 missing=()
