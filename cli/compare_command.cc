@@ -605,19 +605,22 @@ int RunCompare(const CompareArgs& a) {
   const RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
-  CheckPoses(capture, initial.poses, a.extrinsics_path);
+  CheckRefineInput(capture, initial.poses, options,
+                   {"compare", a.capture_path, a.extrinsics_path, "icp.reference"});
+  std::vector<std::string> input_warnings = CaptureWarnings(capture, a.capture_path);
+  input_warnings.insert(input_warnings.end(), initial.warnings.begin(), initial.warnings.end());
   PoseMap gt;
   if (!a.gt_path.empty()) {
-    gt = ReadExtrinsics(a.gt_path).poses;
-    CheckPoses(capture, gt, a.gt_path);
+    ExtrinsicsDocument truth = ReadExtrinsics(a.gt_path);
+    CheckPoses(capture, truth.poses, a.gt_path);
+    input_warnings.insert(input_warnings.end(), truth.warnings.begin(), truth.warnings.end());
+    gt = std::move(truth.poses);
+  }
+  for (const std::string& w : input_warnings) {
+    std::fprintf(stderr, "compare: warning: %s\n", w.c_str());
   }
   if (capture.cameras.size() < 2) {
     throw InputError("compare: " + a.capture_path + " holds one camera: nothing to register");
-  }
-  const std::string& reference = options.icp.reference;
-  if (!reference.empty() && initial.poses.count(reference) == 0) {
-    throw InputError("compare: icp.reference '" + reference + "' is not a camera of " +
-                     a.capture_path);
   }
 
   Comparison c;

@@ -12,6 +12,7 @@
 #include "cli/json_output.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
+#include "core/format.h"
 #include "io/atomic_file.h"
 #include "io/extrinsics_json.h"
 
@@ -27,12 +28,6 @@ struct EvaluateArgs {
   std::string ground_truth_path;
   std::string json_path;  ///< empty: no JSON output
 };
-
-std::string Join(const std::vector<std::string>& items) {
-  std::string text;
-  for (const std::string& item : items) text += (text.empty() ? "" : ", ") + item;
-  return text;
-}
 
 /// The serials of `gt` that `est` lacks, and those of `est` that `gt` lacks.
 struct CameraSets {

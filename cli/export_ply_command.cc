@@ -41,7 +41,9 @@ int RunExport(const ExportArgs& a) {
   const RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument extrinsics = ReadExtrinsics(a.extrinsics_path);
-  for (const std::string& warning : extrinsics.warnings) {
+  std::vector<std::string> warnings = CaptureWarnings(capture, a.capture_path);
+  warnings.insert(warnings.end(), extrinsics.warnings.begin(), extrinsics.warnings.end());
+  for (const std::string& warning : warnings) {
     std::fprintf(stderr, "export-ply: warning: %s\n", warning.c_str());
   }
   for (const CameraCapture& camera : capture.cameras) {

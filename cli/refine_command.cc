@@ -60,12 +60,6 @@ struct RefineArgs {
   int threads = 2;
 };
 
-std::string Join(const std::vector<std::string>& items, const std::string& separator) {
-  std::string text;
-  for (const std::string& item : items) text += (text.empty() ? "" : separator) + item;
-  return text;
-}
-
 Log StderrLog(Verbosity verbosity) {
   Log log;
   log.sink = [verbosity](LogLevel level, const std::string& message) {
@@ -141,44 +135,6 @@ RefineOptions EffectiveOptions(const RefineArgs& a) {
                      Join(problems, "\n  "));
   }
   return options;
-}
-
-/// Every capture camera needs a pose, and every pose a capture camera.
-void CheckCameras(const RigCapture& capture, const PoseMap& poses, const RefineArgs& a) {
-  std::set<std::string> serials;
-  std::vector<std::string> missing;
-  for (const CameraCapture& camera : capture.cameras) {
-    serials.insert(camera.serial);
-    if (poses.count(camera.serial) == 0) missing.push_back(camera.serial);
-  }
-  std::vector<std::string> extra;
-  for (const auto& [serial, pose] : poses) {
-    if (serials.count(serial) == 0) extra.push_back(serial);
-  }
-  std::vector<std::string> problems;
-  if (!missing.empty()) {
-    problems.push_back(a.extrinsics_path + " has no pose for camera(s) " + Join(missing, ", ") +
-                       " of " + a.capture_path);
-  }
-  if (!extra.empty()) {
-    problems.push_back(a.extrinsics_path + " has pose(s) for camera(s) " + Join(extra, ", ") +
-                       " that " + a.capture_path + " does not hold");
-  }
-  if (!problems.empty()) throw InputError("refine: " + Join(problems, "; "));
-}
-
-void CheckReference(const RigCapture& capture, const RefineOptions& options, const RefineArgs& a) {
-  const std::string& reference = options.icp.reference;
-  if (reference.empty()) return;
-  std::vector<std::string> serials;
-  for (const CameraCapture& camera : capture.cameras) {
-    if (camera.serial == reference) return;
-    serials.push_back(camera.serial);
-  }
-  const std::string source =
-      a.reference_option->count() > 0 ? "--reference" : a.config_path + ": icp.reference";
-  throw InputError("refine: " + source + " '" + reference + "' is not a camera of " +
-                   a.capture_path + " (cameras: " + Join(serials, ", ") + ")");
 }
 
 Json PlaneJson(const Plane& plane) {
@@ -438,10 +394,13 @@ int RunRefine(const RefineArgs& a) {
   log.Info("loading " + a.capture_path + " and " + a.extrinsics_path);
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
-  CheckCameras(capture, initial.poses, a);
-  CheckReference(capture, options, a);
+  CheckRefineInput(
+      capture, initial.poses, options,
+      {"refine", a.capture_path, a.extrinsics_path,
+       a.reference_option->count() > 0 ? "--reference" : a.config_path + ": icp.reference"});
   std::vector<std::string> warnings = initial.warnings;
-  for (const std::string& w : initial.warnings) log.Warning(w);
+  for (const std::string& w : CaptureWarnings(capture, a.capture_path)) warnings.push_back(w);
+  for (const std::string& w : warnings) log.Warning(w);
   Timings timings;
   timings.load_s = SecondsSince(start);
   log.Info("loaded " + std::to_string(capture.cameras.size()) + " cameras in " +

@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <string>
+#include <vector>
 
 namespace rigfit {
 
@@ -10,6 +11,14 @@ namespace rigfit {
 inline std::string Fixed(double value, int digits) {
   char text[64];
   std::snprintf(text, sizeof(text), "%.*f", digits, value);
+  return text;
+}
+
+/// The items separated by `separator`.
+inline std::string Join(const std::vector<std::string>& items,
+                        const std::string& separator = ", ") {
+  std::string text;
+  for (size_t i = 0; i < items.size(); ++i) text += (i ? separator : "") + items[i];
   return text;
 }
 

@@ -32,6 +32,9 @@ struct CameraCapture {
   PinholeIntrinsics intrinsics;
   std::vector<float> confidence;    ///< optional, [height, width], larger = more reliable
   std::vector<std::uint8_t> color;  ///< optional, [height, width, 3] RGB
+  /// Finite depth samples beyond 1000 m that were read as invalid: sensor glitches
+  /// (io/capture_h5.h; every sample of a burst counts).
+  std::int64_t glitch_depth_samples = 0;
 
   // Points layout: points (and optional normals) in the camera frame, metres.
   PointCloud points;

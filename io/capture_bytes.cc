@@ -24,6 +24,7 @@ class CaptureBytes {
       out.Put(c.intrinsics);
       out.PutVector(c.confidence);
       out.PutVector(c.color);
+      out.Put(c.glitch_depth_samples);
       out.PutVector(c.points);
       out.PutVector(c.normals);
     }
@@ -52,6 +53,7 @@ class CaptureBytes {
       c.intrinsics = in.Get<PinholeIntrinsics>();
       c.confidence = in.GetVector<float>();
       c.color = in.GetVector<std::uint8_t>();
+      c.glitch_depth_samples = in.Get<std::int64_t>();
       c.points = in.GetVector<Vec3>();
       c.normals = in.GetVector<Vec3>();
     }

@@ -372,21 +372,38 @@ std::vector<float> ReadFloatDepth(const Dataset& depth, hid_t memory_type, const
   return metres;
 }
 
-/// Fails on the first finite depth beyond kMaxRangeM, naming its pixel (and frame of a
-/// burst). Invalid samples (NaN, +-inf) pass.
-void CheckDepthRange(const std::vector<float>& metres, const CameraCapture& camera,
-                     size_t num_frames, const Context& where) {
-  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
-  for (size_t i = 0; i < metres.size(); ++i) {
-    if (!std::isfinite(metres[i]) || !(metres[i] > kMaxRangeM)) continue;
-    const size_t pixel = i % pixels;
+/// A capture whose median valid depth is beyond this is in another unit (millimetres read as
+/// metres, a wrong depth_scale): no depth camera sees a room from 100 m away.
+constexpr double kMaxMedianDepthM = 100.0;
+
+/// Fails when the valid (finite) depth as a whole looks like another unit: its median is
+/// beyond kMaxMedianDepthM. Every sample of a burst counts.
+void CheckDepthUnit(const std::vector<float>& metres, const Context& where) {
+  std::vector<float> valid;
+  valid.reserve(metres.size());
+  for (const float z : metres) {
+    if (std::isfinite(z)) valid.push_back(z);
+  }
+  if (valid.empty()) return;
+  const auto middle = valid.begin() + static_cast<std::ptrdiff_t>(valid.size() / 2);
+  std::nth_element(valid.begin(), middle, valid.end());
+  if (*middle > kMaxMedianDepthM) {
     std::ostringstream what;
-    what << "value " << metres[i] << " m at pixel (u " << pixel % camera.width << ", v "
-         << pixel / camera.width << ")";
-    if (num_frames > 1) what << " of frame " << i / pixels;
-    what << " is beyond " << kMaxRangeM
+    what << "median valid depth " << *middle << " m is beyond " << kMaxMedianDepthM
          << " m: depth must be float metres, or uint16 with depth_scale in metres per unit";
     where.Fail("depth", what.str());
+  }
+}
+
+/// CheckDepthUnit, then sensor glitches: finite depths beyond kMaxRangeM become invalid (NaN)
+/// and are counted in camera.glitch_depth_samples.
+void DropDepthGlitches(std::vector<float>& metres, CameraCapture& camera, const Context& where) {
+  CheckDepthUnit(metres, where);
+  for (float& z : metres) {
+    if (std::isfinite(z) && z > kMaxRangeM) {
+      z = std::numeric_limits<float>::quiet_NaN();
+      ++camera.glitch_depth_samples;
+    }
   }
 }
 
@@ -418,7 +435,7 @@ void ReadDepth(hid_t group, CameraCapture& camera, const Context& where) {
                "expected float32, float64 or uint16, got " + DescribeType(depth.type.get()));
   }
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
-  CheckDepthRange(metres, camera, num_frames, where);
+  DropDepthGlitches(metres, camera, where);
   camera.depth_m = num_frames == 1 ? std::move(metres) : BurstMedian(metres, num_frames, pixels);
 }
 
@@ -621,7 +638,7 @@ void CheckWritable(const RigCapture& capture, const CaptureWriteOptions& options
       }
       if (!camera.normals.empty()) where.Fail("normals", "only allowed beside points");
       // What ReadCapture would reject is not written.
-      CheckDepthRange(camera.depth_m, camera, 1, where);
+      CheckDepthUnit(camera.depth_m, where);
     } else {
       if (!camera.normals.empty() && camera.normals.size() != camera.points.size()) {
         where.Fail("normals", "size does not match points");
@@ -928,6 +945,18 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
                    (payload.empty() || code != 3 ? " (exit code " + std::to_string(code) + ")"
                                                  : ": " + payload) +
                    ": damaged file?");
+}
+
+std::vector<std::string> CaptureWarnings(const RigCapture& capture, const std::string& path) {
+  std::vector<std::string> warnings;
+  for (const CameraCapture& camera : capture.cameras) {
+    if (camera.glitch_depth_samples == 0) continue;
+    warnings.push_back(path + ": camera " + camera.serial + ": " +
+                       std::to_string(camera.glitch_depth_samples) + " depth samples beyond " +
+                       std::to_string(static_cast<int>(kMaxRangeM)) +
+                       " m read as invalid (sensor glitches)");
+  }
+  return warnings;
 }
 
 RigCapture ReadCaptureFromMemory(const void* data, std::size_t size, const std::string& name) {

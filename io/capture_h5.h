@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "core/types.h"
 
@@ -16,8 +17,15 @@ namespace rigfit {
 /// got 1") for anything off the contract: not HDF5, wrong or missing root attributes,
 /// missing or empty /cameras, a camera with neither or both of depth and points, wrong rank,
 /// shape, dtype or size, depth_scale missing or not > 0, intrinsics invalid or not matching
-/// the image size, non-finite points/normals/confidence.
+/// the image size, non-finite points/normals/confidence, and depth whose median valid sample
+/// is beyond 100 m (another unit: millimetres as metres, a wrong depth_scale). A few finite
+/// depths beyond 1000 m in an otherwise sound image are sensor glitches: they become invalid
+/// and are counted in CameraCapture::glitch_depth_samples (CaptureWarnings says so).
 RigCapture ReadCapture(const std::string& path);
+
+/// One warning per camera with glitch depth samples read as invalid, naming the file
+/// (`path`), the camera and the count; empty when there are none.
+std::vector<std::string> CaptureWarnings(const RigCapture& capture, const std::string& path);
 
 /// ReadCapture for the command line: the file is read in a forked child process, so that a
 /// crash or a hang inside the HDF5 library on a damaged file (libhdf5 1.10.8 has both,

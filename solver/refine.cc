@@ -8,6 +8,7 @@
 #include <string>
 #include <utility>
 
+#include "core/errors.h"
 #include "core/format.h"
 #include "core/geometry.h"
 #include "core/parallel.h"
@@ -57,6 +58,7 @@ Pose CommonMotion(const std::vector<Pose>& leveled, const std::vector<Pose>& ref
   return G;
 }
 
+/// The index of camera `reference` (CheckRefineInput made sure it is there); empty: 0.
 int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
     if (capture.cameras[i].serial == reference) return static_cast<int>(i);
@@ -252,8 +254,40 @@ PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
   return rig;
 }
 
+void CheckRefineInput(const RigCapture& capture, const PoseMap& initial,
+                      const RefineOptions& options, const RefineInputNames& names) {
+  std::vector<std::string> serials;
+  std::vector<std::string> missing;
+  for (const CameraCapture& camera : capture.cameras) {
+    serials.push_back(camera.serial);
+    if (initial.count(camera.serial) == 0) missing.push_back(camera.serial);
+  }
+  std::vector<std::string> extra;
+  for (const auto& [serial, pose] : initial) {
+    if (std::find(serials.begin(), serials.end(), serial) == serials.end()) {
+      extra.push_back(serial);
+    }
+  }
+  std::vector<std::string> problems;
+  if (!missing.empty()) {
+    problems.push_back(names.extrinsics + " has no pose for camera(s) " + Join(missing) + " of " +
+                       names.capture);
+  }
+  if (!extra.empty()) {
+    problems.push_back(names.extrinsics + " has pose(s) for camera(s) " + Join(extra) + " that " +
+                       names.capture + " does not hold");
+  }
+  const std::string& reference = options.icp.reference;
+  if (!reference.empty() && std::find(serials.begin(), serials.end(), reference) == serials.end()) {
+    problems.push_back(names.reference + " '" + reference + "' is not a camera of " +
+                       names.capture + " (cameras: " + Join(serials) + ")");
+  }
+  if (!problems.empty()) throw InputError(names.command + ": " + Join(problems, "; "));
+}
+
 RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
                     bool run_icp, int num_threads, const Log& log) {
+  CheckRefineInput(capture, initial, options);
   RefineResult result;
   const size_t n = capture.cameras.size();
   result.reference = options.icp.reference.empty() && n > 0 ? capture.cameras.front().serial

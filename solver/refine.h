@@ -102,9 +102,24 @@ PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
                                 const std::vector<double>& depth_noise,
                                 const RefineOptions& options, int num_threads);
 
-/// Runs the pipeline. Every camera of the capture must have a pose in `initial` (the CLI
-/// checks this). `run_icp` false stops after leveling. Never throws on bad geometry: the
-/// result says what was and was not applied.
+/// How CheckRefineInput names the inputs in its messages: the CLI passes file names and the
+/// option that set the reference; a library caller may keep the defaults.
+struct RefineInputNames {
+  std::string command = "refine";
+  std::string capture = "the capture";
+  std::string extrinsics = "the initial extrinsics";
+  std::string reference = "icp.reference";
+};
+
+/// Throws InputError (one message listing every problem, prefixed "<command>: ") when a camera
+/// of the capture has no pose in `initial`, a pose names no camera of the capture, or
+/// options.icp.reference is set and is not a camera of the capture.
+void CheckRefineInput(const RigCapture& capture, const PoseMap& initial,
+                      const RefineOptions& options, const RefineInputNames& names = {});
+
+/// Runs the pipeline. Calls CheckRefineInput first (InputError on inputs that do not match).
+/// `run_icp` false stops after leveling. Never throws on bad geometry: the result says what
+/// was and was not applied.
 RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
                     bool run_icp, int num_threads, const Log& log);
 

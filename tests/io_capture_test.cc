@@ -301,12 +301,13 @@ TEST_F(CaptureTest, WhatWouldNotReadBackIsNotWritten) {
     EXPECT_TRUE(Listing().empty());
     return message;
   };
-  // A depth beyond 1 km (a unit mistake), in float metres.
+  // Depth in millimetres written as float metres (a unit mistake): the median is beyond 100 m.
   RigCapture depth;
   depth.cameras = {DepthCamera("cam", 8, 6, rng)};
-  depth.cameras[0].depth_m[9] = 1500.0f;
-  EXPECT_THAT(refused(depth), HasSubstr(path + ": cannot write: camera cam: depth: value 1500 m "
-                                               "at pixel (u 1, v 1) is beyond 1000 m"));
+  for (float& z : depth.cameras[0].depth_m) z *= 1000.0f;
+  EXPECT_THAT(refused(depth), HasSubstr(path + ": cannot write: camera cam: depth: median valid "
+                                               "depth"));
+  EXPECT_THAT(refused(depth), HasSubstr("is beyond 100 m: depth must be float metres"));
   // Points beyond 1 km, and points or normals that are not finite.
   RigCapture points;
   points.cameras.resize(1);
@@ -321,11 +322,64 @@ TEST_F(CaptureTest, WhatWouldNotReadBackIsNotWritten) {
   EXPECT_THAT(refused(points), HasSubstr("camera lidar: normals: row 1 is not finite"));
   // Within the limits, the same captures write and read back.
   points.cameras[0].normals[1] = Vec3::UnitX();
-  depth.cameras[0].depth_m[9] = 999.0f;
+  for (float& z : depth.cameras[0].depth_m) z /= 1000.0f;
   for (const RigCapture& capture : {points, depth}) {
     WriteCapture(path, capture);
     EXPECT_EQ(ReadCapture(path).cameras.size(), 1u);
     std::filesystem::remove(path);
+  }
+}
+
+TEST_F(CaptureTest, DepthGlitchesBecomeInvalidAndAreCounted) {
+  // A sensor glitch: a few absurd depths (1e7 m) in an otherwise sound image.
+  std::mt19937 rng(3);
+  const std::string path = Path("capture.h5");
+  RigCapture capture;
+  capture.cameras = {DepthCamera("cam", 8, 6, rng), DepthCamera("other", 8, 6, rng)};
+  std::vector<float>& depth = capture.cameras[0].depth_m;
+  depth[1] = 1e7f;
+  depth[2] = 1000.5f;  // just beyond the 1000 m range
+  depth[4] = 999.0f;   // within it: kept (region.max_depth_m leaves it unused)
+  WriteCapture(path, capture);
+  const RigCapture back = ReadCapture(path);
+  EXPECT_TRUE(std::isnan(back.cameras[0].depth_m[1]));
+  EXPECT_TRUE(std::isnan(back.cameras[0].depth_m[2]));
+  EXPECT_EQ(back.cameras[0].depth_m[4], 999.0f);
+  EXPECT_EQ(back.cameras[0].depth_m[5], depth[5]);
+  EXPECT_EQ(back.cameras[0].glitch_depth_samples, 2);
+  EXPECT_EQ(back.cameras[1].glitch_depth_samples, 0);
+  EXPECT_THAT(CaptureWarnings(back, path),
+              ElementsAre(path + ": camera cam: 2 depth samples beyond 1000 m read as invalid "
+                                 "(sensor glitches)"));
+  // The guarded read passes the count on.
+  EXPECT_EQ(ReadCaptureGuarded(path).cameras[0].glitch_depth_samples, 2);
+}
+
+TEST_F(CaptureTest, MedianDepthDecidesTheUnitMistake) {
+  // Half the valid samples beyond 100 m: the median is beyond it, the capture is refused;
+  // one sample fewer and it is read (those beyond 1000 m as glitches).
+  std::mt19937 rng(4);
+  const std::string path = Path("capture.h5");
+  for (const bool majority : {true, false}) {
+    SCOPED_TRACE(majority);
+    RigCapture capture;
+    capture.cameras = {DepthCamera("cam", 4, 3, rng)};  // pixels 3 and 10 invalid
+    capture.cameras[0].intrinsics = {50.0, 50.0, 1.5, 1.0};
+    std::vector<float>& depth = capture.cameras[0].depth_m;
+    const int far = majority ? 5 : 4;  // of 10 valid samples
+    int made = 0;
+    for (size_t i = 0; i < depth.size() && made < far; ++i) {
+      if (std::isnan(depth[i])) continue;
+      depth[i] = 5000.0f;
+      ++made;
+    }
+    if (majority) {
+      EXPECT_THAT(io_test::InputErrorMessage([&] { WriteCapture(path, capture); }),
+                  HasSubstr("median valid depth 5000 m is beyond 100 m"));
+    } else {
+      WriteCapture(path, capture);
+      EXPECT_EQ(ReadCapture(path).cameras[0].glitch_depth_samples, 4);
+    }
   }
 }
 

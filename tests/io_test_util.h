@@ -86,6 +86,7 @@ inline void ExpectSameCamera(const CameraCapture& a, const CameraCapture& e) {
   EXPECT_EQ(a.color, e.color);
   EXPECT_EQ(a.points, e.points);
   EXPECT_EQ(a.normals, e.normals);
+  EXPECT_EQ(a.glitch_depth_samples, e.glitch_depth_samples);
 }
 
 /// Every field of every camera equal (ExpectSameCamera).

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 
+#include "core/errors.h"
 #include "core/evaluate.h"
 #include "core/pose.h"
 #include "sim/simulate_rig.h"
@@ -272,6 +273,50 @@ TEST(Refine, OneCameraIsLeveledAndReported) {
   EXPECT_NE(r.message.find("one camera"), std::string::npos) << r.message;
   const Pose& leveled = r.refined.at(SimSerial(0));
   EXPECT_LT(TiltErrorRad(leveled, rig.gt.at(SimSerial(0))) / kDegToRad, 0.05);
+}
+
+TEST(RefineInput, UnknownReferenceAndMissingPosesAreRefusedByTheLibrary) {
+  SimOptions sim;
+  sim.cameras = 2;
+  sim.width = 64;
+  sim.height = 36;
+  const SimulatedRig rig = SimulateRig(sim);
+  const auto message = [&](const PoseMap& initial, const RefineOptions& options) {
+    try {
+      Refine(rig.capture, initial, options, /*run_icp=*/true, 1, Log{});
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no InputError");
+  };
+  RefineOptions unknown;
+  unknown.icp.reference = "no-such-camera";
+  EXPECT_EQ(message(rig.init, unknown),
+            "refine: icp.reference 'no-such-camera' is not a camera of the capture (cameras: " +
+                SimSerial(0) + ", " + SimSerial(1) + ")");
+  PoseMap missing = rig.init;
+  missing.erase(SimSerial(1));
+  EXPECT_EQ(message(missing, RefineOptions{}),
+            "refine: the initial extrinsics has no pose for camera(s) " + SimSerial(1) +
+                " of the capture");
+  PoseMap extra = rig.init;
+  extra["stranger"] = Pose::Identity();
+  EXPECT_EQ(message(extra, RefineOptions{}),
+            "refine: the initial extrinsics has pose(s) for camera(s) stranger that the capture "
+            "does not hold");
+  // Named inputs, every problem in one message.
+  EXPECT_THROW(CheckRefineInput(rig.capture, missing, unknown,
+                                {"compare", "rig.h5", "init.json", "--reference"}),
+               InputError);
+  try {
+    CheckRefineInput(rig.capture, missing, unknown, {"compare", "rig.h5", "init.json", "--ref"});
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "compare: init.json has no pose for camera(s) " + SimSerial(1) +
+                  " of rig.h5; --ref 'no-such-camera' is not a camera of rig.h5 (cameras: " +
+                  SimSerial(0) + ", " + SimSerial(1) + ")");
+  }
+  EXPECT_NO_THROW(CheckRefineInput(rig.capture, rig.init, RefineOptions{}));
 }
 
 }  // namespace

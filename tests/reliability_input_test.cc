@@ -257,7 +257,7 @@ TEST_F(ReliabilityInputTest, DepthOfTheWrongDtypeIsRejected) {
   ExpectRejected(Refine(capture, Init()), {capture, "camera 31001117", "depth", "got int32"});
 }
 
-TEST_F(ReliabilityInputTest, DepthBeyondAKilometreIsRejected) {
+TEST_F(ReliabilityInputTest, DepthInTheWrongUnitIsRejected) {
   // Millimetres written as float metres: 2000 "m" is no depth camera's measurement.
   const std::string capture = MutatedCapture("millimetres.h5", [](hid_t file) {
     std::vector<hsize_t> dims;
@@ -265,8 +265,25 @@ TEST_F(ReliabilityInputTest, DepthBeyondAKilometreIsRejected) {
     for (float& z : depth) z *= 1000.0f;
     ReplaceDataset(file, Depth(kCamera1), H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, dims, depth);
   });
-  ExpectRejected(Refine(capture, Init()),
-                 {capture, "camera 31001117", "depth", "is beyond 1000 m", "metres"});
+  ExpectRejected(Refine(capture, Init()), {capture, "camera 31001117", "depth",
+                                           "median valid depth", "is beyond 100 m", "metres"});
+}
+
+TEST_F(ReliabilityInputTest, DepthGlitchesAreDroppedCountedAndReported) {
+  // A sensor glitch: three pixels at 1e7 m in an otherwise sound depth image.
+  const std::string capture = MutatedCapture("glitch.h5", [](hid_t file) {
+    std::vector<hsize_t> dims;
+    std::vector<float> depth = ReadFloats(file, Depth(kCamera1), &dims);
+    for (const size_t i : {size_t{5}, size_t{77}, size_t{301}}) depth[i] = 1e7f;
+    ReplaceDataset(file, Depth(kCamera1), H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, dims, depth);
+  });
+  const RunResult r = Refine(capture, Init(), {"--no-icp"});
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  const std::string warning = std::string("camera ") + kCamera1 +
+                              ": 3 depth samples beyond 1000 m read as invalid (sensor glitches)";
+  EXPECT_THAT(r.err, HasSubstr(warning)) << Describe(r);
+  const Json out = Json::parse(ReadText(Out()));
+  EXPECT_THAT(out["_meta"]["icp_refined"]["warnings"].dump(), HasSubstr(warning));
 }
 
 TEST_F(ReliabilityInputTest, BadFocalLengthsAreRejected) {
