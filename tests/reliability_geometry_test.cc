@@ -231,7 +231,14 @@ TEST_P(ReliabilityGeometryTest, TwoCamerasWithIdenticalViews) {
   Camera(1).depth_m = Camera(0).depth_m;
   Camera(1).color = Camera(0).color;
   rig_.init[Camera(1).serial] = rig_.init.at(Camera(0).serial);
-  RefineAndCheck();
+  const Json doc = RefineAndCheck();
+  ASSERT_FALSE(doc.empty()) << "no output: the reads below need one";
+  // Both modes refine, and the two cameras that saw the same stay one camera.
+  EXPECT_EQ(result_.exit_code, 0) << Describe(result_);
+  const PoseMap written = ReadExtrinsics((dir_ / "out.json").string()).poses;
+  const Vec6 apart = PoseDifference(written.at(Camera(0).serial), written.at(Camera(1).serial));
+  EXPECT_LT(apart.head<3>().norm() * kRadToDeg, 0.01) << apart.transpose();
+  EXPECT_LT(apart.tail<3>().norm(), 1e-4) << apart.transpose();
 }
 
 TEST_P(ReliabilityGeometryTest, CameraFarFromTheOthersKeepsItsLeveledPose) {
@@ -253,7 +260,28 @@ TEST_P(ReliabilityGeometryTest, EveryPointOnOnePlane) {
     camera.depth_m = RenderDepth(floor_only, rig_.gt.at(camera.serial));
     camera.color.clear();
   }
-  RefineAndCheck();
+  const Json doc = RefineAndCheck();
+  ASSERT_FALSE(doc.empty()) << "no output: the reads below need one";
+  const Json& icp = doc["_meta"]["icp_refined"];
+  const PoseMap written = ReadExtrinsics((dir_ / "out.json").string()).poses;
+  if (GetParam() == "joint") {
+    // The joint mode names what a floor cannot fix and holds it: no camera moves.
+    EXPECT_EQ(result_.exit_code, 0) << Describe(result_);
+    for (int i = 1; i < 3; ++i) {
+      const std::string& serial = Camera(i).serial;
+      for (const std::string direction :
+           {"yaw (rotation about world Y)", "translation along world X",
+            "translation along world Z"}) {
+        EXPECT_TRUE(Warned(doc, serial, direction + " weakly constrained")) << icp["warnings"];
+      }
+      EXPECT_LT(icp["cameras"][serial]["delta_translation_m"].get<double>(), 1e-4);
+      EXPECT_LT(icp["cameras"][serial]["delta_rotation_deg"].get<double>(), 0.01);
+    }
+  } else {
+    // Pairwise ICP cannot pair a bare floor: nothing is applied, and the message says why.
+    EXPECT_EQ(result_.exit_code, 3) << Describe(result_);
+    EXPECT_THAT(icp["message"].get<std::string>(), HasSubstr("no edges reach the reference"));
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(BothModes, ReliabilityGeometryTest,
