@@ -94,6 +94,13 @@ int RunImportPly(const ImportPlyArgs& a) {
   RigCapture capture;
   for (const PlySource& source : sources) {
     PlyCloud cloud = ReadPly(source.path);
+    if (cloud.skipped_non_finite > 0) {
+      std::fprintf(stderr,
+                   "import-ply: warning: %s: %lld vertices with non-finite coordinates or "
+                   "normals left out (camera %s)\n",
+                   source.path.c_str(), static_cast<long long>(cloud.skipped_non_finite),
+                   source.serial.c_str());
+    }
     if (cloud.points.empty()) {
       throw InputError("import-ply: " + source.path + ": no points (camera " + source.serial + ")");
     }

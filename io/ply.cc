@@ -343,19 +343,14 @@ PlyCloud ReadPly(const std::string& path) {
     for (std::uint64_t r = 0; r < element.count; ++r) {
       ReadRecord(element, r, cursor, path, [&](size_t k, double v) { values[k] = v; });
       const Vec3 p(values[xyz[0]], values[xyz[1]], values[xyz[2]]);
-      if (!p.allFinite()) {
-        throw InputError(path + ": element vertex record " + std::to_string(r) +
-                         ": x y z not finite");
+      const Vec3 n = normal ? Vec3(values[(*normal)[0]], values[(*normal)[1]], values[(*normal)[2]])
+                            : Vec3::Zero();
+      if (!p.allFinite() || !n.allFinite()) {
+        ++cloud.skipped_non_finite;
+        continue;
       }
       cloud.points.push_back(p);
-      if (normal) {
-        const Vec3 n(values[(*normal)[0]], values[(*normal)[1]], values[(*normal)[2]]);
-        if (!n.allFinite()) {
-          throw InputError(path + ": element vertex record " + std::to_string(r) +
-                           ": nx ny nz not finite");
-        }
-        cloud.normals.push_back(n);
-      }
+      if (normal) cloud.normals.push_back(n);
       if (color) {
         cloud.colors.push_back({static_cast<std::uint8_t>(values[(*color)[0]]),
                                 static_cast<std::uint8_t>(values[(*color)[1]]),

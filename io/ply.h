@@ -15,6 +15,9 @@ struct PlyCloud {
   PointCloud points;
   PointCloud normals;
   std::vector<std::array<std::uint8_t, 3>> colors;
+  /// Vertices read but left out: x y z or nx ny nz not finite (the invalid pixels of an
+  /// organised cloud, e.g. PCL's savePLYFile writes them as nan).
+  std::int64_t skipped_non_finite = 0;
 };
 
 /// Writes binary_little_endian 1.0: element vertex with float x y z, then float nx ny nz if
@@ -27,7 +30,8 @@ void WritePly(const std::string& path, const PlyCloud& cloud);
 /// type), optional nx ny nz, optional uchar red green blue; other vertex properties are
 /// ignored, other elements (faces, range grids, lists included) are skipped. Throws InputError
 /// naming the file and the element/property at fault for a malformed or truncated file,
-/// binary_big_endian, a missing vertex element or x/y/z property, or non-finite coordinates.
+/// binary_big_endian, or a missing vertex element or x/y/z property. A vertex whose x y z or
+/// nx ny nz are not finite is skipped and counted (PlyCloud::skipped_non_finite).
 PlyCloud ReadPly(const std::string& path);
 
 }  // namespace rigfit
