@@ -193,12 +193,16 @@ inline void ExpectAnalyticMatchesAutodiff(const ceres::CostFunction& analytic,
 /// structural zeros (e.g. the gravity prior's yaw column: 1e-17 analytic against 1e-11
 /// numeric); the check below applies kGradientTolerance relative to the Jacobian's scale
 /// to the matrices the checker computed, and also reports its worst per-entry error.
+/// With `manifolds` given, block i uses manifolds[i] (nullptr: Euclidean) instead; `numeric`
+/// sets the finite differences (a cost with a pole near the parameters needs a first step
+/// smaller than Ridders' default of 1% of the parameter).
 inline void ExpectGradientCheckPasses(const ceres::CostFunction& cost,
-                                      const std::vector<const double*>& parameters) {
+                                      const std::vector<const double*>& parameters,
+                                      std::vector<const ceres::Manifold*> manifolds = {},
+                                      const ceres::NumericDiffOptions& numeric = {}) {
   const PoseManifold manifold;
-  const std::vector<const ceres::Manifold*> manifolds(cost.parameter_block_sizes().size(),
-                                                      &manifold);
-  const ceres::GradientChecker checker(&cost, &manifolds, ceres::NumericDiffOptions());
+  if (manifolds.empty()) manifolds.assign(cost.parameter_block_sizes().size(), &manifold);
+  const ceres::GradientChecker checker(&cost, &manifolds, numeric);
   ceres::GradientChecker::ProbeResults results;
   checker.Probe(parameters.data(), kGradientTolerance, &results);
   ASSERT_TRUE(results.return_value) << results.error_log;

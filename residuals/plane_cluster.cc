@@ -1,0 +1,68 @@
+#include "residuals/plane_cluster.h"
+
+#include <Eigen/Eigenvalues>
+
+#include "residuals/pose_jacobians.h"
+
+namespace rigfit {
+
+void PlaneCluster::AddRay(const Vec3& p, double w, double sigma_w) {
+  const Vec4 b(p.x() / p.z(), p.y() / p.z(), 1.0, w);
+  moment_.noalias() += b * b.transpose() / (sigma_w * sigma_w);
+  ++count_;
+}
+
+void PlaneCluster::AddPoint(const Vec3& p, double sigma_m) {
+  const Vec4 b(p.x(), p.y(), p.z(), 1.0);
+  moment_.noalias() += b * b.transpose() / (sigma_m * sigma_m);
+  ++count_;
+}
+
+Mat4 PlaneCluster::SquareRoot() const {
+  const Eigen::SelfAdjointEigenSolver<Mat4> eigen(moment_);
+  const Vec4 root = eigen.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return eigen.eigenvectors() * root.asDiagonal();
+}
+
+bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residuals,
+                                double** jacobians) const {
+  const double* pose = parameters[0];
+  const Eigen::Quaterniond q(pose[3], pose[0], pose[1], pose[2]);
+  const Eigen::Map<const Vec3> t(pose + 4);
+  const Eigen::Map<const Vec3> n(parameters[1]);
+  const double d = parameters[2][0];
+  const Eigen::Quaterniond q_inverse = q.conjugate();
+  Vec4 pi;
+  pi.head<3>() = q_inverse * n;
+  pi(3) = n.dot(t) + d;
+  const double scale = ray_model_ ? 1.0 / pi(3) : 1.0;
+  Eigen::Map<Vec4> r(residuals);
+  r = scale * (L_.transpose() * pi);
+  if (jacobians == nullptr) return true;
+
+  // dr = scale (L^T d pi - [ray model] r d(d_c)) for a block with d pi / dx = dpi.
+  const auto chain = [&](const auto& dpi, double* out, int columns) {
+    Eigen::Map<Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>> J(out, 4, columns);
+    J = scale * (L_.transpose() * dpi);
+    if (ray_model_) J -= scale * r * dpi.row(3);
+  };
+  if (jacobians[0] != nullptr) {
+    Eigen::Matrix<double, 4, kPoseAmbientSize> dpi = Eigen::Matrix<double, 4, 7>::Zero();
+    dpi.topLeftCorner<3, 4>() = InverseRotatePointJacobian(q, n);
+    dpi.block<1, 3>(3, 4) = n.transpose();
+    chain(dpi, jacobians[0], kPoseAmbientSize);
+  }
+  if (jacobians[1] != nullptr) {
+    Eigen::Matrix<double, 4, 3> dpi;
+    dpi.topRows<3>() = q_inverse.toRotationMatrix();
+    dpi.row(3) = t.transpose();
+    chain(dpi, jacobians[1], 3);
+  }
+  if (jacobians[2] != nullptr) {
+    const Vec4 dpi(0.0, 0.0, 0.0, 1.0);
+    chain(dpi, jacobians[2], 1);
+  }
+  return true;
+}
+
+}  // namespace rigfit

@@ -1,0 +1,139 @@
+#include <ceres/sphere_manifold.h>
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <random>
+
+#include "residuals/plane_cluster.h"
+#include "residuals_test_utils.h"
+
+namespace rigfit {
+namespace {
+
+using testing::ExpectAnalyticMatchesAutodiff;
+using testing::ExpectGradientCheckPasses;
+using testing::TestPoses;
+using testing::ToBlock;
+
+/// Cluster and per-pixel sums agree to this, relative.
+constexpr double kClusterTolerance = 1e-9;
+
+/// A world plane that camera T sees in front of it: through a point 2.5 m ahead, with a normal
+/// tilted towards the camera by a random amount.
+struct WorldPlane {
+  Vec3 n;
+  double d;
+};
+WorldPlane PlaneInFrontOf(const Pose& T, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-0.5, 0.5);
+  const Vec3 forward = T.linear().col(2);
+  const Vec3 n = (-forward + Vec3(u(rng), u(rng), u(rng))).normalized();
+  const Vec3 x = T.translation() + 2.5 * forward;
+  return {n, -n.dot(x)};
+}
+
+/// Camera-frame points of plane P seen from T: pixels on a grid of rays, intersected.
+std::vector<Vec3> PointsOnPlane(const Pose& T, const WorldPlane& P, int count, std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  const Vec3 n_c = T.linear().transpose() * P.n;
+  const double d_c = P.n.dot(T.translation()) + P.d;
+  std::vector<Vec3> points;
+  while (static_cast<int>(points.size()) < count) {
+    const Vec3 a(u(rng), u(rng), 1.0);
+    const double z = -d_c / n_c.dot(a);
+    if (z > 0.1) points.push_back(z * a);
+  }
+  return points;
+}
+
+TEST(PlaneCluster, ClusterEqualsThePerPixelSum) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  const Pose T = testing::MakePose(Vec3(0.3, -0.2, 0.5), Vec3(1.0, 2.0, -0.5));
+  const WorldPlane P = PlaneInFrontOf(T, rng);
+  // Evaluate away from the plane the points were drawn on: nonzero residuals.
+  const WorldPlane Q{(P.n + Vec3(0.02, -0.01, 0.03)).normalized(), P.d + 0.05};
+  for (const bool ray_model : {true, false}) {
+    SCOPED_TRACE(ray_model);
+    PlaneCluster cluster;
+    double per_pixel = 0.0;
+    const Vec3 n_c = T.linear().transpose() * Q.n;
+    const double d_c = Q.n.dot(T.translation()) + Q.d;
+    std::uniform_real_distribution<double> sigma(0.001, 0.004);
+    for (const Vec3& p : PointsOnPlane(T, P, 500, rng)) {
+      const double s = sigma(rng);
+      if (ray_model) {
+        const double w = 1.0 / p.z() + noise(rng);
+        cluster.AddRay(p, w, s);
+        const double h = -n_c.dot(p / p.z()) / d_c;  // predicted inverse depth
+        per_pixel += (w - h) * (w - h) / (s * s);
+      } else {
+        cluster.AddPoint(p, s);
+        const double r = n_c.dot(p) + d_c;
+        per_pixel += r * r / (s * s);
+      }
+    }
+    EXPECT_EQ(cluster.Count(), 500);
+    const std::unique_ptr<ceres::CostFunction> cost(PlaneClusterCost::Create(cluster, ray_model));
+    const testing::PoseBlock x = ToBlock(T);
+    const double offset = Q.d;
+    const std::vector<const double*> parameters = {x.data(), Q.n.data(), &offset};
+    Vec4 r;
+    ASSERT_TRUE(cost->Evaluate(parameters.data(), r.data(), nullptr));
+    EXPECT_GT(per_pixel, 1.0);
+    EXPECT_NEAR(r.squaredNorm() / per_pixel, 1.0, kClusterTolerance);
+  }
+}
+
+TEST(PlaneCluster, AnalyticJacobianEqualsAutodiffAndFiniteDifferences) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.003);
+  const PoseManifold pose_manifold;
+  const ceres::SphereManifold<3> sphere;
+  // The ray model divides by d_c, the plane's distance to the camera (2.5 m here): Ridders'
+  // first step of 1% of a 100 m translation would reach past the pole.
+  ceres::NumericDiffOptions numeric;
+  numeric.ridders_relative_initial_step_size = 1e-5;
+  for (const testing::NamedPose& pose : TestPoses(30)) {
+    const WorldPlane P = PlaneInFrontOf(pose.T, rng);
+    // The plane being estimated: near the true one.
+    const WorldPlane Q{(P.n + Vec3(0.01, 0.02, -0.01)).normalized(), P.d - 0.02};
+    for (const bool ray_model : {true, false}) {
+      SCOPED_TRACE(pose.name + (ray_model ? " (ray model)" : " (points)"));
+      PlaneCluster cluster;
+      for (const Vec3& p : PointsOnPlane(pose.T, P, 50, rng)) {
+        if (ray_model) {
+          cluster.AddRay(p, 1.0 / p.z() + noise(rng), 0.0025);
+        } else {
+          cluster.AddPoint(p + noise(rng) * Vec3::UnitZ(), 0.002);
+        }
+      }
+      const std::unique_ptr<ceres::CostFunction> analytic(
+          PlaneClusterCost::Create(cluster, ray_model));
+      const std::unique_ptr<ceres::CostFunction> autodiff(
+          PlaneClusterFunctor::CreateAutoDiff(cluster.SquareRoot(), ray_model));
+      const testing::PoseBlock x = ToBlock(pose.T);
+      const double offset = Q.d;
+      const std::vector<const double*> parameters = {x.data(), Q.n.data(), &offset};
+      ExpectAnalyticMatchesAutodiff(*analytic, *autodiff, parameters);
+      ExpectGradientCheckPasses(*analytic, parameters, {&pose_manifold, &sphere, nullptr}, numeric);
+    }
+  }
+}
+
+TEST(PlaneCluster, ResidualVanishesOnThePlane) {
+  std::mt19937 rng(9);
+  const Pose T = testing::MakePose(Vec3(-0.4, 1.0, 0.2), Vec3(0.0, 1.5, 3.0));
+  const WorldPlane P = PlaneInFrontOf(T, rng);
+  PlaneCluster cluster;
+  for (const Vec3& p : PointsOnPlane(T, P, 100, rng)) cluster.AddRay(p, 1.0 / p.z(), 0.0025);
+  const std::unique_ptr<ceres::CostFunction> cost(PlaneClusterCost::Create(cluster, true));
+  const testing::PoseBlock x = ToBlock(T);
+  const std::vector<const double*> parameters = {x.data(), P.n.data(), &P.d};
+  Vec4 r;
+  ASSERT_TRUE(cost->Evaluate(parameters.data(), r.data(), nullptr));
+  EXPECT_LT(r.norm(), 1e-6);
+}
+
+}  // namespace
+}  // namespace rigfit
