@@ -123,8 +123,9 @@ RefineOptions EffectiveOptions(const RefineArgs& a) {
     options.icp.mode = a.mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
   }
   if (a.method_option->count() > 0) {
-    options.icp.method =
-        a.method == "gicp" ? RegistrationMethod::kGicp : RegistrationMethod::kPointToPlane;
+    options.icp.method = a.method == "gicp"             ? RegistrationMethod::kGicp
+                         : a.method == "surface_bundle" ? RegistrationMethod::kSurfaceBundle
+                                                        : RegistrationMethod::kPointToPlane;
   }
   if (a.voxel_size_option->count() > 0) options.icp.voxel_size = a.voxel_size;
   if (a.reference_option->count() > 0) options.icp.reference = a.reference;
@@ -265,6 +266,20 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options, const Ref
   }
   meta["pairs"] = pairs;
   meta["cameras"] = cameras;
+  if (result.surface.ran) {
+    const SurfaceBundleReport& sb = result.surface;
+    Json thickness = Json::object();
+    for (const CameraReport& c : result.cameras) {
+      thickness[c.serial] = {{"before", c.surface_thickness_before},
+                             {"after", c.surface_thickness_after},
+                             {"kept_joint_pose", c.surface_fallback}};
+    }
+    meta["surface_bundle"] = {{"planes", sb.planes},
+                              {"pixels", sb.pixels},
+                              {"rounds", sb.rounds},
+                              {"noise_scale", sb.noise_scale},
+                              {"thickness", thickness}};
+  }
   return meta;
 }
 
@@ -359,6 +374,19 @@ void PrintSummary(const RefineResult& result, const RefineOptions& options, cons
                   p.accepted ? "accepted" : ("rejected: " + p.message).c_str());
     }
     if (result.pairs.empty()) std::printf("(no candidate pairs)\n");
+    if (result.surface.ran) {
+      const SurfaceBundleReport& sb = result.surface;
+      std::printf(
+          "\nsurface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the "
+          "noise model\n%-35s %22s\n",
+          sb.planes, sb.pixels, sb.rounds, sb.noise_scale, "camera", "plane thickness (sigma)");
+      for (const CameraReport& c : result.cameras) {
+        const std::string thickness =
+            Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2);
+        std::printf("%-35s %22s%s\n", c.serial.c_str(), thickness.c_str(),
+                    c.surface_fallback ? "  kept its joint pose" : "");
+      }
+    }
   }
   std::printf(
       "\ntime (s): load %.2f, leveling %.2f, preprocessing %.2f, registration %.2f, "
@@ -478,10 +506,11 @@ Command AddRefineCommand(CLI::App& app) {
                           defaults["mode"].get<std::string>() + ")")
           ->check(CLI::IsMember({"joint", "pairwise"}));
   a.method_option = sub->add_option("--method", a.method,
-                                    "Residual: point_to_plane or gicp; overrides icp.method "
+                                    "Residual: point_to_plane, gicp or surface_bundle; overrides "
+                                    "icp.method "
                                     "(default " +
                                         defaults["method"].get<std::string>() + ")")
-                        ->check(CLI::IsMember({"point_to_plane", "gicp"}));
+                        ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));
   a.voxel_size_option =
       sub->add_option("--voxel-size", a.voxel_size,
                       "Finest voxel size in metres (> 0); overrides icp.voxel_size (default " +

@@ -31,7 +31,12 @@ using EnumNames = std::vector<std::pair<E, std::string>>;
 const EnumNames<RefineMode> kModeNames = {{RefineMode::kJoint, "joint"},
                                           {RefineMode::kPairwise, "pairwise"}};
 const EnumNames<RegistrationMethod> kMethodNames = {
-    {RegistrationMethod::kPointToPlane, "point_to_plane"}, {RegistrationMethod::kGicp, "gicp"}};
+    {RegistrationMethod::kPointToPlane, "point_to_plane"},
+    {RegistrationMethod::kGicp, "gicp"},
+    {RegistrationMethod::kSurfaceBundle, "surface_bundle"}};
+const EnumNames<DepthNoiseModel> kNoiseModelNames = {
+    {DepthNoiseModel::kGaussianDepth, "gaussian_depth"},
+    {DepthNoiseModel::kDisparity, "disparity"}};
 const EnumNames<RobustLoss> kLossNames = {{RobustLoss::kHuber, "huber"},
                                           {RobustLoss::kCauchy, "cauchy"},
                                           {RobustLoss::kTukey, "tukey"},
@@ -40,10 +45,11 @@ const EnumNames<RobustLoss> kLossNames = {{RobustLoss::kHuber, "huber"},
 const EnumNames<RefineMode>& NamesOf(const RefineMode*) { return kModeNames; }
 const EnumNames<RegistrationMethod>& NamesOf(const RegistrationMethod*) { return kMethodNames; }
 const EnumNames<RobustLoss>& NamesOf(const RobustLoss*) { return kLossNames; }
+const EnumNames<DepthNoiseModel>& NamesOf(const DepthNoiseModel*) { return kNoiseModelNames; }
 
-using FieldRef =
-    std::variant<bool*, int*, double*, std::uint64_t*, std::string*, std::vector<double>*,
-                 std::vector<int>*, RefineMode*, RegistrationMethod*, RobustLoss*>;
+using FieldRef = std::variant<bool*, int*, double*, std::uint64_t*, std::string*,
+                              std::vector<double>*, std::vector<int>*, RefineMode*,
+                              RegistrationMethod*, RobustLoss*, DepthNoiseModel*>;
 
 struct Field {
   std::string name;
@@ -94,7 +100,9 @@ std::vector<Section> Schema(RefineOptions& o) {
        "Registration refinement.",
        {
            {"mode", &i.mode, "joint (one problem) or pairwise (pairwise ICP + pose graph)."},
-           {"method", &i.method, "point_to_plane or gicp."},
+           {"method", &i.method,
+            "point_to_plane, gicp or surface_bundle (joint mode: planes estimated with the "
+            "poses)."},
            {"voxel_size", &i.voxel_size, "Finest voxel size in metres (> 0)."},
            {"scales", &i.scales,
             "Voxel size multipliers, coarse to fine (positive, strictly decreasing)."},
@@ -121,6 +129,11 @@ std::vector<Section> Schema(RefineOptions& o) {
             "best-constrained one are reported; 0 = off [0, 1)."},
            {"hold_weak_directions", &i.hold_weak_directions,
             "Joint: hold weakly constrained directions at the leveled pose (true/false)."},
+           {"depth_noise_model", &i.depth_noise_model,
+            "Surface bundle: depth noise Gaussian in depth (gaussian_depth) or in disparity "
+            "(disparity)."},
+           {"surface_rounds", &i.surface_rounds,
+            "Surface bundle: rounds of plane segmentation and solve (>= 1)."},
            {"robust_loss", &i.robust_loss, "huber, cauchy, tukey or none."},
            {"robust_loss_scale", &i.robust_loss_scale,
             "Robust loss scale on whitened residuals, in standard deviations (> 0)."},

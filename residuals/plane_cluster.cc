@@ -30,7 +30,7 @@ bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residua
   const Eigen::Quaterniond q(pose[3], pose[0], pose[1], pose[2]);
   const Eigen::Map<const Vec3> t(pose + 4);
   const Eigen::Map<const Vec3> n(parameters[1]);
-  const double d = parameters[2][0];
+  const double d = parameters[1][3];
   const Eigen::Quaterniond q_inverse = q.conjugate();
   Vec4 pi;
   pi.head<3>() = q_inverse * n;
@@ -53,14 +53,11 @@ bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residua
     chain(dpi, jacobians[0], kPoseAmbientSize);
   }
   if (jacobians[1] != nullptr) {
-    Eigen::Matrix<double, 4, 3> dpi;
-    dpi.topRows<3>() = q_inverse.toRotationMatrix();
-    dpi.row(3) = t.transpose();
-    chain(dpi, jacobians[1], 3);
-  }
-  if (jacobians[2] != nullptr) {
-    const Vec4 dpi(0.0, 0.0, 0.0, 1.0);
-    chain(dpi, jacobians[2], 1);
+    Mat4 dpi = Mat4::Zero();
+    dpi.topLeftCorner<3, 3>() = q_inverse.toRotationMatrix();
+    dpi.bottomLeftCorner<1, 3>() = t.transpose();
+    dpi(3, 3) = 1.0;
+    chain(dpi, jacobians[1], 4);
   }
   return true;
 }

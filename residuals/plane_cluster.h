@@ -16,11 +16,13 @@
 // Points cameras (scanner clouds, no ray model): b_i = [p_i; 1] and r = L^T pi_c, the metric
 // point-to-plane distances whitened by sigma_i.
 //
-// Parameter blocks: the pose [qx, qy, qz, qw, tx, ty, tz] (core/pose.h, PoseManifold), the
-// plane's normal n (3, ceres::SphereManifold<3>) and its offset d (1).
+// Parameter blocks: the pose [qx, qy, qz, qw, tx, ty, tz] (core/pose.h, PoseManifold) and the
+// plane [n; d] (4: the normal on ceres::SphereManifold<3> times the offset on the line, ONE block
+// so that the Schur complement can eliminate the planes; the floor's normal is held by a
+// ceres::SubsetManifold).
 // Ambient Jacobians (J_inv(q, n) = d(R(q)^T n)/dq, residuals/pose_jacobians.h):
 //   d pi_c/dq = [J_inv(q, n); 0],   d pi_c/dt = [0; n^T],
-//   d pi_c/dn = [R^T; t^T],         d pi_c/dd = [0; 1],
+//   d pi_c/d[n; d] = [R^T 0; t^T 1],
 //   dr = (L^T d pi_c - r d(d_c)) / d_c   (ray model; d(d_c) the last row of d pi_c),
 //   dr = L^T d pi_c                        (points cameras).
 #pragma once
@@ -64,27 +66,27 @@ struct PlaneClusterFunctor {
   bool ray_model = true;
 
   template <typename T>
-  bool operator()(const T* pose, const T* normal, const T* offset, T* residual) const {
+  bool operator()(const T* pose, const T* plane, T* residual) const {
     using Vec3T = Eigen::Matrix<T, 3, 1>;
     const Eigen::Quaternion<T> q(pose[3], pose[0], pose[1], pose[2]);
     const Eigen::Map<const Vec3T> t(pose + 4);
-    const Eigen::Map<const Vec3T> n(normal);
+    const Eigen::Map<const Vec3T> n(plane);
     Eigen::Matrix<T, 4, 1> pi;
     pi.template head<3>() = q.conjugate() * n;
-    pi(3) = n.dot(t) + offset[0];
+    pi(3) = n.dot(t) + plane[3];
     const Eigen::Matrix<T, 4, 1> s = L.transpose().cast<T>() * pi;
     for (int k = 0; k < 4; ++k) residual[k] = ray_model ? s(k) / pi(3) : s(k);
     return true;
   }
 
   static ceres::CostFunction* CreateAutoDiff(const Mat4& L, bool ray_model) {
-    return new ceres::AutoDiffCostFunction<PlaneClusterFunctor, 4, kPoseAmbientSize, 3, 1>(
+    return new ceres::AutoDiffCostFunction<PlaneClusterFunctor, 4, kPoseAmbientSize, 4>(
         new PlaneClusterFunctor{L, ray_model});
   }
 };
 
-/// Analytic plane-cluster cost: 4 residuals, parameter blocks (T_world_camera, n, d).
-class PlaneClusterCost final : public ceres::SizedCostFunction<4, kPoseAmbientSize, 3, 1> {
+/// Analytic plane-cluster cost: 4 residuals, parameter blocks (T_world_camera, [n; d]).
+class PlaneClusterCost final : public ceres::SizedCostFunction<4, kPoseAmbientSize, 4> {
  public:
   PlaneClusterCost(const Mat4& L, bool ray_model) : L_(L), ray_model_(ray_model) {}
 

@@ -10,7 +10,10 @@
 namespace rigfit {
 
 enum class RefineMode { kJoint, kPairwise };
-enum class RegistrationMethod { kPointToPlane, kGicp };
+enum class RegistrationMethod { kPointToPlane, kGicp, kSurfaceBundle };
+/// How a depth camera's noise behaves (the surface bundle's inverse-depth residual): Gaussian
+/// in depth (rigfit's simulator, many SDK depth maps) or Gaussian in disparity (raw stereo).
+enum class DepthNoiseModel { kGaussianDepth, kDisparity };
 enum class RobustLoss { kHuber, kCauchy, kTukey, kNone };
 
 /// Ground leveling: RANSAC floor per camera, pose corrected so the floor is y = 0, +Y up.
@@ -87,6 +90,12 @@ struct IcpOptions {
   /// instead of letting the weak data move them. Off by default: on the bare simulated
   /// room it kept more of the start error than it prevented (docs/benchmarks.md).
   bool hold_weak_directions = false;
+  /// Surface bundle (method surface_bundle): the depth cameras' noise model. With noise
+  /// Gaussian in depth the inverse depth 1/z is biased by k^2 z, which the residual removes;
+  /// with disparity noise it is not (docs/residuals.md, "Surface bundle").
+  DepthNoiseModel depth_noise_model = DepthNoiseModel::kGaussianDepth;
+  /// Surface bundle: rounds of segmentation and solve after the joint point-to-plane start.
+  int surface_rounds = 3;
   RobustLoss robust_loss = RobustLoss::kHuber;
   /// Scale of the robust loss on whitened residuals, in standard deviations.
   double robust_loss_scale = 2.0;

@@ -20,6 +20,7 @@
 #include "solver/pose_graph.h"
 #include "solver/preprocess.h"
 #include "solver/region.h"
+#include "solver/surface_bundle.h"
 
 namespace rigfit {
 namespace {
@@ -111,9 +112,47 @@ std::optional<std::vector<Pose>> RegisterPairwise(const std::vector<Registration
 }
 
 /// Joint mode: one problem over every camera. Returns refined poses.
+/// The surface bundle after the joint point-to-plane solve: joint's poses, covariance and
+/// connectivity in `joint` are replaced where it refined a camera.
+void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const IcpOptions& options,
+                    int num_threads, const Log& log, JointResult* joint, RefineResult* result) {
+  for (size_t i = 0; i < surfaces.size(); ++i) {
+    surfaces[i].T_world_camera = joint->poses[i];
+    surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
+  }
+  const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, num_threads, log);
+  if (!bundle.usable) {
+    Warn(result, log, bundle.message + "; the joint point-to-plane poses stand");
+    return;
+  }
+  SurfaceBundleReport& report = result->surface;
+  report = {true, bundle.planes, bundle.pixels, bundle.rounds, bundle.noise_scale};
+  log.Info("surface bundle: " + std::to_string(bundle.planes) + " planes, " +
+           std::to_string(bundle.pixels) + " pixels, " + std::to_string(bundle.rounds) +
+           " rounds, noise scale " + Fixed(bundle.noise_scale, 3));
+  for (size_t i = 0; i < surfaces.size(); ++i) {
+    CameraReport& camera = result->cameras[i];
+    camera.surface_thickness_before = bundle.thickness_before[i];
+    camera.surface_thickness_after = bundle.thickness_after[i];
+    camera.surface_fallback = bundle.fallback[i];
+    if (!surfaces[i].free) continue;
+    if (bundle.fallback[i]) {
+      Warn(result, log,
+           "camera " + camera.serial +
+               ": too few planes fix its pose for the surface bundle; it keeps its joint "
+               "point-to-plane pose");
+      continue;
+    }
+    joint->poses[i] = bundle.poses[i];
+    joint->covariance[i] = bundle.covariance[i];
+  }
+  joint->covariance_ok = joint->covariance_ok && bundle.covariance_ok;
+}
+
 std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<RegistrationCamera>& cameras,
                                                     const std::vector<CandidatePair>& candidates,
                                                     int reference, const IcpOptions& options,
+                                                    const std::vector<SurfaceCamera>* surfaces,
                                                     int num_threads, const Log& log,
                                                     RefineResult* result) {
   const size_t finest = options.scales.size() - 1;
@@ -145,8 +184,14 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
       /*min_per_thread=*/1);
   log.Info("joint: " + std::to_string(cameras.size()) + " cameras, " +
            std::to_string(candidates.size()) + " pairs");
-  const JointResult joint =
-      RegisterJoint(cameras, candidates, reference, options, num_threads, log);
+  // The surface bundle starts from the joint point-to-plane solve.
+  IcpOptions joint_options = options;
+  if (surfaces != nullptr) joint_options.method = RegistrationMethod::kPointToPlane;
+  JointResult joint =
+      RegisterJoint(cameras, candidates, reference, joint_options, num_threads, log);
+  if (surfaces != nullptr && joint.usable) {
+    RefineSurfaces(*surfaces, reference, options, num_threads, log, &joint, result);
+  }
   result->times.correspondences_s = joint.correspondences_s;
   result->times.solve_s = joint.solve_s;
   log.Info("joint: " + std::to_string(joint.iterations) + " iterations, correspondences " +
@@ -371,6 +416,27 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   result.times.preprocessing_s = SecondsSince(start);
   log.Info(std::to_string(candidates.size()) + " candidate pairs");
 
+  // The surface bundle's pixels: every valid pixel of the band once (pixel stride 1).
+  std::vector<SurfaceCamera> surfaces;
+  if (options.icp.mode == RefineMode::kJoint &&
+      options.icp.method == RegistrationMethod::kSurfaceBundle) {
+    surfaces.resize(n);
+    RegionOptions every_pixel = options.region;
+    every_pixel.pixel_stride = 1;
+    ParallelFor(
+        static_cast<int>(n), num_threads,
+        [&](int i) {
+          const CameraCapture& camera = capture.cameras[i];
+          surfaces[i].points =
+              NearFloorBand(RegistrationPoints(camera, every_pixel), leveled[i], options.region);
+          surfaces[i].T_world_leveled = leveled[i];
+          surfaces[i].depth_noise = depth_noise[i];
+          surfaces[i].ray_model = camera.HasDepth();
+          surfaces[i].floor_leveled = floor_leveled[i];
+        },
+        /*min_per_thread=*/1);
+  }
+
   std::vector<RegistrationCamera> cameras(n);
   for (size_t i = 0; i < n; ++i) {
     const GroundResult& ground = result.cameras[i].ground;
@@ -384,8 +450,8 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   }
   const std::optional<std::vector<Pose>> registered =
       options.icp.mode == RefineMode::kJoint
-          ? RegisterAllJointly(cameras, candidates, reference, options.icp, num_threads, log,
-                               &result)
+          ? RegisterAllJointly(cameras, candidates, reference, options.icp,
+                               surfaces.empty() ? nullptr : &surfaces, num_threads, log, &result)
           : RegisterPairwise(cameras, leveled, candidates, reference, options.icp, num_threads, log,
                              &result);
   if (!registered) {

@@ -38,6 +38,23 @@ struct CameraReport {
   /// Joint mode: directions the correspondences barely constrain (reported as a warning;
   /// held at the leveled pose with icp.hold_weak_directions).
   std::vector<WeakDirection> weak_directions;
+  /// Surface bundle: RMS whitened residual of the camera's pixels on the planes, at the joint
+  /// start and at the end (0 when it did not run), and whether the camera kept its joint
+  /// pose because its planes did not fix it.
+  double surface_thickness_before = 0.0;
+  double surface_thickness_after = 0.0;
+  bool surface_fallback = false;
+};
+
+/// What the surface bundle did (method surface_bundle).
+struct SurfaceBundleReport {
+  bool ran = false;
+  int planes = 0;
+  int pixels = 0;
+  int rounds = 0;
+  /// sqrt(cost / (N - p)): the residuals' spread against the noise model; near 1 when the
+  /// model's k is right. k measured = noise_scale * k of the model.
+  double noise_scale = 0.0;
 };
 
 struct PairReport {
@@ -74,6 +91,7 @@ struct RefineResult {
   std::vector<std::string> warnings;
   std::vector<CameraReport> cameras;  ///< in capture order (by serial)
   std::vector<PairReport> pairs;
+  SurfaceBundleReport surface;
   StageTimes times;
 };
 

@@ -57,6 +57,8 @@ RefineOptions NonDefaultOptions() {
   o.icp.gravity_weight = 0.0;
   o.icp.degeneracy_threshold = 0.01;
   o.icp.hold_weak_directions = true;
+  o.icp.depth_noise_model = DepthNoiseModel::kDisparity;
+  o.icp.surface_rounds = 2;
   o.icp.robust_loss = RobustLoss::kTukey;
   o.icp.robust_loss_scale = 4.685;
   o.icp.min_fitness = 1.0;

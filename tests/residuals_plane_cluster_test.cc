@@ -1,3 +1,4 @@
+#include <ceres/product_manifold.h>
 #include <ceres/sphere_manifold.h>
 #include <gtest/gtest.h>
 
@@ -76,8 +77,8 @@ TEST(PlaneCluster, ClusterEqualsThePerPixelSum) {
     EXPECT_EQ(cluster.Count(), 500);
     const std::unique_ptr<ceres::CostFunction> cost(PlaneClusterCost::Create(cluster, ray_model));
     const testing::PoseBlock x = ToBlock(T);
-    const double offset = Q.d;
-    const std::vector<const double*> parameters = {x.data(), Q.n.data(), &offset};
+    const Vec4 plane(Q.n.x(), Q.n.y(), Q.n.z(), Q.d);
+    const std::vector<const double*> parameters = {x.data(), plane.data()};
     Vec4 r;
     ASSERT_TRUE(cost->Evaluate(parameters.data(), r.data(), nullptr));
     EXPECT_GT(per_pixel, 1.0);
@@ -89,7 +90,7 @@ TEST(PlaneCluster, AnalyticJacobianEqualsAutodiffAndFiniteDifferences) {
   std::mt19937 rng(5);
   std::normal_distribution<double> noise(0.0, 0.003);
   const PoseManifold pose_manifold;
-  const ceres::SphereManifold<3> sphere;
+  const ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
   // The ray model divides by d_c, the plane's distance to the camera (2.5 m here): Ridders'
   // first step of 1% of a 100 m translation would reach past the pole.
   ceres::NumericDiffOptions numeric;
@@ -116,7 +117,7 @@ TEST(PlaneCluster, AnalyticJacobianEqualsAutodiffAndFiniteDifferences) {
       const double offset = Q.d;
       const std::vector<const double*> parameters = {x.data(), Q.n.data(), &offset};
       ExpectAnalyticMatchesAutodiff(*analytic, *autodiff, parameters);
-      ExpectGradientCheckPasses(*analytic, parameters, {&pose_manifold, &sphere, nullptr}, numeric);
+      ExpectGradientCheckPasses(*analytic, parameters, {&pose_manifold, &plane_manifold}, numeric);
     }
   }
 }
@@ -129,7 +130,8 @@ TEST(PlaneCluster, ResidualVanishesOnThePlane) {
   for (const Vec3& p : PointsOnPlane(T, P, 100, rng)) cluster.AddRay(p, 1.0 / p.z(), 0.0025);
   const std::unique_ptr<ceres::CostFunction> cost(PlaneClusterCost::Create(cluster, true));
   const testing::PoseBlock x = ToBlock(T);
-  const std::vector<const double*> parameters = {x.data(), P.n.data(), &P.d};
+  const Vec4 plane(P.n.x(), P.n.y(), P.n.z(), P.d);
+  const std::vector<const double*> parameters = {x.data(), plane.data()};
   Vec4 r;
   ASSERT_TRUE(cost->Evaluate(parameters.data(), r.data(), nullptr));
   EXPECT_LT(r.norm(), 1e-6);

@@ -1,0 +1,99 @@
+#include "solver/surface_bundle.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/evaluate.h"
+#include "sim/simulate_rig.h"
+#include "solver/plane_segmentation.h"
+#include "solver/refine.h"
+#include "solver/region.h"
+
+namespace rigfit {
+namespace {
+
+SimulatedRig NoiseFreeRig(int cameras) {
+  SimOptions sim;
+  sim.cameras = cameras;
+  sim.width = 320;
+  sim.height = 180;
+  sim.noise = 0.0;
+  return SimulateRig(sim);
+}
+
+TEST(SurfaceBundle, NoiseFreeRigsAreRecovered) {
+  // The test: 0.1 mm and 0.002 deg of relative error and tilt.
+  constexpr double kMaxTranslationM = 1e-4;
+  constexpr double kMaxAngleDeg = 0.002;
+  for (const int cameras : {3, 4}) {
+    SCOPED_TRACE(cameras);
+    const SimulatedRig rig = NoiseFreeRig(cameras);
+    RefineOptions options;
+    options.icp.method = RegistrationMethod::kSurfaceBundle;
+    const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+    ASSERT_TRUE(result.success) << result.message;
+    ASSERT_TRUE(result.surface.ran);
+    EXPECT_GE(result.surface.planes, 3);
+    const RigErrors e = EvaluateRig(result.refined, rig.gt);
+    EXPECT_LT(e.max_translation_m, kMaxTranslationM);
+    EXPECT_LT(e.max_rotation_rad * kRadToDeg, kMaxAngleDeg);
+    EXPECT_LT(e.max_tilt_rad * kRadToDeg, kMaxAngleDeg);
+    for (const CameraReport& c : result.cameras) {
+      EXPECT_FALSE(c.surface_fallback) << c.serial;
+      // Noise-free pixels sit on their planes: far thinner than the 1 mm noise floor.
+      EXPECT_LT(c.surface_thickness_after, 0.5) << c.serial;
+    }
+  }
+}
+
+TEST(PlaneSegmentation, FindsTheSimulatorsFacesOnANoiseFreeCapture) {
+  const SimulatedRig rig = NoiseFreeRig(4);
+  RegionOptions every_pixel;
+  every_pixel.pixel_stride = 1;
+  std::vector<SegmentPoint> points;
+  std::vector<Vec3> true_normal;  // of the face each point lies on
+  for (size_t c = 0; c < rig.capture.cameras.size(); ++c) {
+    const CameraCapture& camera = rig.capture.cameras[c];
+    const Pose& T = rig.gt.at(camera.serial);
+    for (const Vec3& p :
+         NearFloorBand(RegistrationPoints(camera, every_pixel), T, RegionOptions{})) {
+      SegmentPoint s;
+      s.world = T * p;
+      s.ray_world = T.linear() * (p / p.z());
+      s.camera = static_cast<int>(c);
+      points.push_back(s);
+      const auto hit = rig.scene.Raycast(T.translation(), s.world - T.translation());
+      ASSERT_TRUE(hit.has_value());
+      true_normal.push_back(hit->normal_world);
+    }
+  }
+  // The surface bundle's last round: 1 mm of model error.
+  PlaneSegmentationOptions options;
+  options.model_sigma_voxels = 0.05;
+  const std::vector<SegmentedPlane> planes =
+      SegmentPlanes(points, static_cast<int>(rig.capture.cameras.size()), options);
+  ASSERT_GE(planes.size(), 4u);
+  int floors = 0;
+  size_t assigned = 0;
+  for (const SegmentedPlane& plane : planes) {
+    floors += plane.floor ? 1 : 0;
+    assigned += plane.points.size();
+    // The points of a plane lie on faces with the plane's normal (within 0.5 deg), all but
+    // a few where a face meets the floor (0.2% of the floor's: within millimetres of both),
+    // and within the gate of the plane: no plane mixes faces.
+    int off_face = 0;
+    for (const int i : plane.points) {
+      off_face += std::abs(plane.normal.dot(true_normal[i])) < std::cos(0.5 * kDegToRad);
+      EXPECT_LT(std::abs(plane.normal.dot(points[i].world) + plane.offset), 5e-3);
+    }
+    EXPECT_LE(off_face, 0.005 * plane.points.size())
+        << "plane (" << plane.normal.transpose() << ", " << plane.offset << ")";
+  }
+  EXPECT_EQ(floors, 1);
+  // Most of the band is planar in the simulated room (floor, walls, boxes).
+  EXPECT_GT(static_cast<double>(assigned) / points.size(), 0.8);
+}
+
+}  // namespace
+}  // namespace rigfit
