@@ -102,7 +102,8 @@ int main(int argc, char** argv) {
   app.add_option("--capture", capture_path, "the scans imported by rigfit import-ply")->required();
   app.add_option("--conf", conf, "bun.conf");
   app.add_option("--config", config, "refine options (YAML)");
-  app.add_option("--method", method)->check(CLI::IsMember({"point_to_plane", "gicp"}));
+  app.add_option("--method", method)
+      ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));
   app.add_option("--perturb-deg", rotation_deg, "rotation of each start pose, degrees");
   app.add_option("--perturb-m", translation_m, "translation of each start pose, metres");
   app.add_option("--seeds", seeds, "perturbations tried (seeds 0..seeds-1)");
@@ -120,8 +121,7 @@ int main(int argc, char** argv) {
   }
 
   RefineOptions options = LoadConfig(config);
-  options.icp.method =
-      method == "gicp" ? RegistrationMethod::kGicp : RegistrationMethod::kPointToPlane;
+  options.icp.method = RegistrationMethodNamed(method);
   std::printf(
       "%zu scans, method %s, config %s, every start pose perturbed by %.2f deg and %.1f mm "
       "(random axis and direction)\n\n",

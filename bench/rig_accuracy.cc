@@ -104,7 +104,8 @@ int main(int argc, char** argv) {
   app.add_option("--perturb-tilt-deg", sim.perturb_tilt_deg);
   app.add_flag("--bare", sim.bare);
   app.add_option("--mode", mode)->check(CLI::IsMember({"joint", "pairwise"}));
-  app.add_option("--method", method)->check(CLI::IsMember({"point_to_plane", "gicp"}));
+  app.add_option("--method", method)
+      ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));
   app.add_option("--threads", threads);
   int noise_draws = 1;
   app.add_option("--noise-draws", noise_draws,
@@ -123,8 +124,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   if (!config.empty()) options = LoadConfig(config);
   options.icp.mode = mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
-  options.icp.method =
-      method == "gicp" ? RegistrationMethod::kGicp : RegistrationMethod::kPointToPlane;
+  options.icp.method = RegistrationMethodNamed(method);
 
   std::printf("mode %s, method %s, %d cameras %dx%d, noise %g, perturbation %g deg %g m%s\n",
               mode.c_str(), method.c_str(), sim.cameras, sim.width, sim.height, sim.noise,

@@ -123,9 +123,7 @@ RefineOptions EffectiveOptions(const RefineArgs& a) {
     options.icp.mode = a.mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
   }
   if (a.method_option->count() > 0) {
-    options.icp.method = a.method == "gicp"             ? RegistrationMethod::kGicp
-                         : a.method == "surface_bundle" ? RegistrationMethod::kSurfaceBundle
-                                                        : RegistrationMethod::kPointToPlane;
+    options.icp.method = RegistrationMethodNamed(a.method);
   }
   if (a.voxel_size_option->count() > 0) options.icp.voxel_size = a.voxel_size;
   if (a.reference_option->count() > 0) options.icp.reference = a.reference;

@@ -15,6 +15,7 @@
 #include <variant>
 
 #include "core/errors.h"
+#include "core/format.h"
 #include "io/read_file.h"
 
 namespace rigfit {
@@ -570,6 +571,15 @@ nlohmann::json ConfigToJson(const RefineOptions& options) {
     }
   }
   return json;
+}
+
+RegistrationMethod RegistrationMethodNamed(const std::string& name) {
+  std::vector<std::string> valid;
+  for (const auto& [method, method_name] : kMethodNames) {
+    if (method_name == name) return method;
+    valid.push_back(method_name);
+  }
+  throw InputError("unknown method '" + name + "' (valid: " + Join(valid) + ")");
 }
 
 }  // namespace rigfit
