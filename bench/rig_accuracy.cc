@@ -103,6 +103,12 @@ int main(int argc, char** argv) {
   app.add_option("--perturb-xz-m", sim.perturb_xz_m);
   app.add_option("--perturb-tilt-deg", sim.perturb_tilt_deg);
   app.add_flag("--bare", sim.bare);
+  app.add_option("--noise-corr-px", sim.noise_corr_px,
+                 "correlation length of the noise's smooth share");
+  app.add_option("--noise-corr-share", sim.noise_corr_share,
+                 "share of the noise variance that is correlated");
+  app.add_option("--disparity-quant-px", sim.disparity_quant_px,
+                 "disparity quantisation step, pixels");
   app.add_option("--mode", mode)->check(CLI::IsMember({"joint", "pairwise"}));
   app.add_option("--method", method)
       ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));

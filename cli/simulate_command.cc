@@ -104,6 +104,16 @@ void CheckArgs(const SimulateArgs& a) {
   if (!finite_non_negative(o.perturb_xz_m)) {
     fail("--perturb-xz-m must be a finite number >= 0");
   }
+  if (!finite_non_negative(o.noise_corr_px)) fail("--noise-corr-px must be a finite number >= 0");
+  if (!(o.noise_corr_share >= 0.0 && o.noise_corr_share <= 1.0)) {
+    fail("--noise-corr-share must be in [0, 1]");
+  }
+  if (o.noise_corr_share > 0.0 && o.noise_corr_px <= 0.0) {
+    fail("--noise-corr-share > 0 needs --noise-corr-px > 0");
+  }
+  if (!finite_non_negative(o.disparity_quant_px)) {
+    fail("--disparity-quant-px must be a finite number >= 0");
+  }
 }
 
 /// Creates the output directory if missing (its parent must exist) and refuses to
@@ -137,18 +147,29 @@ void PrepareOutputDir(const SimulateArgs& a) {
 
 /// The simulation settings, recorded in the extrinsics files' _meta.
 nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
-  return {{"simulated",
-           {{"poses", poses},
-            {"cameras", o.cameras},
-            {"seed", o.seed},
-            {"width", o.width},
-            {"height", o.height},
-            {"noise", o.noise},
-            {"dropout", o.dropout},
-            {"perturb_yaw_deg", o.perturb_yaw_deg},
-            {"perturb_xz_m", o.perturb_xz_m},
-            {"perturb_tilt_deg", o.perturb_tilt_deg},
-            {"bare", o.bare}}}};
+  nlohmann::json meta = {{"simulated",
+                          {{"poses", poses},
+                           {"cameras", o.cameras},
+                           {"seed", o.seed},
+                           {"width", o.width},
+                           {"height", o.height},
+                           {"noise", o.noise},
+                           {"dropout", o.dropout},
+                           {"perturb_yaw_deg", o.perturb_yaw_deg},
+                           {"perturb_xz_m", o.perturb_xz_m},
+                           {"perturb_tilt_deg", o.perturb_tilt_deg},
+                           {"bare", o.bare}}}};
+  // The realistic-noise settings only when used: earlier files stay as they were.
+  nlohmann::json& simulated = meta["simulated"];
+  if (o.noise_corr_share > 0.0) {
+    simulated["noise_corr_px"] = o.noise_corr_px;
+    simulated["noise_corr_share"] = o.noise_corr_share;
+  }
+  if (o.disparity_quant_px > 0.0) {
+    simulated["disparity_quant_px"] = o.disparity_quant_px;
+    simulated["stereo_baseline_m"] = o.stereo_baseline_m;
+  }
+  return meta;
 }
 
 int RunSimulate(const SimulateArgs& a) {
@@ -200,6 +221,18 @@ Command AddSimulateCommand(CLI::App& app) {
   sub->add_option("--width", o.width, "Image width, pixels")->capture_default_str();
   sub->add_option("--height", o.height, "Image height, pixels")->capture_default_str();
   sub->add_option("--noise", o.noise, "Depth noise: sigma = noise * z^2 (1/m)")
+      ->capture_default_str();
+  sub->add_option("--noise-corr-px", o.noise_corr_px,
+                  "Correlated depth noise: correlation length in pixels of its smooth share "
+                  "(stereo block matching correlates over a few pixels)")
+      ->capture_default_str();
+  sub->add_option("--noise-corr-share", o.noise_corr_share,
+                  "Share of the depth noise variance that is correlated over --noise-corr-px, "
+                  "in [0, 1]; the rest is per pixel")
+      ->capture_default_str();
+  sub->add_option("--disparity-quant-px", o.disparity_quant_px,
+                  "Round the disparity (f x 0.12 m / z) to multiples of this many pixels, "
+                  "e.g. 0.125; 0 keeps depth continuous")
       ->capture_default_str();
   sub->add_option("--dropout", o.dropout, "Fraction of depth pixels dropped at random")
       ->capture_default_str();

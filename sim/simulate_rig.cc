@@ -17,6 +17,8 @@ namespace {
 enum Stream : std::uint64_t { kRoomStream = 0, kCameraStream = 1, kPerturbStream = 2 };
 constexpr std::uint64_t kPixelStream = 1000;
 constexpr std::uint64_t kNoiseDrawStreams = std::uint64_t{1} << 32;  // above any camera index
+// The correlated noise field of camera i: kFieldStream + i (+ the noise draw's offset).
+constexpr std::uint64_t kFieldStream = 2000;
 
 // Room and camera layout.
 constexpr double kWallHeight = 2.5;
@@ -43,6 +45,21 @@ void CheckOptions(const SimOptions& o) {
   if (!(o.max_depth_m > 0.0)) fail("max_depth_m must be > 0");
   for (double p : {o.perturb_yaw_deg, o.perturb_xz_m, o.perturb_tilt_deg}) {
     if (!(p >= 0.0) || !std::isfinite(p)) fail("perturbations must be finite and >= 0");
+  }
+  if (!(o.noise_corr_px >= 0.0) || !std::isfinite(o.noise_corr_px)) {
+    fail("noise_corr_px must be finite and >= 0");
+  }
+  if (!(o.noise_corr_share >= 0.0 && o.noise_corr_share <= 1.0)) {
+    fail("noise_corr_share must be in [0, 1]");
+  }
+  if (o.noise_corr_share > 0.0 && !(o.noise_corr_px > 0.0)) {
+    fail("noise_corr_share > 0 needs noise_corr_px > 0");
+  }
+  if (!(o.disparity_quant_px >= 0.0) || !std::isfinite(o.disparity_quant_px)) {
+    fail("disparity_quant_px must be finite and >= 0");
+  }
+  if (!(o.stereo_baseline_m > 0.0) || !std::isfinite(o.stereo_baseline_m)) {
+    fail("stereo_baseline_m must be finite and > 0");
   }
 }
 
@@ -286,10 +303,24 @@ void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_w
   camera->color.assign(static_cast<size_t>(w) * h * 3, 0);
   const Mat3& R = T_world_camera.linear();
   const Vec3 origin = T_world_camera.translation();
+  // The correlated share of the noise, from its own stream: the white noise stays the same.
+  const double share = options.noise_corr_share;
+  std::vector<double> field;
+  if (share > 0.0) {
+    SimRng field_rng(options.seed, kFieldStream + options.noise_draw * kNoiseDrawStreams +
+                                       static_cast<std::uint64_t>(index));
+    field = GaussianNoiseField(w, h, options.noise_corr_px, field_rng);
+  }
+  const double white_weight = std::sqrt(1.0 - share);
+  const double field_weight = std::sqrt(share);
+  const double f_b = K.fx * options.stereo_baseline_m;  // disparity = f B / z
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const bool dropped = rng.Uniform() < options.dropout;
-      const double gaussian = rng.Normal();
+      const double white = rng.Normal();
+      const double gaussian =
+          share > 0.0 ? white_weight * white + field_weight * field[static_cast<size_t>(v) * w + u]
+                      : white;
       // With the camera-frame direction ((u - cx) / fx, (v - cy) / fy, 1), the ray
       // parameter of the hit is its depth z.
       const Vec3 direction = R * Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
@@ -299,7 +330,11 @@ void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_w
       const Rgb rgb = Shade(scene, *hit, origin + hit->t * direction);
       std::copy(rgb.begin(), rgb.end(), camera->color.begin() + 3 * i);
       // Stereo depth error grows with z^2: sigma = noise * z^2.
-      const double z = hit->t + options.noise * hit->t * hit->t * gaussian;
+      double z = hit->t + options.noise * hit->t * hit->t * gaussian;
+      if (options.disparity_quant_px > 0.0 && z > 0.0) {
+        const double q = options.disparity_quant_px;
+        z = f_b / (q * std::max(1.0, std::round(f_b / z / q)));
+      }
       if (dropped || !(z > 0.0 && z <= options.max_depth_m)) continue;
       camera->depth_m[i] = static_cast<float>(z);
     }
@@ -307,6 +342,47 @@ void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_w
 }
 
 }  // namespace
+
+std::vector<double> GaussianNoiseField(int width, int height, double corr_px, SimRng& rng) {
+  const int radius = static_cast<int>(std::ceil(3.0 * corr_px));
+  std::vector<double> kernel(2 * radius + 1);
+  double sum = 0.0;
+  for (int k = -radius; k <= radius; ++k) {
+    kernel[k + radius] = std::exp(-0.5 * k * k / (corr_px * corr_px));
+    sum += kernel[k + radius];
+  }
+  double norm2 = 0.0;
+  for (double& k : kernel) {
+    k /= sum;
+    norm2 += k * k;
+  }
+  // White noise on the padded canvas, blurred along rows, then along columns: every output
+  // pixel sees the whole kernel, so its variance is norm2^2 exactly (before the division).
+  const int pw = width + 2 * radius;
+  const int ph = height + 2 * radius;
+  std::vector<double> white(static_cast<size_t>(pw) * ph);
+  for (double& x : white) x = rng.Normal();
+  std::vector<double> rows(static_cast<size_t>(width) * ph, 0.0);
+  for (int y = 0; y < ph; ++y) {
+    for (int x = 0; x < width; ++x) {
+      double acc = 0.0;
+      for (int k = 0; k <= 2 * radius; ++k)
+        acc += kernel[k] * white[static_cast<size_t>(y) * pw + x + k];
+      rows[static_cast<size_t>(y) * width + x] = acc;
+    }
+  }
+  std::vector<double> field(static_cast<size_t>(width) * height, 0.0);
+  const double scale = 1.0 / norm2;  // sqrt(norm2^2)
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) {
+      double acc = 0.0;
+      for (int k = 0; k <= 2 * radius; ++k)
+        acc += kernel[k] * rows[static_cast<size_t>(y + k) * width + x];
+      field[static_cast<size_t>(y) * width + x] = acc * scale;
+    }
+  }
+  return field;
+}
 
 std::string SimSerial(int index) { return std::to_string(31000000 + 1117 * index); }
 

@@ -4,8 +4,10 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/types.h"
+#include "sim/random.h"
 #include "sim/scene.h"
 
 namespace rigfit {
@@ -35,7 +37,25 @@ struct SimOptions {
   /// Which draw of the pixel noise and dropout: 0 is the seed's own; another value draws
   /// them anew for the same scene, cameras and perturbation (bias against variance).
   std::uint64_t noise_draw = 0;
+  /// Spatially correlated depth noise, as stereo block matching produces: a share
+  /// noise_corr_share of the noise VARIANCE comes from a smooth Gaussian field (white noise
+  /// blurred by a Gaussian of noise_corr_px pixels, GaussianNoiseField), the rest is per
+  /// pixel; the total sigma stays noise * z^2. 0 and 0: white noise only, as before.
+  double noise_corr_px = 0.0;
+  double noise_corr_share = 0.0;
+  /// Disparity quantisation of a stereo camera with baseline stereo_baseline_m: the noisy
+  /// depth's disparity f B / z is rounded to a multiple of disparity_quant_px pixels (e.g.
+  /// 1/8 for sub-pixel block matching); 0 keeps depth continuous.
+  double disparity_quant_px = 0.0;
+  double stereo_baseline_m = 0.12;  ///< ZED-like
 };
+
+/// A zero-mean Gaussian field of width x height pixels with unit variance at every pixel,
+/// correlated over about corr_px pixels: white N(0, 1) noise on a canvas padded by 3 corr_px,
+/// blurred by a normalised Gaussian kernel of standard deviation corr_px (separable), divided
+/// by the kernel's norm. Its correlation at a distance of d pixels is exp(-d^2 / (4 corr_px^2)).
+/// Row-major; corr_px > 0.
+std::vector<double> GaussianNoiseField(int width, int height, double corr_px, SimRng& rng);
 
 /// A simulated rig: the capture, the true and the perturbed extrinsics, and the scene.
 struct SimulatedRig {

@@ -249,6 +249,75 @@ TEST(SimulateRig, AnotherNoiseDrawKeepsTheRigAndRedrawsOnlyTheNoise) {
   EXPECT_EQ(a.scene.size_x_m, b.scene.size_x_m);
 }
 
+TEST(GaussianNoiseField, UnitVarianceAndTheGaussianCorrelation) {
+  // 400 x 400 pixels of a field correlated over 4 px: about (400 / 8)^2 = 2500 independent
+  // patches, so the sample variance is within a few percent and the correlations within
+  // about +-0.03.
+  constexpr double kCorrPx = 4.0;
+  constexpr int kSize = 400;
+  SimRng rng(7, 3);
+  const std::vector<double> field = GaussianNoiseField(kSize, kSize, kCorrPx, rng);
+  const auto at = [&](int x, int y) { return field[static_cast<size_t>(y) * kSize + x]; };
+  const auto correlation = [&](int dx) {
+    double sum = 0.0;
+    int n = 0;
+    for (int y = 0; y < kSize; ++y) {
+      for (int x = 0; x + dx < kSize; ++x) {
+        sum += at(x, y) * at(x + dx, y);
+        ++n;
+      }
+    }
+    return sum / n;
+  };
+  EXPECT_NEAR(correlation(0), 1.0, 0.06);
+  // Blurred white noise: exp(-d^2 / (4 sigma^2)), 0.78 at d = sigma, 0.018 at 4 sigma.
+  EXPECT_NEAR(correlation(4), std::exp(-0.25), 0.06);
+  EXPECT_NEAR(correlation(16), std::exp(-4.0), 0.04);
+}
+
+TEST(SimulateRig, CorrelatedNoiseKeepsTheTotalSigmaAndTheDefaultsUnchanged) {
+  SimOptions options = Small(NoiseFree(2));
+  options.noise = 0.0025;
+  SimOptions correlated = options;
+  correlated.noise_corr_px = 4.0;
+  correlated.noise_corr_share = 0.8;
+  SimOptions unused_length = options;
+  unused_length.noise_corr_px = 4.0;  // share 0: the white noise of before, bit for bit
+  const SimulatedRig white = SimulateRig(options);
+  const SimulatedRig same = SimulateRig(unused_length);
+  const SimulatedRig rig = SimulateRig(correlated);
+  double sum2 = 0.0, neighbour = 0.0;
+  size_t n = 0, pairs = 0;
+  for (size_t c = 0; c < rig.capture.cameras.size(); ++c) {
+    EXPECT_TRUE(SameBits(white.capture.cameras[c].depth_m, same.capture.cameras[c].depth_m));
+    const CameraCapture& camera = rig.capture.cameras[c];
+    const Pose& T = rig.gt.at(camera.serial);
+    const PinholeIntrinsics& K = camera.intrinsics;
+    std::vector<double> e(camera.depth_m.size(), std::nan(""));
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const size_t i = static_cast<size_t>(v) * camera.width + u;
+        if (!std::isfinite(camera.depth_m[i])) continue;
+        const Vec3 ray = T.linear() * Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
+        const double z = rig.scene.Raycast(T.translation(), ray)->t;
+        if (z > 6.0) continue;
+        e[i] = (camera.depth_m[i] - z) / (options.noise * z * z);
+        sum2 += e[i] * e[i];
+        ++n;
+        if (u > 0 && std::isfinite(e[i - 1])) {
+          neighbour += e[i] * e[i - 1];
+          ++pairs;
+        }
+      }
+    }
+  }
+  ASSERT_GT(n, 50000u);
+  EXPECT_NEAR(std::sqrt(sum2 / n), 1.0, 0.05);  // the total sigma is still noise z^2
+  // Neighbours share 0.8 of the variance at a correlation of exp(-1/64): about 0.79; white
+  // noise would give 0.
+  EXPECT_NEAR(neighbour / pairs, 0.8 * std::exp(-1.0 / 64.0), 0.05);
+}
+
 TEST(SimulateRig, SerialsAreSortedAndCamerasStandAroundTheRoom) {
   SimOptions options = Small(SimOptions{});
   options.cameras = 6;
