@@ -118,10 +118,16 @@ run_accuracy() {
     "default rig|joint|gicp|"
     "default rig|pairwise|point_to_plane|"
     "default rig|pairwise|gicp|"
+    "default rig|joint|surface_bundle|"
     "noise 0|joint|point_to_plane|--noise 0"
     "noise 0|pairwise|point_to_plane|--noise 0"
+    "noise 0|joint|surface_bundle|--noise 0"
     "bare room|joint|point_to_plane|--bare"
     "bare room|pairwise|point_to_plane|--bare"
+    "bare room|joint|surface_bundle|--bare"
+    "correlated noise (80% over 4 px)|joint|point_to_plane|--noise-corr-px 4 --noise-corr-share 0.8"
+    "correlated noise (80% over 4 px)|pairwise|point_to_plane|--noise-corr-px 4 --noise-corr-share 0.8"
+    "correlated noise (80% over 4 px)|joint|surface_bundle|--noise-corr-px 4 --noise-corr-share 0.8"
     "wide start (yaw 3 deg, 10 cm)|joint|point_to_plane|--perturb-yaw-deg 3 --perturb-xz-m 0.1"
     "wide start (yaw 3 deg, 10 cm)|pairwise|point_to_plane|--perturb-yaw-deg 3 --perturb-xz-m 0.1"
   )
@@ -139,7 +145,8 @@ run_accuracy() {
   done
   {
     echo "Command per row: \`bench/rig_accuracy --mode M --method X --seeds $seeds ${size[*]}\` plus the"
-    echo "rig's flags (\`--noise 0\`, \`--bare\`, \`--perturb-yaw-deg 3 --perturb-xz-m 0.1\`), seeds 0..$((seeds - 1)),"
+    echo "rig's flags (\`--noise 0\`, \`--bare\`, \`--perturb-yaw-deg 3 --perturb-xz-m 0.1\`,"
+    echo "\`--noise-corr-px 4 --noise-corr-share 0.8\`), seeds 0..$((seeds - 1)),"
     echo "4 cameras$([ $quick = 1 ] && echo ' 320x180' || echo ' 640x360'), default config. Errors are gauge-free (core/evaluate.h); \"start\" is"
     echo "the RMS over the seeds of each seed's RMS before refinement (rotation deg / translation mm /"
     echo "tilt deg); the others are RMS over every pair (tilt: every camera) of every seed."
@@ -319,6 +326,8 @@ run_real() {
     >"$out/raw/bunny-from-conf.txt"
   [ $quick = 1 ] || nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" \
     --method gicp >"$out/raw/bunny-gicp.txt"
+  [ $quick = 1 ] || nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" \
+    --method surface_bundle >"$out/raw/bunny-sb.txt"
   {
     echo "#### TUM fr1/xyz frames 0, 9, 18, 27, 36 as a rig: \`bench/tum_rig --seeds $seeds\`"
     echo
@@ -349,6 +358,8 @@ run_real() {
     if [ $quick = 0 ]; then
       echo
       cat "$out/raw/bunny-gicp.txt"
+      echo
+      cat "$out/raw/bunny-sb.txt"
     fi
     echo
     echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
