@@ -49,6 +49,14 @@ struct RigCapture {
   std::vector<CameraCapture> cameras;
 };
 
+/// A planar face of a scene in the world, n^T x + offset = 0 (n unit); the floor's normal is
+/// +Y (leveling defines up).
+struct PlanarFace {
+  Vec3 normal = Vec3::UnitY();
+  double offset = 0.0;
+  bool floor = false;
+};
+
 /// T_world_camera per camera serial.
 using PoseMap = std::map<std::string, Pose>;
 

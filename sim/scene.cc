@@ -82,4 +82,31 @@ double Scene::DistanceToSurface(const Vec3& p_world) const {
   return distance;
 }
 
+void LabelFaces(const Scene& scene, const Pose& T_world_camera, const std::vector<Vec3>& points,
+                std::vector<PlanarFace>* faces, std::vector<int>* labels) {
+  labels->assign(points.size(), -1);
+  const Vec3 origin = T_world_camera.translation();
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Vec3 world = T_world_camera * points[i];
+    const std::optional<RayHit> hit = scene.Raycast(origin, world - origin);
+    if (!hit) continue;
+    const Vec3 n = hit->normal_world;
+    const OrientedBox& box = scene.boxes[hit->box_index];
+    // The face's plane passes through the box centre moved by the half extent along n.
+    const Vec3 n_box = box.R_world_box.transpose() * n;
+    const double offset = -n.dot(box.center + std::abs(n_box.dot(box.half_extents)) * n);
+    int label = -1;
+    for (size_t f = 0; f < faces->size() && label < 0; ++f) {
+      if ((*faces)[f].normal.dot(n) > 1.0 - 1e-9 && std::abs((*faces)[f].offset - offset) < 1e-9) {
+        label = static_cast<int>(f);
+      }
+    }
+    if (label < 0) {
+      label = static_cast<int>(faces->size());
+      faces->push_back({n, offset, box.kind == SurfaceKind::kFloor && n.y() > 0.5});
+    }
+    (*labels)[i] = label;
+  }
+}
+
 }  // namespace rigfit

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/pose.h"
+#include "core/types.h"
 
 namespace rigfit {
 
@@ -50,6 +51,13 @@ struct Scene {
   /// count too, so it is exact for visible points and a lower bound elsewhere).
   double DistanceToSurface(const Vec3& p_world) const;
 };
+
+/// The faces that the rays through a camera's points hit (points in the camera frame at the
+/// pose T_world_camera, e.g. a noise-free capture's): labels[i] is the index into `faces` of
+/// the plane point i lies on, a plane being added on first sight (so several cameras share one
+/// list; coplanar faces of different boxes are one plane); -1 where the ray meets nothing.
+void LabelFaces(const Scene& scene, const Pose& T_world_camera, const std::vector<Vec3>& points,
+                std::vector<PlanarFace>* faces, std::vector<int>* labels);
 
 /// Where the ray origin + t * direction enters the box at some t > min_t (parameter and
 /// outward normal of the face entered); nullopt when it misses or starts inside the box.

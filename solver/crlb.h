@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -62,5 +63,40 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
                                      const RefineOptions& options, double depth_noise,
                                      double noise_floor_m, int samples, std::uint64_t seed,
                                      int num_threads);
+
+/// The pixels of one camera with the face each one sees (noise-free, at the true pose).
+struct FacePixels {
+  std::string serial;
+  PointCloud points;       ///< camera frame; every valid pixel of the band once
+  std::vector<int> faces;  ///< per point, the index of its face in the faces list (-1: none)
+};
+
+/// The physical bound of the rig (issue 18): the measurements are the inverse depths of every
+/// pixel once, w = 1/z with sigma_w = depth_noise (noise Gaussian in depth with sigma_z = k z^2
+/// gives sigma_w = k to first order), the unknowns the poses of every camera but `reference`
+/// AND every face seen by two cameras or more (3 parameters each: the normal on the sphere and
+/// the offset; the floor's offset only: its normal +Y is known, leveling defines up), the faces
+/// eliminated: the poses' block of the inverse
+/// Fisher information, which ceres::Covariance computes from the plane-cluster Jacobians
+/// (residuals/plane_cluster.h) at the truth. No gravity prior (it is no measurement). Errors
+/// sampled like ComputeCramerRaoBound's. Never throws on bad geometry: ok false with a message.
+CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
+                                            const std::vector<PlanarFace>& faces,
+                                            const PoseMap& T_true, const std::string& reference,
+                                            double depth_noise, int samples, std::uint64_t seed,
+                                            int num_threads);
+
+/// Labels points (camera frame, at T_world_camera) with the faces they lie on, appending new
+/// faces to `faces` (e.g. the simulator's LabelFaces, sim/scene.h).
+using FaceLabeler = std::function<void(const Pose& T_world_camera, const PointCloud& points,
+                                       std::vector<PlanarFace>* faces, std::vector<int>* labels)>;
+
+/// ComputeSurfaceCramerRaoBound of a noise-free capture at its true poses: every valid pixel
+/// of each camera's near-floor band (options.region, pixel stride 1) once, labelled by
+/// `label`; the reference is options.icp.reference or the first serial.
+CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
+                                      const RefineOptions& options, double depth_noise,
+                                      const FaceLabeler& label, int samples, std::uint64_t seed,
+                                      int num_threads);
 
 }  // namespace rigfit

@@ -2,7 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include "sim/scene.h"
 #include "sim/simulate_rig.h"
+#include "solver/refine.h"
+#include "solver/region.h"
 
 namespace rigfit {
 namespace {
@@ -75,6 +78,106 @@ TEST(CramerRaoBound, CamerasThatShareNothingHaveNoBound) {
       ComputeCramerRaoBound(rig.capture, rig.gt, {}, 0.002, kCramerRaoNoiseFloorM, 10, 1, 2);
   EXPECT_FALSE(b.ok);
   EXPECT_FALSE(b.message.empty());
+}
+
+}  // namespace
+}  // namespace rigfit
+
+namespace rigfit {
+namespace {
+
+/// The predicted inverse depth of the pixel with ray a on the world plane (n, d) seen from T.
+double PredictedInverseDepth(const Pose& T, const Vec3& n, double d, const Vec3& a) {
+  const Vec3 n_c = T.linear().transpose() * n;
+  const double d_c = n.dot(T.translation()) + d;
+  return -n_c.dot(a) / d_c;
+}
+
+TEST(SurfaceCramerRaoBound, PoseBlockOfTheSchurComplementEqualsTheDenseInverse) {
+  // A small rig; the Fisher information built here by central differences of the predicted
+  // inverse depth, the planes parameterised differently (two normal directions of our own and
+  // the offset): the poses' block of its dense inverse must equal the bound's covariance, which
+  // Ceres computes with the planes eliminated.
+  SimOptions sim;
+  sim.cameras = 3;
+  sim.width = 64;
+  sim.height = 36;
+  sim.noise = 0.0;
+  sim.dropout = 0.0;
+  const SimulatedRig rig = SimulateRig(sim);
+  constexpr double kNoise = 0.0025;
+  RegionOptions every_pixel;
+  every_pixel.pixel_stride = 1;
+  std::vector<FacePixels> cameras;
+  std::vector<PlanarFace> faces;
+  for (const CameraCapture& camera : rig.capture.cameras) {
+    FacePixels& c = cameras.emplace_back();
+    c.serial = camera.serial;
+    const Pose& T = rig.gt.at(camera.serial);
+    c.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, RegionOptions{});
+    LabelFaces(rig.scene, T, c.points, &faces, &c.faces);
+  }
+  const CramerRaoBound bound = ComputeSurfaceCramerRaoBound(
+      cameras, faces, rig.gt, cameras.front().serial, kNoise, 10, 1, 1);
+  ASSERT_TRUE(bound.ok) << bound.message;
+
+  // The faces the bound uses: at least 3 pixels in each of at least two cameras.
+  const size_t n = cameras.size();
+  std::vector<std::vector<int>> count(faces.size(), std::vector<int>(n, 0));
+  for (size_t c = 0; c < n; ++c) {
+    for (const int f : cameras[c].faces) {
+      if (f >= 0) ++count[f][c];
+    }
+  }
+  std::vector<int> column(faces.size(), -1);  // first parameter of each used face
+  int params = 6 * static_cast<int>(n - 1);
+  for (size_t f = 0; f < faces.size(); ++f) {
+    int seen = 0;
+    for (size_t c = 0; c < n; ++c) seen += count[f][c] >= 3 ? 1 : 0;
+    if (seen < 2) continue;
+    column[f] = params;
+    params += faces[f].floor ? 1 : 3;
+  }
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(params, params);
+  constexpr double kStep = 1e-6;
+  for (size_t c = 0; c < n; ++c) {
+    const Pose& T = rig.gt.at(cameras[c].serial);
+    for (size_t i = 0; i < cameras[c].points.size(); ++i) {
+      const int f = cameras[c].faces[i];
+      if (f < 0 || column[f] < 0 || count[f][c] < 3) continue;
+      const Vec3 a = cameras[c].points[i] / cameras[c].points[i].z();
+      const Vec3& nf = faces[f].normal;
+      const double df = faces[f].offset;
+      // Two directions orthogonal to the normal.
+      const Vec3 u = nf.unitOrthogonal();
+      const Vec3 v = nf.cross(u);
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(params);
+      const auto h = [&](const Pose& Tc, const Vec3& nn, double dd) {
+        return PredictedInverseDepth(Tc, nn.normalized(), dd, a);
+      };
+      if (c > 0) {
+        for (int k = 0; k < 6; ++k) {
+          Vec6 delta = Vec6::Zero();
+          delta[k] = kStep;
+          g[6 * (c - 1) + k] =
+              (h(PosePlus(T, delta), nf, df) - h(PosePlus(T, -delta), nf, df)) / (2 * kStep);
+        }
+      }
+      int col = column[f];
+      if (!faces[f].floor) {
+        g[col++] = (h(T, nf + kStep * u, df) - h(T, nf - kStep * u, df)) / (2 * kStep);
+        g[col++] = (h(T, nf + kStep * v, df) - h(T, nf - kStep * v, df)) / (2 * kStep);
+      }
+      g[col] = (h(T, nf, df + kStep) - h(T, nf, df - kStep)) / (2 * kStep);
+      H.noalias() += g * g.transpose() / (kNoise * kNoise);
+    }
+  }
+  const Eigen::MatrixXd dense = H.inverse().topLeftCorner(6 * (n - 1), 6 * (n - 1));
+  ASSERT_EQ(bound.covariance.rows(), dense.rows());
+  EXPECT_LT((bound.covariance - dense).cwiseAbs().maxCoeff(), 1e-5 * dense.cwiseAbs().maxCoeff())
+      << "bound\n"
+      << bound.covariance << "\ndense\n"
+      << dense;
 }
 
 }  // namespace
