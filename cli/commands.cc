@@ -1,5 +1,10 @@
 #include "cli/commands.h"
 
+#include <algorithm>
+#include <memory>
+#include <sstream>
+#include <string>
+
 namespace rigfit::cli {
 namespace {
 
@@ -8,9 +13,23 @@ std::vector<Command>& Registry() {
   return commands;
 }
 
+/// `rigfit --help` lists each subcommand with the first clause of its description (up to the
+/// first ": " or ". "); `rigfit CMD --help` keeps the whole paragraph.
+class SummaryFormatter : public CLI::Formatter {
+ public:
+  std::string make_subcommand(const CLI::App* sub) const override {
+    const std::string& text = sub->get_description();
+    const size_t end = std::min(text.find(": "), text.find(". "));
+    std::stringstream out;
+    CLI::detail::format_help(out, sub->get_display_name(true), text.substr(0, end), column_width_);
+    return out.str();
+  }
+};
+
 }  // namespace
 
 void RegisterCommands(CLI::App& app) {
+  app.formatter(std::make_shared<SummaryFormatter>());
   Registry() = {AddSimulateCommand(app),  AddRefineCommand(app),  AddEvaluateCommand(app),
                 AddImportPlyCommand(app), AddCompareCommand(app), AddExportPlyCommand(app)};
 }

@@ -139,7 +139,7 @@ TEST_F(ExtrinsicsTest, RotationBeyondTheToleranceIsRefused) {
 
 TEST_F(ExtrinsicsTest, RealSevenScenesPoseIsAcceptedWithAWarning) {
   const std::string pose_file =
-      std::string(RIGFIT_SHARED_DATA_DIR) + "/sevenscenes_kitchen/frames/frame-000200.pose.txt";
+      io_test::SharedDataPath("sevenscenes_kitchen/frames/frame-000200.pose.txt");
   std::ifstream in(pose_file);
   if (!in) GTEST_SKIP() << "shared data absent: " << pose_file;
   Eigen::Matrix4d M;

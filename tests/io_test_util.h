@@ -44,6 +44,12 @@ class TempDirTest : public ::testing::Test {
   std::filesystem::path dir_;
 };
 
+/// The path of a file of ../shared/data (RIGFIT_SHARED_DATA_DIR). A test that reads one skips
+/// when it is absent (a bare clone): `if (!std::filesystem::exists(path)) GTEST_SKIP() << ...`.
+inline std::string SharedDataPath(const std::string& relative) {
+  return std::string(RIGFIT_SHARED_DATA_DIR) + "/" + relative;
+}
+
 inline void WriteText(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);
   out << text;
