@@ -12,13 +12,14 @@
 
 #include "residuals/gicp.h"
 #include "residuals/gravity_prior.h"
+#include "residuals/plane_cluster.h"
 #include "residuals/point_to_plane.h"
 #include "residuals/relative_pose.h"
 
 namespace rigfit {
 namespace {
 
-enum class Residual { kPointToPlane, kGicp, kGravityPrior, kRelativePose };
+enum class Residual { kPointToPlane, kGicp, kGravityPrior, kRelativePose, kPlaneCluster };
 enum class Derivatives { kAnalytic, kAutoDiff };
 
 Pose RandomPose(std::mt19937& rng) {
@@ -73,6 +74,18 @@ std::unique_ptr<ceres::CostFunction> MakeCost(Residual residual, Derivatives der
                    : RelativePoseFunctor::CreateAutoDiff(
                          T_ab, RelativePoseCost::SqrtInformation(information)));
     }
+    case Residual::kPlaneCluster: {
+      // 200 pixels of one camera on one plane; the second block is read as the plane [n; d]
+      // (its cost does not depend on the values).
+      PlaneCluster cluster;
+      for (int i = 0; i < 200; ++i) {
+        const Vec3 point = Vec3(0.3, -0.2, 3.0) + 0.5 * RandomVector(rng);
+        cluster.AddRay(point, 1.0 / point.z(), 0.0025);
+      }
+      return std::unique_ptr<ceres::CostFunction>(
+          analytic ? PlaneClusterCost::Create(cluster, true)
+                   : PlaneClusterFunctor::CreateAutoDiff(cluster.SquareRoot(), true));
+    }
   }
   return nullptr;
 }
@@ -106,7 +119,8 @@ const bool kRegistered = [] {
   const std::pair<const char*, Residual> residuals[] = {{"point_to_plane", Residual::kPointToPlane},
                                                         {"gicp", Residual::kGicp},
                                                         {"gravity_prior", Residual::kGravityPrior},
-                                                        {"relative_pose", Residual::kRelativePose}};
+                                                        {"relative_pose", Residual::kRelativePose},
+                                                        {"plane_cluster", Residual::kPlaneCluster}};
   for (const auto& [residual_name, residual] : residuals) {
     for (const auto& [derivatives_name, derivatives] :
          {std::pair{"analytic", Derivatives::kAnalytic},
