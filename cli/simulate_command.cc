@@ -11,6 +11,7 @@
 #include "cli/commands.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
+#include "core/format.h"
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
@@ -38,8 +39,17 @@ struct SimulateArgs {
 /// Draws of the poses for the bound's benchmark errors.
 constexpr int kBoundSamples = 2000;
 
-/// Prints the Cramer-Rao bound of the simulated rig (solver/crlb.h): what an efficient
-/// estimator using the joint problem's data would reach, measured like `rigfit evaluate`.
+/// Prints `what` and the benchmark errors of a bound: "<what>: RMS relative rotation ...".
+void PrintSampled(const std::string& what, const SampledErrors& e) {
+  std::printf(
+      "%s: RMS relative rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt "
+      "%.4f deg\n",
+      what.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3, e.tilt_rad * kRadToDeg);
+}
+
+/// Prints the Cramer-Rao bounds of the simulated rig (solver/crlb.h), measured like
+/// `rigfit evaluate`: the surface model's (the physical limit), then the point-to-plane
+/// information bound of the joint problem and the joint estimator's own prediction.
 void PrintBound(const SimulateArgs& a) {
   if (a.sim.noise <= 0.0) {
     std::printf("Cramer-Rao bound: 0 (noise-free capture)\n");
@@ -49,49 +59,48 @@ void PrintBound(const SimulateArgs& a) {
   SimOptions clean = a.sim;
   clean.noise = 0.0;
   const SimulatedRig truth = SimulateRig(clean);
-  const CramerRaoBound b =
-      ComputeCramerRaoBound(truth.capture, truth.gt, options, a.sim.noise, kCramerRaoNoiseFloorM,
-                            kBoundSamples, a.sim.seed, 2);
-  if (!b.ok) {
-    std::printf("Cramer-Rao bound: not available: %s\n", b.message.c_str());
-    return;
-  }
   const CramerRaoBound s = ComputeRigSurfaceBound(
       truth.capture, truth.gt, options, a.sim.noise,
       [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f, std::vector<int>* l) {
         LabelFaces(truth.scene, T, p, f, l);
       },
       kBoundSamples, a.sim.seed, 2);
+  const std::string noise =
+      "noise " + Fixed(a.sim.noise, 4) + ", " + std::to_string(kBoundSamples) + " draws";
   if (s.ok) {
-    std::printf(
-        "Cramer-Rao bound of the surface model (every pixel of the band once, inverse depth with "
-        "sigma %g, the true faces as nuisance planes, floor normal known, %d draws): RMS relative "
-        "rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",
-        a.sim.noise, s.samples, s.rms.rotation_rad * kRadToDeg, s.rms.translation_m * 1e3,
-        s.rms.tilt_rad * kRadToDeg);
+    PrintSampled(
+        "Cramer-Rao bound of the surface model (every pixel of the band once, inverse "
+        "depth, the true faces as nuisance planes, floor normal known; " +
+            noise + ")",
+        s.rms);
   } else {
     std::printf("Cramer-Rao bound of the surface model: not available: %s\n", s.message.c_str());
   }
-  std::printf(
-      "Point-to-plane information bound (issue 5's: the joint problem's correspondences at the "
-      "true poses, normals known, a point counted once per term; noise %g, %d draws): RMS "
-      "relative rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",
-      a.sim.noise, b.samples, b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
-      b.rms.tilt_rad * kRadToDeg);
+  const CramerRaoBound b =
+      ComputeCramerRaoBound(truth.capture, truth.gt, options, a.sim.noise, kCramerRaoNoiseFloorM,
+                            kBoundSamples, a.sim.seed, 2);
+  if (!b.ok) {
+    std::printf("Point-to-plane information bound: not available: %s\n", b.message.c_str());
+    return;
+  }
+  PrintSampled(
+      "Point-to-plane information bound (issue 5's: the joint problem's correspondences "
+      "at the true poses, normals known, a point counted once per term; " +
+          noise + ")",
+      b.rms);
   std::printf("  1-sigma against reference %s:   yaw deg  tilt deg     x mm     y mm     z mm\n",
               b.reference.c_str());
   for (size_t k = 0; k < b.serials.size(); ++k) {
-    const PoseSigma s = SigmaOf(b.covariance.block<6, 6>(6 * k, 6 * k));
-    std::printf("  %-30s %9.4f %9.4f %8.2f %8.2f %8.2f\n", b.serials[k].c_str(), s.yaw_deg,
-                s.tilt_deg, s.x_mm, s.y_mm, s.z_mm);
+    const PoseSigma sigma = SigmaOf(b.covariance.block<6, 6>(6 * k, 6 * k));
+    std::printf("  %-30s %9.4f %9.4f %8.2f %8.2f %8.2f\n", b.serials[k].c_str(), sigma.yaw_deg,
+                sigma.tilt_deg, sigma.x_mm, sigma.y_mm, sigma.z_mm);
   }
   if (b.estimator_ok) {
-    std::printf(
-        "rigfit's joint estimator under its own noise model (depth noise plus plane_noise_share), "
-        "each point's noise shared by all its terms (what its errors should be; not a bound): "
-        "RMS relative rotation %.4f deg, RMS relative translation %.2f mm, RMS tilt %.4f deg\n",
-        b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
-        b.estimator_rms.tilt_rad * kRadToDeg);
+    PrintSampled(
+        "rigfit's joint estimator under its own noise model (depth noise plus "
+        "plane_noise_share), each point's noise shared by all its terms (what its errors "
+        "should be; not a bound)",
+        b.estimator_rms);
   }
 }
 
