@@ -90,7 +90,8 @@ TEST(PlaneCluster, AnalyticJacobianEqualsAutodiffAndFiniteDifferences) {
   std::mt19937 rng(5);
   std::normal_distribution<double> noise(0.0, 0.003);
   const PoseManifold pose_manifold;
-  const ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
+  const ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>>
+      plane_manifold;
   // The ray model divides by d_c, the plane's distance to the camera (2.5 m here): Ridders'
   // first step of 1% of a 100 m translation would reach past the pole.
   ceres::NumericDiffOptions numeric;
