@@ -119,6 +119,9 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   for (size_t i = 0; i < surfaces.size(); ++i) {
     surfaces[i].T_world_camera = joint->poses[i];
     surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
+    // A camera the joint solve could not link keeps its leveled pose, which may be far off:
+    // its pixels would pull the planes.
+    if (!joint->connected[i]) surfaces[i].points.clear();
   }
   const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, num_threads, log);
   if (!bundle.usable) {
