@@ -181,6 +181,10 @@ class Segmenter {
         floor.box.Extend({points_[i].world, points_[i].world});
         continue;
       }
+      const double margin =
+          std::min(options_.floor_margin_m,
+                   options_.floor_margin_sigmas * std::sqrt(Variance(i, Vec3::UnitY())));
+      if (options_.leveled_floor && std::abs(y) <= margin) continue;
       const Vec3 cell = ((points_[i].world - origin) / top).array().floor();
       cells[{static_cast<long long>(cell.x()), static_cast<long long>(cell.y()),
              static_cast<long long>(cell.z())}]
