@@ -25,6 +25,8 @@ Command AddSimulateCommand(CLI::App& app);
 Command AddRefineCommand(CLI::App& app);
 /// `rigfit evaluate`: gauge-free errors of estimated extrinsics against ground truth.
 Command AddEvaluateCommand(CLI::App& app);
+/// `rigfit evaluate-trajectory`: ATE and RPE of a camera trajectory against ground truth.
+Command AddEvaluateTrajectoryCommand(CLI::App& app);
 
 /// `rigfit import-ply`: a rig capture (points layout) from one PLY cloud per camera.
 Command AddImportPlyCommand(CLI::App& app);

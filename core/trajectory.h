@@ -1,0 +1,51 @@
+// Trajectories of a moving camera and their errors against ground truth, in the conventions of
+// the TUM RGB-D benchmark (Sturm et al., IROS 2012): poses associated by timestamp, the
+// absolute trajectory error (ATE) after the rigid alignment that minimises it (Horn / Umeyama,
+// no scale), and the relative pose error (RPE) over a fixed number of frames.
+#pragma once
+
+#include <vector>
+
+#include "core/pose.h"
+
+namespace rigfit {
+
+/// A camera trajectory: T_world_camera at increasing timestamps (seconds).
+struct Trajectory {
+  std::vector<double> timestamps;
+  std::vector<Pose> poses;
+};
+
+/// Pairs (i in est, j in gt) of nearest timestamps: each estimate takes the ground-truth pose
+/// closest in time, kept when within max_dt seconds; each ground-truth pose is used once, by
+/// the estimate closest to it (the TUM tools' greedy association). Sorted by the estimate's
+/// index.
+std::vector<std::pair<int, int>> AssociateByTimestamp(const std::vector<double>& est,
+                                                      const std::vector<double>& gt, double max_dt);
+
+/// The rigid motion S (rotation and translation, no scale) minimising sum |S a_k - b_k|^2, in
+/// closed form (Umeyama 1991 without scale: the SVD of the cross-covariance, det corrected).
+/// Needs at least 3 points not on a line for a unique rotation; fewer give the best the SVD
+/// offers.
+Pose AlignRigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b);
+
+struct TrajectoryErrors {
+  int pairs = 0;            ///< associated poses
+  Pose T_gt_est;            ///< the alignment applied to the estimate
+  double ate_rmse_m = 0.0;  ///< RMS of |t_gt - S t_est| over the pairs
+  double ate_mean_m = 0.0;
+  double ate_median_m = 0.0;
+  double ate_max_m = 0.0;
+  std::vector<double> ate_m;  ///< per pair, in pair order
+  int rpe_pairs = 0;          ///< pose pairs `delta` frames apart (in the associated list)
+  double rpe_translation_rmse_m = 0.0;
+  double rpe_rotation_rmse_rad = 0.0;
+};
+
+/// ATE and RPE of `est` against `gt` over the associated pairs (AssociateByTimestamp with
+/// max_dt). RPE compares the relative motions (T_i^-1 T_{i+delta}) of the pairs' estimate and
+/// truth, delta >= 1 pairs apart. Throws std::invalid_argument with fewer than 3 pairs.
+TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt, double max_dt,
+                                    int delta);
+
+}  // namespace rigfit

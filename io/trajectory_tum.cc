@@ -1,0 +1,87 @@
+#include "io/trajectory_tum.h"
+
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <sstream>
+
+#include "core/errors.h"
+#include "io/atomic_file.h"
+#include "io/read_file.h"
+
+namespace rigfit {
+namespace {
+
+/// A quaternion norm this far from 1 is no rounding of a unit quaternion.
+constexpr double kQuaternionNormTolerance = 1e-2;
+
+}  // namespace
+
+Trajectory ReadTumTrajectory(const std::string& path) {
+  std::istringstream text(ReadWholeFile(path));
+  Trajectory trajectory;
+  std::string line;
+  for (int number = 1; std::getline(text, line); ++number) {
+    const size_t first = line.find_first_not_of(" \t\r");
+    if (first == std::string::npos || line[first] == '#') continue;
+    const std::string where = path + ": line " + std::to_string(number);
+    std::istringstream fields(line);
+    double v[8];
+    int count = 0;
+    std::string token, stamp;
+    while (fields >> token) {
+      if (count == 0) stamp = token;
+      if (count == 8) throw InputError(where + ": more than 8 values");
+      try {
+        size_t used = 0;
+        v[count] = std::stod(token, &used);
+        if (used != token.size()) throw std::invalid_argument(token);
+      } catch (const std::exception&) {
+        throw InputError(where + ": '" + token + "' is not a number");
+      }
+      if (!std::isfinite(v[count])) throw InputError(where + ": '" + token + "' is not finite");
+      ++count;
+    }
+    if (count != 8) {
+      throw InputError(where + ": expected 8 values (timestamp tx ty tz qx qy qz qw), got " +
+                       std::to_string(count));
+    }
+    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    if (std::abs(q.norm() - 1.0) > kQuaternionNormTolerance) {
+      throw InputError(where + ": quaternion norm " + std::to_string(q.norm()) +
+                       " is not 1 (qx qy qz qw)");
+    }
+    if (!trajectory.timestamps.empty() && !(v[0] > trajectory.timestamps.back())) {
+      throw InputError(where + ": timestamp " + stamp + " does not increase");
+    }
+    Pose T = Pose::Identity();
+    T.linear() = q.normalized().toRotationMatrix();
+    T.translation() = Vec3(v[1], v[2], v[3]);
+    trajectory.timestamps.push_back(v[0]);
+    trajectory.poses.push_back(T);
+  }
+  if (trajectory.poses.empty()) throw InputError(path + ": no poses");
+  return trajectory;
+}
+
+void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory) {
+  std::ostringstream out;
+  out << "# timestamp tx ty tz qx qy qz qw\n" << std::setprecision(17);
+  for (size_t k = 0; k < trajectory.poses.size(); ++k) {
+    const Pose& T = trajectory.poses[k];
+    const Eigen::Quaterniond q(T.linear());
+    const Vec3 t = T.translation();
+    out << trajectory.timestamps[k] << ' ' << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x()
+        << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
+  }
+  const std::string text = out.str();
+  WriteFileAtomically(path, [&](const std::string& tmp_path) {
+    std::ofstream file(tmp_path, std::ios::binary | std::ios::trunc);
+    file << text;
+    file.close();
+    if (!file) throw InputError(path + ": write error");
+  });
+}
+
+}  // namespace rigfit
