@@ -4,9 +4,9 @@
 #include <string>
 #include <utility>
 
+#include "core/evaluate.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
-#include "core/evaluate.h"
 
 namespace rigfit {
 namespace {
