@@ -1,9 +1,7 @@
 #include "cli/json_output.h"
 
 #include <cmath>
-#include <fstream>
 
-#include "core/errors.h"
 #include "io/atomic_file.h"
 
 namespace rigfit::cli {
@@ -21,12 +19,7 @@ Json RmsMax(bool defined, double rms, double max) {
 
 void WriteJsonFile(const std::string& path, const Json& json) {
   const std::string text = json.dump(2) + "\n";
-  WriteFileAtomically(path, [&](const std::string& tmp_path) {
-    std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw InputError(path + ": write error");
-  });
+  WriteTextFileAtomically(path, text);
 }
 
 Json RigErrorsSummaryJson(const RigErrors& e) {

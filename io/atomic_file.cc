@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 
 #include "core/errors.h"
 
@@ -95,6 +96,15 @@ void RefuseToOverwriteInputs(const std::string& path, const std::vector<std::str
       throw InputError(what + ": refusing to write " + path + ": it is an input file");
     }
   }
+}
+
+void WriteTextFileAtomically(const std::string& path, const std::string& text) {
+  WriteFileAtomically(path, [&](const std::string& tmp_path) {
+    std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);
+    out << text;
+    out.close();
+    if (!out) throw InputError(path + ": write error");
+  });
 }
 
 }  // namespace rigfit

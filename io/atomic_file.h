@@ -15,6 +15,10 @@ namespace rigfit {
 void WriteFileAtomically(const std::string& path,
                          const std::function<void(const std::string& tmp_path)>& write);
 
+/// WriteFileAtomically of `text` as the whole file (binary, as given); InputError naming path
+/// on a write error.
+void WriteTextFileAtomically(const std::string& path, const std::string& text);
+
 /// Throws InputError("<what>: refusing to write <path>: it is an input file") when path names
 /// the same file (same inode, through any link or relative path) as any of inputs.
 void RefuseToOverwriteInputs(const std::string& path, const std::vector<std::string>& inputs,

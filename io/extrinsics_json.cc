@@ -2,7 +2,6 @@
 
 #include <Eigen/SVD>
 #include <cmath>
-#include <fstream>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -191,12 +190,7 @@ void WriteExtrinsics(const std::string& path, const PoseMap& poses, const Json& 
     for (const auto& [key, value] : meta.items()) meta_out[key] = value;
   }
   const std::string text = document.dump(2) + "\n";
-  WriteFileAtomically(path, [&](const std::string& tmp_path) {
-    std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);
-    out << text;
-    out.close();
-    if (!out) throw InputError(path + ": write error");
-  });
+  WriteTextFileAtomically(path, text);
 }
 
 }  // namespace rigfit

@@ -1,7 +1,6 @@
 #include "io/trajectory_tum.h"
 
 #include <cmath>
-#include <fstream>
 #include <iomanip>
 #include <limits>
 #include <sstream>
@@ -75,13 +74,7 @@ void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory) {
     out << trajectory.timestamps[k] << ' ' << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x()
         << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
   }
-  const std::string text = out.str();
-  WriteFileAtomically(path, [&](const std::string& tmp_path) {
-    std::ofstream file(tmp_path, std::ios::binary | std::ios::trunc);
-    file << text;
-    file.close();
-    if (!file) throw InputError(path + ": write error");
-  });
+  WriteTextFileAtomically(path, out.str());
 }
 
 }  // namespace rigfit
