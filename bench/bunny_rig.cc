@@ -19,8 +19,8 @@
 #include "core/stopwatch.h"
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
-#include "solver/knn.h"
-#include "solver/refine.h"
+#include "registration/knn.h"
+#include "rig/refine.h"
 
 namespace {
 

@@ -14,10 +14,10 @@
 #include "core/evaluate.h"
 #include "core/geometry.h"
 #include "io/config_yaml.h"
+#include "rig/crlb.h"
+#include "rig/refine.h"
 #include "sim/scene.h"
 #include "sim/simulate_rig.h"
-#include "solver/crlb.h"
-#include "solver/refine.h"
 
 namespace {
 
@@ -126,7 +126,7 @@ int main(int argc, char** argv) {
   app.add_option("--config", config, "refine options (YAML); --mode and --method override");
   bool verbose = false, from_gt = false, verbose_sigma = false, crlb = false;
   app.add_flag("--crlb", crlb,
-               "also the Cramer-Rao bound of each seed (solver/crlb.h) and RMS of error / bound");
+               "also the Cramer-Rao bound of each seed (rig/crlb.h) and RMS of error / bound");
   app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
   app.add_flag("--from-gt", from_gt, "start at the true poses (measures the estimator's bias)");
   app.add_flag("--verbose", verbose, "solver progress to stderr");

@@ -14,7 +14,7 @@
 
 #include "bench/bench_util.h"
 #include "core/evaluate.h"
-#include "solver/refine.h"
+#include "rig/refine.h"
 
 namespace {
 

@@ -11,8 +11,8 @@
 #include "bench_util.h"
 #include "core/geometry.h"
 #include "io/config_yaml.h"
+#include "rig/refine.h"
 #include "sim/simulate_rig.h"
-#include "solver/refine.h"
 
 int main(int argc, char** argv) {
   using namespace rigfit;

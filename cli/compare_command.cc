@@ -1,6 +1,6 @@
 // `rigfit compare`: runs the pairwise and the joint mode (each with the configured method)
 // on the same capture and initial extrinsics, and prints them side by side: each camera's
-// change and (with --gt) its error, each pair's fit before and after (solver/diagnostics.h),
+// change and (with --gt) its error, each pair's fit before and after (rig/diagnostics.h),
 // the joint mode's 1-sigma, wall time and peak memory, and a verdict from these numbers.
 // Each mode runs in a forked child process, so that its peak memory is its own
 // (docs/usage.md, `rigfit compare`).
@@ -30,8 +30,8 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
-#include "solver/diagnostics.h"
-#include "solver/refine.h"
+#include "rig/diagnostics.h"
+#include "rig/refine.h"
 
 namespace rigfit::cli {
 namespace {

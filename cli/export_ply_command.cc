@@ -15,8 +15,8 @@
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
 #include "report/palette.h"
-#include "solver/refine.h"
-#include "solver/region.h"
+#include "rig/refine.h"
+#include "rig/region.h"
 
 namespace rigfit::cli {
 namespace {

@@ -1,4 +1,4 @@
-// `rigfit refine`: refines the extrinsics of a rig from one capture (solver/refine.h: ground
+// `rigfit refine`: refines the extrinsics of a rig from one capture (rig/refine.h: ground
 // leveling, then registration of the near-floor band). Every input is checked before any work;
 // the refined extrinsics are written with their report in _meta (../shared/docs/formats.md,
 // docs/usage.md), and a summary is printed on stdout.
@@ -25,7 +25,7 @@
 #include "io/extrinsics_json.h"
 #include "report/refine_meta.h"
 #include "report/refine_report.h"
-#include "solver/refine.h"
+#include "rig/refine.h"
 
 namespace rigfit::cli {
 namespace {
@@ -348,7 +348,7 @@ Command AddRefineCommand(CLI::App& app) {
       ->required();
   sub->add_option("--config", a.config_path,
                   "Options (YAML, docs/config.md); the flags below override it");
-  // Defaults in the help come from solver/options.h, the single source of truth.
+  // Defaults in the help come from rig/options.h, the single source of truth.
   const Json defaults = ConfigToJson(RefineOptions{})["icp"];
   a.mode_option =
       sub->add_option("--mode", a.mode,

@@ -15,8 +15,8 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
+#include "rig/crlb.h"
 #include "sim/simulate_rig.h"
-#include "solver/crlb.h"
 
 namespace rigfit::cli {
 namespace {
@@ -47,7 +47,7 @@ void PrintSampled(const std::string& what, const SampledErrors& e) {
       what.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3, e.tilt_rad * kRadToDeg);
 }
 
-/// Prints the Cramer-Rao bounds of the simulated rig (solver/crlb.h), measured like
+/// Prints the Cramer-Rao bounds of the simulated rig (rig/crlb.h), measured like
 /// `rigfit evaluate`: the surface model's (the physical limit), then the point-to-plane
 /// information bound of the joint problem and the joint estimator's own prediction.
 void PrintBound(const SimulateArgs& a) {

@@ -5,7 +5,7 @@
 #include <cstdint>
 
 #include "core/format.h"
-#include "solver/region.h"
+#include "rig/region.h"
 
 namespace rigfit {
 namespace {

@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "solver/options.h"
-#include "solver/refine.h"
+#include "rig/options.h"
+#include "rig/refine.h"
 
 namespace rigfit {
 

@@ -9,7 +9,7 @@
 #include "report/palette.h"
 #include "report/plots.h"
 #include "report/png.h"
-#include "solver/diagnostics.h"
+#include "rig/diagnostics.h"
 
 namespace rigfit {
 namespace {

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "core/types.h"
-#include "solver/options.h"
-#include "solver/refine.h"
+#include "rig/options.h"
+#include "rig/refine.h"
 
 namespace rigfit {
 
@@ -23,7 +23,7 @@ void CheckReportDirectory(const std::string& dir, const std::string& what);
 /// Writes the report of a refine run into dir, creating dir if missing (its parent must
 /// exist):
 /// - kTopDownBeforeFile, kTopDownAfterFile: the near-floor band of every camera at the
-///   finest voxel (solver/diagnostics.h), seen from above, coloured per camera
+///   finest voxel (rig/diagnostics.h), seen from above, coloured per camera
 ///   (report/palette.h), at the leveled poses (before registration) and at `after`;
 /// - kResidualsFile: the histogram of the point-to-plane residuals of the finest-scale
 ///   correspondences of every candidate pair, at the leveled poses and at `after`.

@@ -14,7 +14,7 @@
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
 #include "report/palette.h"
-#include "solver/options.h"
+#include "rig/options.h"
 
 namespace rigfit {
 namespace {

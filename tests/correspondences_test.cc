@@ -1,4 +1,4 @@
-#include "solver/correspondences.h"
+#include "rig/correspondences.h"
 
 #include <gtest/gtest.h>
 

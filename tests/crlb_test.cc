@@ -1,11 +1,11 @@
-#include "solver/crlb.h"
+#include "rig/crlb.h"
 
 #include <gtest/gtest.h>
 
+#include "rig/refine.h"
+#include "rig/region.h"
 #include "sim/scene.h"
 #include "sim/simulate_rig.h"
-#include "solver/refine.h"
-#include "solver/region.h"
 
 namespace rigfit {
 namespace {

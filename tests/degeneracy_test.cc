@@ -1,4 +1,4 @@
-#include "solver/degeneracy.h"
+#include "rig/degeneracy.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
-// solver/diagnostics.h: the fit of every candidate pair at given poses. At the true poses of
+// rig/diagnostics.h: the fit of every candidate pair at given poses. At the true poses of
 // a noise-free rig the point-to-plane residuals vanish; moving one camera spoils exactly
 // the pairs it belongs to.
-#include "solver/diagnostics.h"
+#include "rig/diagnostics.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "solver/ground.h"
+#include "rig/ground.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <random>
 
 #include "core/geometry.h"
-#include "solver/region.h"
+#include "rig/region.h"
 
 namespace rigfit {
 namespace {

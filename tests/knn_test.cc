@@ -1,4 +1,4 @@
-#include "solver/knn.h"
+#include "registration/knn.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "solver/point_grid.h"
+#include "registration/point_grid.h"
 
 #include <gtest/gtest.h>
 
@@ -8,8 +8,8 @@
 #include <random>
 #include <stdexcept>
 
-#include "solver/knn.h"
-#include "solver/preprocess.h"
+#include "registration/knn.h"
+#include "rig/preprocess.h"
 
 namespace rigfit {
 namespace {

@@ -1,4 +1,4 @@
-#include "solver/preprocess.h"
+#include "rig/preprocess.h"
 
 #include <gtest/gtest.h>
 

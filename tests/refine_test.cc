@@ -1,4 +1,4 @@
-#include "solver/refine.h"
+#include "rig/refine.h"
 
 #include <gtest/gtest.h>
 

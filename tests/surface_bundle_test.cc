@@ -1,14 +1,14 @@
-#include "solver/surface_bundle.h"
+#include "rig/surface_bundle.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "core/evaluate.h"
+#include "rig/plane_segmentation.h"
+#include "rig/refine.h"
+#include "rig/region.h"
 #include "sim/simulate_rig.h"
-#include "solver/plane_segmentation.h"
-#include "solver/refine.h"
-#include "solver/region.h"
 
 namespace rigfit {
 namespace {

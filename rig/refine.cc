@@ -1,0 +1,516 @@
+#include "rig/refine.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <string>
+#include <utility>
+
+#include "core/errors.h"
+#include "core/format.h"
+#include "core/geometry.h"
+#include "core/parallel.h"
+#include "core/stopwatch.h"
+#include "residuals/relative_pose.h"
+#include "rig/correspondences.h"
+#include "rig/joint.h"
+#include "rig/pairwise.h"
+#include "rig/pose_graph.h"
+#include "rig/preprocess.h"
+#include "rig/region.h"
+#include "rig/surface_bundle.h"
+
+namespace rigfit {
+namespace {
+
+/// A warning of the result, also logged (the CLI prints it on stderr).
+void Warn(RefineResult* result, const Log& log, std::string message) {
+  log.Warning(message);
+  result->warnings.push_back(std::move(message));
+}
+
+/// The rigid motion G that best explains the change of the connected cameras,
+/// refined_i ~ G leveled_i (Gauss-Newton on the tangent residuals PoseDifference(G
+/// leveled_i, refined_i); a few steps suffice for the small motions of a refinement).
+Pose CommonMotion(const std::vector<Pose>& leveled, const std::vector<Pose>& refined,
+                  const std::vector<bool>& connected) {
+  constexpr int kSteps = 5;
+  Pose G = Pose::Identity();
+  for (int step = 0; step < kSteps; ++step) {
+    // Moving G by the left tangent step (w, d) about the world origin moves camera i by
+    // w in rotation and by d + w x t_i in translation (t_i = its centre under G).
+    Mat6 H = Mat6::Zero();
+    Vec6 g = Vec6::Zero();
+    for (size_t i = 0; i < leveled.size(); ++i) {
+      if (!connected[i]) continue;
+      const Pose moved = G * leveled[i];
+      const Vec6 r = PoseDifference(moved, refined[i]);
+      Eigen::Matrix<double, 6, 6> J = Mat6::Identity();
+      J.block<3, 3>(3, 0) = -Hat(moved.translation());
+      H += J.transpose() * J;
+      g += J.transpose() * r;
+    }
+    if (H.isZero()) break;
+    const Vec6 delta = H.ldlt().solve(g);
+    G = PosePlus(Pose::Identity(), delta) * G;
+  }
+  return G;
+}
+
+/// The index of camera `reference` (CheckRefineInput made sure it is there); empty: 0.
+int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
+  for (size_t i = 0; i < capture.cameras.size(); ++i) {
+    if (capture.cameras[i].serial == reference) return static_cast<int>(i);
+  }
+  return 0;
+}
+
+/// Pairwise mode: ICP per candidate pair, then the pose graph. Returns refined poses.
+std::optional<std::vector<Pose>> RegisterPairwise(const std::vector<RegistrationCamera>& cameras,
+                                                  const std::vector<Pose>& leveled,
+                                                  const std::vector<CandidatePair>& candidates,
+                                                  int reference, const IcpOptions& options,
+                                                  int num_threads, const Log& log,
+                                                  RefineResult* result) {
+  std::vector<PoseGraphEdge> edges;
+  for (const CandidatePair& pair : candidates) {
+    PairReport& report = result->pairs.emplace_back();
+    report.serial_a = result->cameras[pair.a].serial;
+    report.serial_b = result->cameras[pair.b].serial;
+    report.overlap_area_m2 = pair.overlap_area_m2;
+    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": ICP");
+    const auto start = std::chrono::steady_clock::now();
+    const PairwiseResult icp =
+        RegisterPair(cameras[pair.b], cameras[pair.a], options, num_threads, log);
+    result->times.registration_s += SecondsSince(start);
+    report.fitness = icp.fitness;
+    report.rmse_before_m = icp.rmse_before_m;
+    report.rmse_after_m = icp.rmse_after_m;
+    report.correspondences = icp.correspondences;
+    report.iterations = icp.iterations;
+    report.accepted = icp.accepted;
+    report.message = icp.message;
+    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": fitness " +
+             Fixed(icp.fitness, 3) + ", RMSE " + Fixed(icp.rmse_before_m * 1e3, 2) + " -> " +
+             Fixed(icp.rmse_after_m * 1e3, 2) + " mm, " + std::to_string(icp.iterations) +
+             " iterations" + (icp.accepted ? "" : ", rejected: " + icp.message));
+    if (!icp.accepted) continue;
+    edges.push_back({pair.a, pair.b, icp.T_target_source,
+                     EdgeInformationFromTangentInformation(icp.information, leveled[pair.a])});
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const PoseGraphResult graph = OptimizePoseGraph(leveled, edges, reference);
+  result->times.pose_graph_s = SecondsSince(start);
+  for (size_t i = 0; i < leveled.size(); ++i) result->cameras[i].connected = graph.connected[i];
+  if (!graph.usable) {
+    result->message = "pose graph: " + graph.message;
+    return std::nullopt;
+  }
+  return graph.poses;
+}
+
+/// Joint mode: one problem over every camera. Returns refined poses.
+/// The surface bundle after the joint point-to-plane solve: joint's poses, covariance and
+/// connectivity in `joint` are replaced where it refined a camera.
+void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const IcpOptions& options,
+                    int num_threads, const Log& log, JointResult* joint, RefineResult* result) {
+  for (size_t i = 0; i < surfaces.size(); ++i) {
+    surfaces[i].T_world_camera = joint->poses[i];
+    surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
+    // A camera the joint solve could not link keeps its leveled pose, which may be far off:
+    // its pixels would pull the planes.
+    if (!joint->connected[i]) surfaces[i].points.clear();
+  }
+  const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, num_threads, log);
+  if (!bundle.usable) {
+    Warn(result, log, bundle.message + "; the joint point-to-plane poses stand");
+    return;
+  }
+  SurfaceBundleReport& report = result->surface;
+  report = {true, bundle.planes, bundle.pixels, bundle.rounds, bundle.noise_scale};
+  log.Info("surface bundle: " + std::to_string(bundle.planes) + " planes, " +
+           std::to_string(bundle.pixels) + " pixels, " + std::to_string(bundle.rounds) +
+           " rounds, noise scale " + Fixed(bundle.noise_scale, 3));
+  for (size_t i = 0; i < surfaces.size(); ++i) {
+    CameraReport& camera = result->cameras[i];
+    camera.surface_thickness_before = bundle.thickness_before[i];
+    camera.surface_thickness_after = bundle.thickness_after[i];
+    camera.surface_fallback = bundle.fallback[i];
+    if (!surfaces[i].free) continue;
+    if (bundle.fallback[i]) {
+      Warn(result, log,
+           "camera " + camera.serial +
+               ": too few planes fix its pose for the surface bundle; it keeps its joint "
+               "point-to-plane pose");
+      continue;
+    }
+    joint->poses[i] = bundle.poses[i];
+    joint->covariance[i] = bundle.covariance[i];
+  }
+  joint->covariance_ok = joint->covariance_ok && bundle.covariance_ok;
+}
+
+std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<RegistrationCamera>& cameras,
+                                                    const std::vector<CandidatePair>& candidates,
+                                                    int reference, const IcpOptions& options,
+                                                    const std::vector<SurfaceCamera>* surfaces,
+                                                    int num_threads, const Log& log,
+                                                    RefineResult* result) {
+  const size_t finest = options.scales.size() - 1;
+  const double coarsest_voxel = options.scales.front() * options.voxel_size;
+  // The finest views of a pair at the given poses: (b, a), b the source.
+  const auto views = [&](const CandidatePair& pair, const Pose& T_a, const Pose& T_b) {
+    return std::make_pair(CameraView{&cameras[pair.b].pyramid->levels[finest], T_b, nullptr,
+                                     cameras[pair.b].depth_noise},
+                          CameraView{&cameras[pair.a].pyramid->levels[finest], T_a, nullptr,
+                                     cameras[pair.a].depth_noise});
+  };
+  // Registration time includes the pairs' fit before and after, as in the pairwise mode.
+  // The pairs in parallel, one search each.
+  const int pair_count = static_cast<int>(candidates.size());
+  const auto start = std::chrono::steady_clock::now();
+  result->pairs.assign(candidates.size(), PairReport{});
+  ParallelFor(
+      pair_count, num_threads,
+      [&](int k) {
+        const CandidatePair& pair = candidates[k];
+        PairReport& report = result->pairs[k];
+        report.serial_a = result->cameras[pair.a].serial;
+        report.serial_b = result->cameras[pair.b].serial;
+        report.overlap_area_m2 = pair.overlap_area_m2;
+        const auto [b, a] =
+            views(pair, cameras[pair.a].T_world_camera, cameras[pair.b].T_world_camera);
+        report.rmse_before_m = FitRmse(b, a, options, 1);
+      },
+      /*min_per_thread=*/1);
+  log.Info("joint: " + std::to_string(cameras.size()) + " cameras, " +
+           std::to_string(candidates.size()) + " pairs");
+  // The surface bundle starts from the joint point-to-plane solve.
+  IcpOptions joint_options = options;
+  if (surfaces != nullptr) joint_options.method = RegistrationMethod::kPointToPlane;
+  JointResult joint =
+      RegisterJoint(cameras, candidates, reference, joint_options, num_threads, log);
+  if (surfaces != nullptr && joint.usable) {
+    RefineSurfaces(*surfaces, reference, options, num_threads, log, &joint, result);
+  }
+  result->times.correspondences_s = joint.correspondences_s;
+  result->times.solve_s = joint.solve_s;
+  log.Info("joint: " + std::to_string(joint.iterations) + " iterations, correspondences " +
+           Fixed(joint.correspondences_s, 3) + " s, solve " + Fixed(joint.solve_s, 3) +
+           " s, covariance " + Fixed(joint.covariance_s, 3) + " s");
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    CameraReport& report = result->cameras[i];
+    report.connected = joint.connected[i];
+    report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference;
+    report.covariance = joint.covariance[i];
+    if (report.reference) continue;
+    report.weak_directions = joint.weak[i];
+    for (const WeakDirection& d : joint.weak[i]) {
+      Warn(result, log,
+           "camera " + report.serial + ": " + d.name + " weakly constrained (" +
+               Fixed(100.0 * d.strength, 2) +
+               "% against the best-constrained direction, threshold " +
+               Fixed(100.0 * options.degeneracy_threshold, 2) + "%): " + d.reason +
+               (options.hold_weak_directions ? "; held at its leveled pose" : ""));
+    }
+  }
+  std::vector<OverlapStats> overlap(candidates.size());
+  ParallelFor(
+      pair_count, num_threads,
+      [&](int k) {
+        const auto [b, a] =
+            views(candidates[k], joint.poses[candidates[k].a], joint.poses[candidates[k].b]);
+        overlap[k] = MeasureOverlap(b, a, coarsest_voxel, options, 1);
+      },
+      /*min_per_thread=*/1);
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    PairReport& report = result->pairs[k];
+    const OverlapStats& after = overlap[k];
+    report.fitness = after.fitness;
+    report.rmse_after_m = after.rmse_m;
+    report.correspondences = joint.pair_correspondences[k];
+    report.iterations = joint.iterations;
+    report.accepted = joint.connected[candidates[k].a] && joint.connected[candidates[k].b] &&
+                      joint.pair_correspondences[k] > 0;
+    log.Info("pair " + report.serial_a + " - " + report.serial_b + ": fitness " +
+             Fixed(report.fitness, 3) + ", RMSE " + Fixed(report.rmse_before_m * 1e3, 2) + " -> " +
+             Fixed(report.rmse_after_m * 1e3, 2) + " mm");
+  }
+  result->times.registration_s = SecondsSince(start);
+  if (!joint.usable) {
+    result->message = joint.message;
+    return std::nullopt;
+  }
+  return joint.poses;
+}
+
+}  // namespace
+
+double CameraDepthNoise(const IcpOptions& options, const CameraCapture& camera,
+                        const GroundResult& ground) {
+  if (!camera.HasDepth()) return 0.0;
+  if (options.depth_noise > 0.0) return options.depth_noise;
+  return ground.found ? ground.depth_noise : 0.0;
+}
+
+PointCloud RegistrationPoints(const CameraCapture& camera, const RegionOptions& region) {
+  // The depth range is a depth sensor's; a points camera's frame may have its origin inside
+  // the object (e.g. the Stanford bunny's scans), so it keeps every finite point.
+  const UnprojectOptions unproject =
+      camera.HasDepth()
+          ? UnprojectOptions{region.pixel_stride, region.min_depth_m, region.max_depth_m}
+          : UnprojectOptions{1, -std::numeric_limits<double>::infinity(),
+                             std::numeric_limits<double>::infinity()};
+  return CameraPoints(camera, unproject);
+}
+
+PreparedRig PrepareRegistration(const std::vector<PointCloud>& points,
+                                const std::vector<Pose>& leveled,
+                                const std::vector<bool>& floor_leveled,
+                                const std::vector<double>& depth_noise,
+                                const RefineOptions& options, int num_threads) {
+  const size_t n = points.size();
+  std::vector<double> voxel_sizes;
+  for (double s : options.icp.scales) voxel_sizes.push_back(s * options.icp.voxel_size);
+  PreparedRig rig;
+  rig.pyramids.resize(n);
+  rig.band_points.resize(n);
+  std::vector<GroundBox> boxes(n);
+  // The cameras in parallel, the threads left over within each camera: downsampling and
+  // tree building run on one thread per camera.
+  const int camera_threads = std::max(1, std::min(static_cast<int>(n), num_threads));
+  const int threads_per_camera = std::max(1, num_threads / camera_threads);
+  ParallelFor(
+      static_cast<int>(n), camera_threads,
+      [&](int i) {
+        const PointCloud band = NearFloorBand(points[i], leveled[i], options.region);
+        rig.band_points[i] = static_cast<int>(band.size());
+        boxes[i] = RobustGroundBox(Transform(leveled[i], band));
+        rig.pyramids[i] =
+            BuildPyramid(band, voxel_sizes, options.icp.normal_neighbors, Vec3::Zero(),
+                         options.icp.max_correspondence_distance_factor, threads_per_camera);
+        if (floor_leveled[i]) {
+          SnapFloorNormals(&rig.pyramids[i], FloorModel{leveled[i], depth_noise[i],
+                                                        options.ground.ransac_distance_m});
+        }
+      },
+      /*min_per_thread=*/1);
+  rig.candidates =
+      FindCandidatePairs(boxes, options.icp.overlap_margin, options.icp.min_overlap_area);
+  return rig;
+}
+
+void CheckRefineInput(const RigCapture& capture, const PoseMap& initial,
+                      const RefineOptions& options, const RefineInputNames& names) {
+  std::vector<std::string> serials;
+  std::vector<std::string> missing;
+  for (const CameraCapture& camera : capture.cameras) {
+    serials.push_back(camera.serial);
+    if (initial.count(camera.serial) == 0) missing.push_back(camera.serial);
+  }
+  std::vector<std::string> extra;
+  for (const auto& [serial, pose] : initial) {
+    if (std::find(serials.begin(), serials.end(), serial) == serials.end()) {
+      extra.push_back(serial);
+    }
+  }
+  std::vector<std::string> problems;
+  if (!missing.empty()) {
+    problems.push_back(names.extrinsics + " has no pose for camera(s) " + Join(missing) + " of " +
+                       names.capture);
+  }
+  if (!extra.empty()) {
+    problems.push_back(names.extrinsics + " has pose(s) for camera(s) " + Join(extra) + " that " +
+                       names.capture + " does not hold");
+  }
+  const std::string& reference = options.icp.reference;
+  if (!reference.empty() && std::find(serials.begin(), serials.end(), reference) == serials.end()) {
+    problems.push_back(names.reference + " '" + reference + "' is not a camera of " +
+                       names.capture + " (cameras: " + Join(serials) + ")");
+  }
+  if (!problems.empty()) throw InputError(names.command + ": " + Join(problems, "; "));
+}
+
+RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
+                    bool run_icp, int num_threads, const Log& log) {
+  CheckRefineInput(capture, initial, options);
+  RefineResult result;
+  const size_t n = capture.cameras.size();
+  result.reference = options.icp.reference.empty() && n > 0 ? capture.cameras.front().serial
+                                                            : options.icp.reference;
+  const int reference = ReferenceIndex(capture, result.reference);
+
+  // Ground leveling.
+  auto start = std::chrono::steady_clock::now();
+  std::vector<PointCloud> points(n);
+  std::vector<Pose> leveled(n);
+  result.cameras.resize(n);
+  for (size_t i = 0; i < n; ++i) leveled[i] = initial.at(capture.cameras[i].serial);
+  // The cameras in parallel (each RANSAC has its own seeded generator), then the log in
+  // camera order.
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int i) {
+        const CameraCapture& camera = capture.cameras[i];
+        CameraReport& report = result.cameras[i];
+        points[i] = RegistrationPoints(camera, options.region);
+        report.points = static_cast<int>(points[i].size());
+        if (options.ground.enabled) {
+          report.ground = LevelCamera(points[i], leveled[i], options.ground);
+          leveled[i] = report.ground.T_world_camera;
+        }
+      },
+      /*min_per_thread=*/1);
+  for (size_t i = 0; i < n; ++i) {
+    const CameraCapture& camera = capture.cameras[i];
+    CameraReport& report = result.cameras[i];
+    report.serial = camera.serial;
+    report.reference = static_cast<int>(i) == reference;
+    if (options.ground.enabled) {
+      if (report.ground.accepted) {
+        log.Info("camera " + camera.serial + ": floor leveled (" +
+                 Fixed(report.ground.correction_rotation_deg, 3) + " deg, " +
+                 Fixed(report.ground.correction_translation_m * 1e3, 1) + " mm, " +
+                 std::to_string(report.ground.inliers) + " inliers)");
+      } else {
+        Warn(&result, log,
+             "camera " + camera.serial + ": ground leveling not applied: " + report.ground.message);
+      }
+    }
+    result.leveled[camera.serial] = leveled[i];
+  }
+  result.times.leveling_s = SecondsSince(start);
+  result.refined = result.leveled;
+  if (!run_icp) {
+    result.success = true;
+    result.message = "leveling only";
+    return result;
+  }
+  if (n < 2) {
+    result.message = "nothing to register: the capture has one camera";
+    Warn(&result, log, result.message);
+    return result;
+  }
+
+  result.icp_ran = true;
+  result.mode = options.icp.mode;
+  result.method = options.icp.method;
+
+  // Near-floor band, preprocessing and candidate pairs.
+  start = std::chrono::steady_clock::now();
+  std::vector<bool> floor_leveled(n);
+  std::vector<double> depth_noise(n);
+  for (size_t i = 0; i < n; ++i) {
+    floor_leveled[i] = result.cameras[i].ground.accepted;
+    depth_noise[i] = CameraDepthNoise(options.icp, capture.cameras[i], result.cameras[i].ground);
+  }
+  const PreparedRig prepared =
+      PrepareRegistration(points, leveled, floor_leveled, depth_noise, options, num_threads);
+  const std::vector<CloudPyramid>& pyramids = prepared.pyramids;
+  const std::vector<CandidatePair>& candidates = prepared.candidates;
+  for (size_t i = 0; i < n; ++i) {
+    result.cameras[i].band_points = prepared.band_points[i];
+    log.Info("camera " + capture.cameras[i].serial + ": " +
+             std::to_string(prepared.band_points[i]) + " band points, " +
+             std::to_string(pyramids[i].levels.back().points.size()) + " at the finest voxel");
+  }
+  result.times.preprocessing_s = SecondsSince(start);
+  log.Info(std::to_string(candidates.size()) + " candidate pairs");
+
+  // The surface bundle's pixels: every valid pixel of the band once (pixel stride 1).
+  std::vector<SurfaceCamera> surfaces;
+  if (options.icp.mode == RefineMode::kJoint &&
+      options.icp.method == RegistrationMethod::kSurfaceBundle) {
+    surfaces.resize(n);
+    RegionOptions every_pixel = options.region;
+    every_pixel.pixel_stride = 1;
+    ParallelFor(
+        static_cast<int>(n), num_threads,
+        [&](int i) {
+          const CameraCapture& camera = capture.cameras[i];
+          surfaces[i].points =
+              NearFloorBand(RegistrationPoints(camera, every_pixel), leveled[i], options.region);
+          surfaces[i].T_world_leveled = leveled[i];
+          surfaces[i].depth_noise = depth_noise[i];
+          surfaces[i].ray_model = camera.HasDepth();
+          surfaces[i].floor_leveled = floor_leveled[i];
+        },
+        /*min_per_thread=*/1);
+  }
+
+  std::vector<RegistrationCamera> cameras(n);
+  for (size_t i = 0; i < n; ++i) {
+    const GroundResult& ground = result.cameras[i].ground;
+    cameras[i] = {&pyramids[i], leveled[i], depth_noise[i]};
+    log.Info("camera " + capture.cameras[i].serial +
+             ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
+             (!capture.cameras[i].HasDepth()  ? " (points camera: noise floor only)"
+              : options.icp.depth_noise > 0.0 ? " (configured)"
+              : ground.found                  ? " (measured on the floor)"
+                                              : " (no floor: noise floor only)"));
+  }
+  const std::optional<std::vector<Pose>> registered =
+      options.icp.mode == RefineMode::kJoint
+          ? RegisterAllJointly(cameras, candidates, reference, options.icp,
+                               surfaces.empty() ? nullptr : &surfaces, num_threads, log, &result)
+          : RegisterPairwise(cameras, leveled, candidates, reference, options.icp, num_threads, log,
+                             &result);
+  if (!registered) {
+    for (CameraReport& report : result.cameras) {
+      if (!report.reference) report.message = "registration failed: " + result.message;
+    }
+    Warn(&result, log,
+         "registration failed, every camera keeps its leveled pose: " + result.message);
+    return result;
+  }
+  const std::vector<Pose>& refined = *registered;
+
+  // Safety bounds, measured after removing the motion common to the whole rig: a wrong
+  // reference pose moves every other camera by its lever arm, which is no reason to
+  // distrust them; one camera moving against the others is.
+  std::vector<bool> connected(n);
+  for (size_t i = 0; i < n; ++i) connected[i] = result.cameras[i].connected;
+  const Pose common = CommonMotion(leveled, refined, connected);
+  int moved = 0;
+  for (size_t i = 0; i < n; ++i) {
+    CameraReport& report = result.cameras[i];
+    const Vec6 delta = PoseDifference(leveled[i], refined[i]);
+    report.delta_rotation_deg = delta.head<3>().norm() * kRadToDeg;
+    report.delta_translation_m = delta.tail<3>().norm();
+    const Vec6 own = PoseDifference(common * leveled[i], refined[i]);
+    report.own_rotation_deg = own.head<3>().norm() * kRadToDeg;
+    report.own_translation_m = own.tail<3>().norm();
+    if (report.reference) {
+      report.accepted = true;
+      continue;
+    }
+    if (!report.connected) {
+      report.message = "not connected to the reference camera by an accepted pair";
+    } else if (!refined[i].matrix().allFinite()) {
+      report.message = "registration produced a non-finite pose";
+    } else if (report.own_rotation_deg > options.icp.max_rotation_deg) {
+      report.message = "rotation change against the rig " + Fixed(report.own_rotation_deg, 3) +
+                       " deg exceeds max_rotation_deg " + Fixed(options.icp.max_rotation_deg, 3);
+    } else if (report.own_translation_m > options.icp.max_translation_m) {
+      report.message = "translation change against the rig " + Fixed(report.own_translation_m, 4) +
+                       " m exceeds max_translation_m " + Fixed(options.icp.max_translation_m, 4);
+    } else {
+      report.accepted = true;
+      ++moved;
+      result.refined[report.serial] = refined[i];
+      continue;
+    }
+    Warn(&result, log, "camera " + report.serial + " keeps its leveled pose: " + report.message);
+  }
+  result.success = moved > 0;
+  if (result.message.empty()) {
+    result.message = result.success ? "refined " + std::to_string(moved) + " of " +
+                                          std::to_string(n - 1) + " non-reference cameras"
+                                    : "no camera could be refined";
+  }
+  return result;
+}
+
+}  // namespace rigfit

@@ -1,0 +1,59 @@
+// The surface bundle (icp.method surface_bundle): the poses of every camera AND the planar
+// surfaces they see are the unknowns of one Ceres problem, every valid pixel of the band
+// entering once through a residual exact for noise along the viewing ray
+// (residuals/plane_cluster.h, docs/residuals.md "Surface bundle"). It starts from the joint
+// point-to-plane solve (within about a centimetre), then for a few rounds: segments the merged
+// world cloud into planes (rig/plane_segmentation.h) at the current poses, with a model
+// error that shrinks from round to round, and solves poses and planes together, the planes
+// eliminated by the Schur complement. The floor is one plane with its normal held at +Y; the
+// gravity prior stays for every camera. A camera whose planes do not fix all six directions
+// (fewer than three planes, or normals that do not span space) keeps its start pose.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/types.h"
+#include "registration/log.h"
+#include "rig/options.h"
+
+namespace rigfit {
+
+struct SurfaceCamera {
+  PointCloud points;                        ///< band points, camera frame, every valid pixel once
+  Pose T_world_camera = Pose::Identity();   ///< start (the joint solve's result)
+  Pose T_world_leveled = Pose::Identity();  ///< for the gravity prior
+  double depth_noise = 0.0;                 ///< k of sigma_z = k z^2 (0: icp.min_noise_m alone)
+  bool ray_model = true;                    ///< a depth camera; false: a points camera
+  bool floor_leveled = false;  ///< its floor was leveled to y = 0 (the floor is then known)
+  bool free = false;           ///< estimated (connected, not the reference)
+};
+
+struct SurfaceBundleResult {
+  std::vector<Pose> poses;  ///< refined; cameras that are not free or fell back as given
+  bool usable = false;
+  std::string message;
+  /// Per camera: held at its start pose because its planes do not fix its pose.
+  std::vector<bool> fallback;
+  /// Per camera: 6x6 covariance (PoseManifold tangent, planes marginalised, scaled by
+  /// noise_scale^2); zero when unavailable.
+  std::vector<Mat6> covariance;
+  bool covariance_ok = false;
+  /// Per camera: RMS whitened residual of its pixels on the planes at the start and at the
+  /// end ("plane thickness" in standard deviations; near 1 when the noise model holds).
+  std::vector<double> thickness_before;
+  std::vector<double> thickness_after;
+  /// sqrt(cost / (N - p)) at the end: the measured noise against the model's (N pixels,
+  /// p parameters); the depth noise the data show is noise_scale * k.
+  double noise_scale = 0.0;
+  int planes = 0;  ///< in the last round
+  int pixels = 0;  ///< in the last round's clusters
+  int rounds = 0;
+};
+
+/// Refines the free cameras. Never throws on bad geometry.
+SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
+                                          const IcpOptions& options, int num_threads,
+                                          const Log& log);
+
+}  // namespace rigfit
