@@ -22,6 +22,7 @@
 
 #include "cli/commands.h"
 #include "cli/json_output.h"
+#include "cli/stderr_log.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
 #include "core/format.h"
@@ -79,18 +80,6 @@ std::string ModeName(RefineMode mode) {
   RefineOptions options;
   options.icp.mode = mode;
   return ConfigToJson(options)["icp"]["mode"];
-}
-
-Log StderrLog(const std::string& prefix, bool quiet) {
-  Log log;
-  log.sink = [prefix, quiet](LogLevel level, const std::string& message) {
-    if (level == LogLevel::kWarning) {
-      std::fprintf(stderr, "%swarning: %s\n", prefix.c_str(), message.c_str());
-    } else if (level == LogLevel::kInfo && !quiet) {
-      std::fprintf(stderr, "%s%s\n", prefix.c_str(), message.c_str());
-    }
-  };
-  return log;
 }
 
 /// Resident set size of this process now (VmRSS of /proc/self/status), MB; 0 if unknown.
@@ -192,8 +181,10 @@ ModeRun RunMode(RefineMode mode, const RigCapture& capture, const PoseMap& initi
     Json report;
     try {
       const auto start = std::chrono::steady_clock::now();
-      const RefineResult result = Refine(capture, initial, options, true, a.threads,
-                                         StderrLog("compare: " + run.name + ": ", a.quiet));
+      const RefineResult result =
+          Refine(capture, initial, options, true, a.threads,
+                 StderrLog("compare: " + run.name + ": ",
+                           a.quiet ? Verbosity::kQuiet : Verbosity::kNormal));
       report = RunReportJson(result, SecondsSince(start));
     } catch (const std::exception& e) {
       report = {{"error", e.what()}};
@@ -633,8 +624,8 @@ int RunCompare(const CompareArgs& a) {
   c.runs[1] = RunMode(RefineMode::kJoint, capture, initial.poses, options, a);
 
   // The shared start: leveling alone, as both modes ran it.
-  const RefineResult leveling =
-      Refine(capture, initial.poses, options, false, a.threads, StderrLog("compare: ", true));
+  const RefineResult leveling = Refine(capture, initial.poses, options, false, a.threads,
+                                       StderrLog("compare: ", Verbosity::kQuiet));
   c.leveled = leveling.leveled;
   c.reference = leveling.reference;
   const DiagnosticRig rig = PrepareDiagnostics(capture, leveling, options, a.threads);

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/stderr_log.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
 #include "core/format.h"
@@ -35,8 +36,6 @@ using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 constexpr int kMaxThreads = 256;
-
-enum class Verbosity { kQuiet, kNormal, kVerbose };
 
 struct RefineArgs {
   std::string capture_path;
@@ -60,26 +59,6 @@ struct RefineArgs {
   bool verbose = false;
   int threads = 2;
 };
-
-Log StderrLog(Verbosity verbosity) {
-  Log log;
-  log.sink = [verbosity](LogLevel level, const std::string& message) {
-    switch (level) {
-      case LogLevel::kWarning:
-        std::fprintf(stderr, "refine: warning: %s\n", message.c_str());
-        break;
-      case LogLevel::kInfo:
-        if (verbosity != Verbosity::kQuiet) std::fprintf(stderr, "refine: %s\n", message.c_str());
-        break;
-      case LogLevel::kDebug:
-        if (verbosity == Verbosity::kVerbose) {
-          std::fprintf(stderr, "refine: debug: %s\n", message.c_str());
-        }
-        break;
-    }
-  };
-  return log;
-}
 
 /// The flags that do not map to a config key.
 void CheckFlags(const RefineArgs& a) {
@@ -264,9 +243,9 @@ void PrintSummary(const RefineResult& result, const RefineOptions& options, cons
 
 int RunRefine(const RefineArgs& a) {
   const auto start = Clock::now();
-  const Log log = StderrLog(a.quiet     ? Verbosity::kQuiet
-                            : a.verbose ? Verbosity::kVerbose
-                                        : Verbosity::kNormal);
+  const Log log = StderrLog("refine: ", a.quiet     ? Verbosity::kQuiet
+                                        : a.verbose ? Verbosity::kVerbose
+                                                    : Verbosity::kNormal);
   CheckFlags(a);
   CheckOutputPath(a);
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "refine: --report");
