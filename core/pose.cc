@@ -74,6 +74,12 @@ Vec6 PoseDifference(const Pose& T_a, const Pose& T_b) {
   return delta;
 }
 
+Pose Reorthonormalized(const Pose& T) {
+  Pose R = T;
+  R.linear() = Eigen::Quaterniond(T.linear()).normalized().toRotationMatrix();
+  return R;
+}
+
 Pose PosePlus(const Pose& T_a, const Vec6& delta) {
   Pose T = Pose::Identity();
   T.linear() = ExpSO3(delta.head<3>()) * T_a.linear();

@@ -55,6 +55,10 @@ Vec3 LogSO3(const Mat3& R);
 Vec6 PoseDifference(const Pose& T_a, const Pose& T_b);
 /// The inverse of PoseDifference: returns T with PoseDifference(T_a, T) = delta.
 Pose PosePlus(const Pose& T_a, const Vec6& delta);
+/// T with its rotation block made orthonormal again (through the normalised quaternion: the
+/// nearest rotation to first order). A chain of pose products accumulates round-off in the
+/// rotation, and Isometry3d's inverse (the transpose) then amplifies it at every step.
+Pose Reorthonormalized(const Pose& T);
 
 /// The Ceres manifold of a pose parameter block (7 ambient, 6 tangent), implementing the
 /// tangent convention above. Use it with every parameter block that holds a pose.

@@ -1,0 +1,185 @@
+#include "rgbd/frame.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/errors.h"
+#include "core/parallel.h"
+
+namespace rigfit {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Rows per parallel block: a 640-pixel row is cheap, so blocks of rows keep the threads busy
+// without a task per pixel.
+constexpr int kRowsPerTask = 8;
+
+template <typename Body>
+void ForEachRow(int height, int threads, const Body& body) {
+  ParallelFor(height, threads, body, kRowsPerTask);
+}
+
+// Half-resolution depth: per 2x2 block, the mean of the valid depths within the jump ratio
+// of the block's nearest valid depth (the foreground, so a silhouette is not smeared).
+std::vector<float> Downsample(const std::vector<float>& depth, int width, int height,
+                              double jump_ratio) {
+  const int w = width / 2;
+  const int h = height / 2;
+  std::vector<float> out(static_cast<std::size_t>(w) * h, kNaN);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      float samples[4];
+      int n = 0;
+      for (int dv = 0; dv < 2; ++dv) {
+        for (int du = 0; du < 2; ++du) {
+          const float z = depth[static_cast<std::size_t>(2 * v + dv) * width + 2 * u + du];
+          if (!std::isnan(z)) samples[n++] = z;
+        }
+      }
+      if (n == 0) continue;
+      const float nearest = *std::min_element(samples, samples + n);
+      const double gate = jump_ratio * nearest;
+      double sum = 0.0;
+      int count = 0;
+      for (int k = 0; k < n; ++k) {
+        if (samples[k] - nearest <= gate) {
+          sum += samples[k];
+          ++count;
+        }
+      }
+      out[static_cast<std::size_t>(v) * w + u] = static_cast<float>(sum / count);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
+                                   double sigma_px, double sigma_m, int threads) {
+  const int radius = std::max(1, static_cast<int>(std::ceil(2.0 * sigma_px)));
+  std::vector<double> spatial((2 * radius + 1) * (2 * radius + 1));
+  for (int dv = -radius; dv <= radius; ++dv) {
+    for (int du = -radius; du <= radius; ++du) {
+      spatial[(dv + radius) * (2 * radius + 1) + du + radius] =
+          std::exp(-(du * du + dv * dv) / (2.0 * sigma_px * sigma_px));
+    }
+  }
+  const double inv_two_sigma_m2 = 1.0 / (2.0 * sigma_m * sigma_m);
+  std::vector<float> out(depth_m.size(), kNaN);
+  ForEachRow(height, threads, [&](int v) {
+    for (int u = 0; u < width; ++u) {
+      const float z = depth_m[static_cast<std::size_t>(v) * width + u];
+      if (std::isnan(z)) continue;
+      double sum = 0.0;
+      double weight = 0.0;
+      for (int dv = std::max(-radius, -v); dv <= std::min(radius, height - 1 - v); ++dv) {
+        for (int du = std::max(-radius, -u); du <= std::min(radius, width - 1 - u); ++du) {
+          const float zn = depth_m[static_cast<std::size_t>(v + dv) * width + u + du];
+          if (std::isnan(zn)) continue;
+          const double dz = zn - z;
+          const double w = spatial[(dv + radius) * (2 * radius + 1) + du + radius] *
+                           std::exp(-dz * dz * inv_two_sigma_m2);
+          sum += w * zn;
+          weight += w;
+        }
+      }
+      out[static_cast<std::size_t>(v) * width + u] = static_cast<float>(sum / weight);
+    }
+  });
+  return out;
+}
+
+void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int threads) {
+  const int width = level->width;
+  const int height = level->height;
+  const PinholeIntrinsics& K = level->intrinsics;
+  const std::size_t n = static_cast<std::size_t>(width) * height;
+  level->vertices.assign(n, Vec3f::Constant(kNaN));
+  level->normals.assign(n, Vec3f::Constant(kNaN));
+  const float inv_fx = static_cast<float>(1.0 / K.fx);
+  const float inv_fy = static_cast<float>(1.0 / K.fy);
+  const float cx = static_cast<float>(K.cx);
+  const float cy = static_cast<float>(K.cy);
+  ForEachRow(height, threads, [&](int v) {
+    for (int u = 0; u < width; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * width + u;
+      const float z = level->depth_m[i];
+      if (std::isnan(z)) continue;
+      level->vertices[i] = Vec3f((u - cx) * inv_fx * z, (v - cy) * inv_fy * z, z);
+    }
+  });
+  const float ratio = static_cast<float>(max_depth_jump_ratio);
+  ForEachRow(height, threads, [&](int v) {
+    if (v == 0 || v == height - 1) return;
+    for (int u = 1; u + 1 < width; ++u) {
+      const std::size_t i = static_cast<std::size_t>(v) * width + u;
+      const float z = level->depth_m[i];
+      if (std::isnan(z)) continue;
+      const std::size_t neighbours[4] = {i - 1, i + 1, i - width, i + width};
+      bool usable = true;
+      for (const std::size_t j : neighbours) {
+        const float zj = level->depth_m[j];
+        if (std::isnan(zj) || std::abs(zj - z) > ratio * z) {
+          usable = false;
+          break;
+        }
+      }
+      if (!usable) continue;
+      const Vec3f du = level->vertices[i + 1] - level->vertices[i - 1];
+      const Vec3f dv = level->vertices[i + width] - level->vertices[i - width];
+      Vec3f normal = du.cross(dv);
+      const float norm = normal.norm();
+      if (!(norm > 0.0f)) continue;
+      normal /= norm;
+      if (normal.dot(level->vertices[i]) > 0.0f) normal = -normal;
+      level->normals[i] = normal;
+    }
+  });
+}
+
+FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& options, int threads) {
+  if (options.levels < 1) throw InputError("frame options: levels must be at least 1");
+  const std::size_t n = static_cast<std::size_t>(frame.width) * frame.height;
+  if (frame.width <= 0 || frame.height <= 0 || frame.depth_m.size() != n) {
+    throw InputError(frame.source + ": depth holds " + std::to_string(frame.depth_m.size()) +
+                     " samples for a " + std::to_string(frame.width) + "x" +
+                     std::to_string(frame.height) + " image");
+  }
+  FramePyramid pyramid;
+  pyramid.levels.resize(options.levels);
+  FrameLevel& base = pyramid.levels[0];
+  base.width = frame.width;
+  base.height = frame.height;
+  base.intrinsics = frame.intrinsics;
+  base.depth_m = frame.depth_m;
+  const float z_min = static_cast<float>(options.min_depth_m);
+  const float z_max = static_cast<float>(options.max_depth_m);
+  for (float& z : base.depth_m) {
+    if (!(z >= z_min && z <= z_max)) z = kNaN;
+  }
+  if (options.bilateral) {
+    base.depth_m = BilateralFilter(base.depth_m, base.width, base.height,
+                                   options.bilateral_sigma_px, options.bilateral_sigma_m, threads);
+  }
+  for (int l = 1; l < options.levels; ++l) {
+    const FrameLevel& fine = pyramid.levels[l - 1];
+    FrameLevel& coarse = pyramid.levels[l];
+    coarse.width = fine.width / 2;
+    coarse.height = fine.height / 2;
+    coarse.intrinsics.fx = fine.intrinsics.fx / 2.0;
+    coarse.intrinsics.fy = fine.intrinsics.fy / 2.0;
+    coarse.intrinsics.cx = (fine.intrinsics.cx + 0.5) / 2.0 - 0.5;
+    coarse.intrinsics.cy = (fine.intrinsics.cy + 0.5) / 2.0 - 0.5;
+    coarse.depth_m =
+        Downsample(fine.depth_m, fine.width, fine.height, options.max_depth_jump_ratio);
+  }
+  for (FrameLevel& level : pyramid.levels) {
+    ComputeVertexNormalMaps(&level, options.max_depth_jump_ratio, threads);
+  }
+  return pyramid;
+}
+
+}  // namespace rigfit

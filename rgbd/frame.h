@@ -1,0 +1,70 @@
+// Frame preprocessing of the dense RGB-D pipeline (KinectFusion, Newcombe et al. 2011,
+// section 3.2): depth truncation, an optional bilateral filter, a depth pyramid, and per level
+// the vertex map (the back-projected points, camera frame) and the normal map (from the
+// neighbouring pixels). Maps are float: they are read many times per frame and a float keeps
+// twice as many of them in cache; every sum over them is accumulated in double.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+#include <vector>
+
+#include "core/rgbd.h"
+
+namespace rigfit {
+
+using Vec3f = Eigen::Vector3f;
+
+struct FrameOptions {
+  /// Depth outside [min_depth_m, max_depth_m] is dropped (truncation: Kinect-type sensors'
+  /// noise grows with z^2, and far depth is where the sensor is least reliable).
+  double min_depth_m = 0.2;
+  double max_depth_m = 4.0;
+  /// Pyramid levels (level 0 = full resolution, each next level half the size).
+  int levels = 3;
+  /// Bilateral filter of the level-0 depth before the pyramid (KinectFusion's): off by
+  /// default. Spatial sigma in pixels, range sigma in metres.
+  bool bilateral = false;
+  double bilateral_sigma_px = 2.0;
+  double bilateral_sigma_m = 0.03;
+  /// Neighbours whose depth differs from a pixel's by more than this share of its depth
+  /// are across a depth discontinuity: they are averaged with nothing, and no normal is
+  /// estimated across them.
+  double max_depth_jump_ratio = 0.05;
+};
+
+/// One level of a frame's pyramid. Invalid pixels hold NaN vertices and normals.
+struct FrameLevel {
+  int width = 0;
+  int height = 0;
+  PinholeIntrinsics intrinsics;
+  std::vector<float> depth_m;
+  std::vector<Vec3f> vertices;  ///< camera frame, metres
+  std::vector<Vec3f> normals;   ///< unit, facing the camera (n . v < 0)
+
+  bool Valid(int i) const { return !std::isnan(normals[i].x()); }
+};
+
+/// A preprocessed frame: levels[0] is the full resolution.
+struct FramePyramid {
+  std::vector<FrameLevel> levels;
+};
+
+/// Truncates (and optionally filters) the frame's depth and builds `options.levels` levels.
+/// Each coarser level averages the valid depths of a 2x2 block that lie within the depth-jump
+/// ratio of the block's nearest one (no averaging across a silhouette), and scales the
+/// intrinsics: f' = f / 2, c' = (c + 0.5) / 2 - 0.5.
+FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& options,
+                               int threads = 2);
+
+/// The vertex and normal maps of a depth image (NaN for invalid depth). The normal of pixel
+/// (u, v) is (V(u+1, v) - V(u-1, v)) x (V(u, v+1) - V(u, v-1)), normalised and turned to face
+/// the camera; invalid at the image border, next to an invalid pixel, or across a depth jump.
+void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int threads = 2);
+
+/// Depth filtered by a bilateral filter (window radius 2 sigma_px): weights
+/// exp(-d_px^2 / 2 sigma_px^2 - dz^2 / 2 sigma_m^2) over the valid neighbours.
+std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
+                                   double sigma_px, double sigma_m, int threads = 2);
+
+}  // namespace rigfit

@@ -1,0 +1,299 @@
+#include "rgbd/projective_icp.h"
+
+#include <ceres/loss_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include <Eigen/Eigenvalues>
+#include <cmath>
+
+#include "core/parallel.h"
+#include "residuals/point_to_plane.h"
+
+namespace rigfit {
+namespace {
+
+// The association of one source pixel, with what every pixel shares computed once.
+class Associator {
+ public:
+  Associator(const FrameLevel& source, const FrameLevel& target, const Pose& T_target_source,
+             const AssociationOptions& options)
+      : source_(source),
+        target_(target),
+        R_(T_target_source.linear()),
+        t_(T_target_source.translation()),
+        max_distance2_(options.max_distance_m * options.max_distance_m),
+        min_cos_(std::cos(options.max_normal_angle_deg * kDegToRad)) {}
+
+  // On kMatched: *moved = R p + t, *target_index the target pixel.
+  AssociationOutcome operator()(int i, Vec3* moved, int* target_index) const {
+    if (!source_.Valid(i)) return AssociationOutcome::kNoSourcePoint;
+    const Vec3 p = R_ * source_.vertices[i].cast<double>() + t_;
+    if (!(p.z() > 0.0)) return AssociationOutcome::kBehindCamera;
+    const PinholeIntrinsics& K = target_.intrinsics;
+    const double u = K.fx * p.x() / p.z() + K.cx;
+    const double v = K.fy * p.y() / p.z() + K.cy;
+    // The nearest pixel centre: u in [-0.5, W - 0.5) rounds into [0, W).
+    if (!(u >= -0.5 && u < target_.width - 0.5 && v >= -0.5 && v < target_.height - 0.5)) {
+      return AssociationOutcome::kOutsideImage;
+    }
+    const int j = static_cast<int>(std::floor(v + 0.5)) * target_.width +
+                  static_cast<int>(std::floor(u + 0.5));
+    if (!target_.Valid(j)) return AssociationOutcome::kNoTargetPoint;
+    if ((p - target_.vertices[j].cast<double>()).squaredNorm() >= max_distance2_) {
+      return AssociationOutcome::kTooFar;
+    }
+    const Vec3 n_p = R_ * source_.normals[i].cast<double>();
+    if (!(n_p.dot(target_.normals[j].cast<double>()) > min_cos_)) {
+      return AssociationOutcome::kNormalsDisagree;
+    }
+    *moved = p;
+    *target_index = j;
+    return AssociationOutcome::kMatched;
+  }
+
+ private:
+  const FrameLevel& source_;
+  const FrameLevel& target_;
+  const Mat3 R_;
+  const Vec3 t_;
+  const double max_distance2_;
+  const double min_cos_;
+};
+
+// Adds one pair to the normal equations: A = [(p' x n)^T n^T], b = n^T (p' - q).
+void AddPair(const Vec3& moved, const Vec3& q, const Vec3& n, double huber_delta_m,
+             NormalEquations* equations) {
+  const double b = n.dot(moved - q);
+  Vec6 A;
+  A.head<3>() = moved.cross(n);
+  A.tail<3>() = n;
+  const double w =
+      huber_delta_m > 0.0 && std::abs(b) > huber_delta_m ? huber_delta_m / std::abs(b) : 1.0;
+  equations->H.selfadjointView<Eigen::Upper>().rankUpdate(A, w);
+  equations->g += (w * b) * A;
+  equations->squared_error += b * b;
+  ++equations->count;
+}
+
+// Sums per-thread partial equations in chunk order (deterministic for a thread count) and
+// fills the lower triangle.
+NormalEquations Sum(const std::vector<NormalEquations>& parts) {
+  NormalEquations total;
+  for (const NormalEquations& part : parts) {
+    total.H += part.H;
+    total.g += part.g;
+    total.squared_error += part.squared_error;
+    total.count += part.count;
+  }
+  total.H.triangularView<Eigen::StrictlyLower>() = total.H.transpose();
+  return total;
+}
+
+bool Converged(const Vec6& x, const IcpOptions& options) {
+  return x.head<3>().norm() < options.converged_rotation_rad &&
+         x.tail<3>().norm() < options.converged_translation_m;
+}
+
+}  // namespace
+
+AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLevel& target,
+                                  const Pose& T_target_source, const AssociationOptions& options,
+                                  int* target_index) {
+  Vec3 moved;
+  return Associator(source, target, T_target_source, options)(i, &moved, target_index);
+}
+
+std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const FrameLevel& target,
+                                                const Pose& T_target_source,
+                                                const AssociationOptions& options, int threads) {
+  const Associator associate(source, target, T_target_source, options);
+  const int n = source.width * source.height;
+  const int chunks = std::max(1, threads);
+  std::vector<std::vector<Correspondence>> parts(chunks);
+  ParallelForChunks(n, chunks, [&](int c, int begin, int end) {
+    Vec3 moved;
+    int j = 0;
+    for (int i = begin; i < end; ++i) {
+      if (associate(i, &moved, &j) == AssociationOutcome::kMatched) {
+        parts[c].push_back({source.vertices[i].cast<double>(), target.vertices[j].cast<double>(),
+                            target.normals[j].cast<double>()});
+      }
+    }
+  });
+  std::vector<Correspondence> pairs;
+  for (const auto& part : parts) pairs.insert(pairs.end(), part.begin(), part.end());
+  return pairs;
+}
+
+NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
+                                     const Pose& T_target_source, double huber_delta_m,
+                                     int threads) {
+  const int chunks = std::max(1, threads);
+  std::vector<NormalEquations> parts(chunks);
+  ParallelForChunks(static_cast<int>(pairs.size()), chunks, [&](int c, int begin, int end) {
+    for (int k = begin; k < end; ++k) {
+      AddPair(T_target_source * pairs[k].p, pairs[k].q, pairs[k].n, huber_delta_m, &parts[c]);
+    }
+  });
+  return Sum(parts);
+}
+
+NormalEquations AccumulateProjective(const FrameLevel& source, const FrameLevel& target,
+                                     const Pose& T_target_source, const AssociationOptions& options,
+                                     double huber_delta_m, int threads) {
+  const Associator associate(source, target, T_target_source, options);
+  const int chunks = std::max(1, threads);
+  std::vector<NormalEquations> parts(chunks);
+  ParallelForChunks(source.width * source.height, chunks, [&](int c, int begin, int end) {
+    Vec3 moved;
+    int j = 0;
+    for (int i = begin; i < end; ++i) {
+      if (associate(i, &moved, &j) == AssociationOutcome::kMatched) {
+        AddPair(moved, target.vertices[j].cast<double>(), target.normals[j].cast<double>(),
+                huber_delta_m, &parts[c]);
+      }
+    }
+  });
+  return Sum(parts);
+}
+
+StepSolution SolveStep(const NormalEquations& equations, double length_m, double ratio) {
+  StepSolution solution;
+  if (equations.count < 6) return solution;
+  // y = D x with D = diag(L, L, L, 1, 1, 1): H_y = D^-1 H D^-1, g_y = D^-1 g.
+  Vec6 d_inv;
+  d_inv << 1.0 / length_m, 1.0 / length_m, 1.0 / length_m, 1.0, 1.0, 1.0;
+  const Mat6 H_y = d_inv.asDiagonal() * equations.H * d_inv.asDiagonal();
+  const Vec6 g_y = d_inv.asDiagonal() * equations.g;
+  const Eigen::SelfAdjointEigenSolver<Mat6> eigen(H_y);
+  const double largest = eigen.eigenvalues()(5);
+  if (!(largest > 0.0)) return solution;
+  Vec6 y = Vec6::Zero();
+  for (int k = 0; k < 6; ++k) {
+    const double lambda = eigen.eigenvalues()(k);
+    const Vec6 v = eigen.eigenvectors().col(k);
+    if (lambda > ratio * largest) {
+      y -= v * (v.dot(g_y) / lambda);
+    } else {
+      ++solution.weak_directions;
+      solution.weak.push_back(v);
+    }
+  }
+  solution.x = d_inv.asDiagonal() * y;
+  return solution;
+}
+
+Pose ApplyLeftUpdate(const Vec6& x, const Pose& T) {
+  Pose update = Pose::Identity();
+  update.linear() = ExpSO3(x.head<3>());
+  update.translation() = x.tail<3>();
+  return update * T;
+}
+
+TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& target,
+                            const Pose& T_init, const IcpOptions& options, int threads) {
+  TrackResult result;
+  const int levels = static_cast<int>(std::min(source.levels.size(), target.levels.size()));
+  if (levels == 0 || options.iterations.empty()) {
+    result.message = "no pyramid level to track";
+    return result;
+  }
+  // Rotation weighs as the displacement it causes at the scene's depth: the mean source depth.
+  double depth_sum = 0.0;
+  int valid = 0;
+  const FrameLevel& finest = source.levels[0];
+  for (int i = 0; i < finest.width * finest.height; ++i) {
+    if (finest.Valid(i)) {
+      depth_sum += finest.vertices[i].z();
+      ++valid;
+    }
+  }
+  if (valid == 0) {
+    result.message = "the source frame has no valid pixel";
+    return result;
+  }
+  const double length_m = depth_sum / valid;
+
+  Pose T = T_init;
+  NormalEquations last;
+  for (int level = levels - 1; level >= 0; --level) {
+    const int iterations =
+        options.iterations[std::min<std::size_t>(level, options.iterations.size() - 1)];
+    for (int it = 0; it < iterations; ++it) {
+      last = AccumulateProjective(source.levels[level], target.levels[level], T,
+                                  options.association, options.huber_delta_m, threads);
+      const StepSolution step = SolveStep(last, length_m, options.weak_direction_ratio);
+      if (last.count < 6) break;
+      T = ApplyLeftUpdate(step.x, T);
+      ++result.iterations;
+      result.weak_directions = step.weak_directions;
+      if (Converged(step.x, options)) break;
+    }
+  }
+  if (last.count == 0 || levels > 1) {
+    // The statistics of the final estimate at the finest level.
+    last = AccumulateProjective(source.levels[0], target.levels[0], T, options.association,
+                                options.huber_delta_m, threads);
+  }
+  result.T_target_source = Reorthonormalized(T);
+  result.correspondences = last.count;
+  result.matched_ratio = static_cast<double>(last.count) / valid;
+  result.rmse_m = last.count > 0 ? std::sqrt(last.squared_error / last.count) : 0.0;
+  if (!T.matrix().allFinite()) {
+    result.message = "the estimate is not finite";
+  } else if (result.matched_ratio < options.min_matched_ratio) {
+    result.message = "only " + std::to_string(last.count) + " of " + std::to_string(valid) +
+                     " pixels matched (" + std::to_string(result.matched_ratio) + " < " +
+                     std::to_string(options.min_matched_ratio) + ")";
+  } else {
+    result.success = true;
+  }
+  return result;
+}
+
+Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose& T_init,
+                           double huber_delta_m, int max_iterations, int threads) {
+  Pose T = T_init;
+  for (int it = 0; it < max_iterations; ++it) {
+    const NormalEquations equations = BuildNormalEquations(pairs, T, huber_delta_m, threads);
+    // Every direction the pairs determine at all is solved: a ratio at rounding level.
+    const Vec6 x = SolveStep(equations, 1.0, 1e-14).x;
+    T = ApplyLeftUpdate(x, T);
+    if (x.norm() < 1e-13) break;
+  }
+  return T;
+}
+
+Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_init,
+                     double huber_delta_m, int threads) {
+  if (pairs.empty()) return T_init;
+  double pose[kPoseAmbientSize];
+  double identity[kPoseAmbientSize];
+  PoseToParameters(T_init, pose);
+  PoseToParameters(Pose::Identity(), identity);
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  PoseManifold manifold;
+  // One loss object shared by every block: the problem deletes it once.
+  ceres::LossFunction* loss = huber_delta_m > 0.0 ? new ceres::HuberLoss(huber_delta_m) : nullptr;
+  for (const Correspondence& pair : pairs) {
+    problem.AddResidualBlock(PointToPlaneCost::Create(pair.p, pair.q, pair.n), loss, pose,
+                             identity);
+  }
+  problem.SetManifold(pose, &manifold);
+  problem.SetParameterBlockConstant(identity);
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::DENSE_QR;
+  options.max_num_iterations = 100;
+  options.function_tolerance = 1e-16;
+  options.gradient_tolerance = 1e-16;
+  options.parameter_tolerance = 1e-15;
+  options.num_threads = threads;
+  ceres::Solver::Summary summary;
+  ceres::Solve(options, &problem, &summary);
+  return PoseFromParameters(pose);
+}
+
+}  // namespace rigfit

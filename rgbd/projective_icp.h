@@ -1,0 +1,148 @@
+// Projective point-to-plane ICP between two preprocessed frames (KinectFusion, section 3.5;
+// the reference design ../shared/seeds/dense_slam_point_fusion.txt, sections 2.1-2.3;
+// derivation and the design's questions answered in docs/rgbd.md).
+//
+// Source points p (source camera frame) are moved by the current estimate T = T_target_source
+// and projected into the target's vertex map: the target pixel they land on gives q and its
+// normal n (target frame). The residual of a pair is the point-to-plane distance
+//
+//   r = n^T (R p + t - q).
+//
+// An update [dR | dt] multiplies T on the LEFT, T <- [dR | dt] T, with dR = Exp(w) and the
+// small-angle model dR ~ I + [w]_x for the linearisation: with p' = R p + t,
+//
+//   r(w, dt) ~ n^T (p' - q) + n^T (w x p') + n^T dt = A x + b,
+//   A = [ (p' x n)^T  n^T ]   (1 x 6),   b = n^T (p' - q),   x = [w; dt],
+//
+// and the Gauss-Newton step solves the 6x6 normal equations (sum A^T A) x = -sum A^T b.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/pose.h"
+#include "rgbd/frame.h"
+
+namespace rigfit {
+
+struct AssociationOptions {
+  /// |R p + t - q| must be below this (metres): pairs farther apart are not the same surface
+  /// point (the design's second filter; docs/rgbd.md).
+  double max_distance_m = 0.1;
+  /// The angle between the moved source normal R n_p and the target normal n_q must be
+  /// below this (degrees).
+  double max_normal_angle_deg = 30.0;
+};
+
+/// What became of a source pixel in the association (tests and statistics).
+enum class AssociationOutcome {
+  kMatched,
+  kNoSourcePoint,   ///< the source pixel has no vertex or normal
+  kBehindCamera,    ///< R p + t has z <= 0 in the target camera
+  kOutsideImage,    ///< projects outside the target image
+  kNoTargetPoint,   ///< lands on a target pixel without vertex or normal
+  kTooFar,          ///< |R p + t - q| >= max_distance_m
+  kNormalsDisagree  ///< angle(R n_p, n_q) >= max_normal_angle_deg
+};
+
+/// A source-target pair: p in the source frame, q and its unit normal n in the target frame.
+struct Correspondence {
+  Vec3 p;
+  Vec3 q;
+  Vec3 n;
+};
+
+/// The projective association of source pixel i under T_target_source (seed section 2.1):
+/// the pixel of the target that R p + t projects to (rounded to the nearest), kept when the
+/// conditions above hold. On kMatched, *target_index is that pixel.
+AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLevel& target,
+                                  const Pose& T_target_source, const AssociationOptions& options,
+                                  int* target_index);
+
+/// Every matched pair of the source's pixels, in pixel order.
+std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const FrameLevel& target,
+                                                const Pose& T_target_source,
+                                                const AssociationOptions& options, int threads = 2);
+
+/// The normal equations of one Gauss-Newton step at T_target_source: H = sum w A^T A,
+/// g = sum w A^T b, with Huber weights w = min(1, delta / |b|) when huber_delta_m > 0.
+struct NormalEquations {
+  Mat6 H = Mat6::Zero();
+  Vec6 g = Vec6::Zero();
+  double squared_error = 0.0;  ///< sum b^2 (unweighted)
+  int count = 0;
+};
+
+/// The normal equations of a list of pairs (the reference path).
+NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
+                                     const Pose& T_target_source, double huber_delta_m,
+                                     int threads = 2);
+
+/// The same normal equations with the association done on the fly, without a list of pairs
+/// (the fast path: one pass over the source pixels, accumulated per thread).
+NormalEquations AccumulateProjective(const FrameLevel& source, const FrameLevel& target,
+                                     const Pose& T_target_source, const AssociationOptions& options,
+                                     double huber_delta_m, int threads = 2);
+
+/// Directions the normal equations do not fix: eigenvectors of H (rotation scaled by
+/// `length_m`, so that a radian and `length_m` metres weigh alike) whose eigenvalue is below
+/// `ratio` times the largest. A flat wall leaves the two translations along it and the
+/// rotation about its normal.
+struct StepSolution {
+  Vec6 x = Vec6::Zero();  ///< [w; dt]: rotation vector (rad) and translation (m)
+  int weak_directions = 0;
+  std::vector<Vec6> weak;  ///< the held directions, unit in the scaled space
+};
+
+/// Solves H x = -g in the span of the well-determined directions; the weak directions
+/// (above) get no step instead of a jump along them.
+StepSolution SolveStep(const NormalEquations& equations, double length_m, double ratio);
+
+/// [Exp(w) | dt] * T: the left-multiplied update of the linearisation above.
+Pose ApplyLeftUpdate(const Vec6& x, const Pose& T);
+
+struct IcpOptions {
+  AssociationOptions association;
+  /// Huber threshold on the point-to-plane distance (metres); 0 = plain least squares.
+  double huber_delta_m = 0.0;
+  /// Gauss-Newton iterations per pyramid level, finest first (KinectFusion: 10, 5, 4).
+  std::vector<int> iterations = {10, 5, 4};
+  /// Converged when the step's rotation and translation are both below these.
+  double converged_rotation_rad = 1e-5;
+  double converged_translation_m = 1e-5;
+  /// Weak directions: eigenvalue below this ratio of the largest (scaled by the mean depth).
+  double weak_direction_ratio = 1e-4;
+  /// Tracking fails when fewer than this share of the finest level's valid source pixels
+  /// are matched at the end (the frames do not overlap, or the motion was too fast).
+  double min_matched_ratio = 0.1;
+};
+
+struct TrackResult {
+  Pose T_target_source = Pose::Identity();
+  bool success = false;
+  std::string message;
+  int iterations = 0;       ///< Gauss-Newton steps over all levels
+  int correspondences = 0;  ///< at the finest level, at the end
+  double matched_ratio = 0.0;
+  double rmse_m = 0.0;      ///< RMS point-to-plane distance of the final pairs
+  int weak_directions = 0;  ///< held at the finest level's last step
+};
+
+/// Coarse-to-fine projective ICP of `source` onto `target` from T_init (T_target_source):
+/// at each level, Gauss-Newton steps of AccumulateProjective until converged or the level's
+/// iterations run out. Never throws on geometry: failure is success = false with a message.
+TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& target,
+                            const Pose& T_init, const IcpOptions& options, int threads = 2);
+
+/// Gauss-Newton on a FIXED set of pairs until converged (the closed-form path of the
+/// two-path comparison; docs/rgbd.md).
+Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose& T_init,
+                           double huber_delta_m, int max_iterations, int threads = 2);
+
+/// The same problem solved by Ceres: one PointToPlaneCost (residuals/point_to_plane.h) per
+/// pair, the source pose T_target_source on the pose manifold, the target's pose the fixed
+/// identity, a HuberLoss when huber_delta_m > 0.
+Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_init,
+                     double huber_delta_m, int threads = 1);
+
+}  // namespace rigfit

@@ -1,0 +1,474 @@
+// The dense RGB-D tracking: frame preprocessing, projective association, the two solve paths
+// of the point-to-plane Gauss-Newton, coarse-to-fine tracking and odometry on rendered frames.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "core/errors.h"
+#include "core/pose.h"
+#include "rgbd/frame.h"
+#include "rgbd/odometry.h"
+#include "rgbd/projective_icp.h"
+#include "sim/random.h"
+#include "sim/scene.h"
+
+namespace rigfit {
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// A room of 6 x 5 m with 2.5 m walls, two boxes and a slanted block: enough structure to fix
+// every direction of a camera looking into it.
+Scene TestRoom() {
+  Scene scene;
+  scene.size_x_m = 6.0;
+  scene.size_z_m = 5.0;
+  scene.wall_height_m = 2.5;
+  const auto add = [&](const Vec3& center, const Vec3& size, double yaw, SurfaceKind kind) {
+    OrientedBox box;
+    box.center = center;
+    box.R_world_box = ExpSO3(Vec3(0.0, yaw, 0.0));
+    box.half_extents = 0.5 * size;
+    box.kind = kind;
+    scene.boxes.push_back(box);
+  };
+  add(Vec3(0, -0.1, 0), Vec3(6.4, 0.2, 5.4), 0.0, SurfaceKind::kFloor);
+  add(Vec3(-3.1, 1.25, 0), Vec3(0.2, 2.5, 5.4), 0.0, SurfaceKind::kWall);
+  add(Vec3(3.1, 1.25, 0), Vec3(0.2, 2.5, 5.4), 0.0, SurfaceKind::kWall);
+  add(Vec3(0, 1.25, -2.6), Vec3(6.4, 2.5, 0.2), 0.0, SurfaceKind::kWall);
+  add(Vec3(0, 1.25, 2.6), Vec3(6.4, 2.5, 0.2), 0.0, SurfaceKind::kWall);
+  add(Vec3(-1.0, 0.4, -1.2), Vec3(0.8, 0.8, 0.6), 0.5, SurfaceKind::kFurniture);
+  add(Vec3(1.2, 0.6, -1.5), Vec3(0.5, 1.2, 0.5), -0.3, SurfaceKind::kFurniture);
+  add(Vec3(0.3, 0.25, -0.5), Vec3(1.0, 0.5, 0.4), 1.1, SurfaceKind::kFurniture);
+  return scene;
+}
+
+// T_world_camera of a camera at `eye` looking at `target` (OpenCV axes: y down, +Y world up).
+Pose LookAt(const Vec3& eye, const Vec3& target) {
+  const Vec3 z = (target - eye).normalized();
+  const Vec3 up = Vec3::UnitY();
+  const Vec3 y = -(up - up.dot(z) * z).normalized();
+  Pose T = Pose::Identity();
+  T.linear().col(0) = y.cross(z);
+  T.linear().col(1) = y;
+  T.linear().col(2) = z;
+  T.translation() = eye;
+  return T;
+}
+
+PinholeIntrinsics Intrinsics(int width, int height) {
+  const double f = 525.0 * width / 640.0;
+  return {f, f, (width - 1) / 2.0, (height - 1) / 2.0};
+}
+
+// The depth image the camera sees, with N(0, (noise z^2)^2) added when noise > 0.
+RgbdFrame Render(const Scene& scene, const Pose& T_world_camera, int width, int height,
+                 double noise = 0.0, std::uint64_t seed = 0) {
+  RgbdFrame frame;
+  frame.width = width;
+  frame.height = height;
+  frame.intrinsics = Intrinsics(width, height);
+  frame.source = "rendered";
+  frame.depth_m.assign(static_cast<std::size_t>(width) * height, kNaN);
+  frame.T_world_camera_gt = T_world_camera;
+  SimRng rng(seed, 7);
+  const PinholeIntrinsics& K = frame.intrinsics;
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const Vec3 ray((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
+      const auto hit = scene.Raycast(T_world_camera.translation(), T_world_camera.linear() * ray);
+      if (!hit) continue;
+      const double z = hit->t;
+      frame.depth_m[static_cast<std::size_t>(v) * width + u] =
+          static_cast<float>(z + (noise > 0.0 ? noise * z * z * rng.Normal() : 0.0));
+    }
+  }
+  return frame;
+}
+
+double TranslationError(const Pose& a, const Pose& b) {
+  return (a.translation() - b.translation()).norm();
+}
+double RotationErrorRad(const Pose& a, const Pose& b) {
+  return LogSO3(a.linear().transpose() * b.linear()).norm();
+}
+
+// A level with one valid pixel in the middle of a 5x5 image at depth z, normal -z (facing the
+// camera), and everything else invalid.
+FrameLevel SinglePixelLevel(float z) {
+  FrameLevel level;
+  level.width = 5;
+  level.height = 5;
+  level.intrinsics = {10.0, 10.0, 2.0, 2.0};
+  level.depth_m.assign(25, kNaN);
+  level.vertices.assign(25, Vec3f::Constant(kNaN));
+  level.normals.assign(25, Vec3f::Constant(kNaN));
+  level.depth_m[12] = z;
+  level.vertices[12] = Vec3f(0, 0, z);
+  level.normals[12] = Vec3f(0, 0, -1);
+  return level;
+}
+
+TEST(RgbdFrame, PyramidScalesIntrinsicsAndKeepsSilhouettes) {
+  RgbdFrame frame;
+  frame.width = 8;
+  frame.height = 4;
+  frame.intrinsics = {100.0, 90.0, 3.5, 1.5};
+  frame.source = "test";
+  // Left half a wall at 1 m, right half at 3 m: the 2x2 block straddling the jump at u = 3..4
+  // does not exist (blocks are 0-1, 2-3, 4-5, 6-7), so make one: column 3 at 3 m.
+  frame.depth_m.assign(32, 1.0f);
+  for (int v = 0; v < 4; ++v) {
+    for (int u = 3; u < 8; ++u) frame.depth_m[v * 8 + u] = 3.0f;
+  }
+  FrameOptions options;
+  options.levels = 2;
+  const FramePyramid pyramid = BuildFramePyramid(frame, options);
+  ASSERT_EQ(pyramid.levels.size(), 2u);
+  const FrameLevel& coarse = pyramid.levels[1];
+  EXPECT_EQ(coarse.width, 4);
+  EXPECT_EQ(coarse.height, 2);
+  EXPECT_DOUBLE_EQ(coarse.intrinsics.fx, 50.0);
+  EXPECT_DOUBLE_EQ(coarse.intrinsics.fy, 45.0);
+  EXPECT_DOUBLE_EQ(coarse.intrinsics.cx, 1.5);  // (3.5 + 0.5) / 2 - 0.5
+  EXPECT_DOUBLE_EQ(coarse.intrinsics.cy, 0.5);
+  // Block u = 2..3 holds 1 m and 3 m: the nearest (1 m) is kept, not the mean 2 m.
+  EXPECT_FLOAT_EQ(coarse.depth_m[1], 1.0f);
+  EXPECT_FLOAT_EQ(coarse.depth_m[2], 3.0f);
+}
+
+TEST(RgbdFrame, TruncationAndVertexAndNormalMapsOfATiltedPlane) {
+  // The plane z = 2 + 0.5 x seen by a 32x24 camera: every interior normal is the plane's.
+  RgbdFrame frame;
+  frame.width = 32;
+  frame.height = 24;
+  frame.intrinsics = Intrinsics(32, 24);
+  frame.source = "test";
+  const PinholeIntrinsics& K = frame.intrinsics;
+  for (int v = 0; v < 24; ++v) {
+    for (int u = 0; u < 32; ++u) {
+      const double a = (u - K.cx) / K.fx;  // x = a z on the ray
+      frame.depth_m.push_back(static_cast<float>(2.0 / (1.0 - 0.5 * a)));
+    }
+  }
+  frame.depth_m[5] = 10.0f;  // beyond max_depth_m: dropped
+  FrameOptions options;
+  options.levels = 1;
+  const FrameLevel level = BuildFramePyramid(frame, options).levels[0];
+  EXPECT_TRUE(std::isnan(level.depth_m[5]));
+  const Vec3 expected = Vec3(0.5, 0.0, -1.0).normalized();  // facing the camera
+  int checked = 0;
+  for (int v = 1; v < 23; ++v) {
+    for (int u = 1; u < 31; ++u) {
+      const int i = v * 32 + u;
+      if (std::abs(i - 5) <= 1 || std::abs(i - 5 - 32) <= 0) continue;
+      if (!level.Valid(i)) continue;
+      const Vec3 p = level.vertices[i].cast<double>();
+      EXPECT_NEAR(p.z(), 2.0 + 0.5 * p.x(), 1e-5);
+      EXPECT_NEAR((u - K.cx) / K.fx * p.z(), p.x(), 1e-5);
+      EXPECT_LT((level.normals[i].cast<double>() - expected).norm(), 1e-4);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 500);
+  // No normal at the border or next to the dropped pixel.
+  EXPECT_FALSE(level.Valid(0));
+  EXPECT_FALSE(level.Valid(5 + 32));
+}
+
+TEST(RgbdFrame, BilateralFilterSmoothsAPlaneButNotAStep) {
+  const int w = 20, h = 10;
+  std::vector<float> depth(w * h);
+  SimRng rng(3, 1);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      depth[v * w + u] = static_cast<float>((u < 10 ? 1.0 : 2.0) + 0.005 * rng.Normal());
+    }
+  }
+  const std::vector<float> filtered = BilateralFilter(depth, w, h, 2.0, 0.03);
+  double before = 0.0, after = 0.0;
+  for (int v = 2; v < h - 2; ++v) {
+    for (int u = 2; u < 7; ++u) {
+      before += std::pow(depth[v * w + u] - 1.0, 2);
+      after += std::pow(filtered[v * w + u] - 1.0, 2);
+    }
+  }
+  EXPECT_LT(after, 0.3 * before);  // a 5x5-pixel window cuts the variance ~10x
+  for (int v = 0; v < h; ++v) {
+    EXPECT_NEAR(filtered[v * w + 9], 1.0, 0.02);  // the step is 1 m, the range sigma 3 cm
+    EXPECT_NEAR(filtered[v * w + 10], 2.0, 0.02);
+  }
+}
+
+TEST(RgbdAssociation, EachConditionIsTested) {
+  const FrameLevel target = SinglePixelLevel(2.0f);
+  AssociationOptions options;
+  options.max_distance_m = 0.1;
+  options.max_normal_angle_deg = 30.0;
+  int j = -1;
+  // Matched: the same pixel, 5 cm closer.
+  FrameLevel source = SinglePixelLevel(1.95f);
+  EXPECT_EQ(AssociatePixel(source, 12, target, Pose::Identity(), options, &j),
+            AssociationOutcome::kMatched);
+  EXPECT_EQ(j, 12);
+  // No source point.
+  EXPECT_EQ(AssociatePixel(source, 0, target, Pose::Identity(), options, &j),
+            AssociationOutcome::kNoSourcePoint);
+  // Behind the target camera.
+  Pose behind = Pose::Identity();
+  behind.translation() = Vec3(0, 0, -3.0);
+  EXPECT_EQ(AssociatePixel(source, 12, target, behind, options, &j),
+            AssociationOutcome::kBehindCamera);
+  // Outside the image: 0.3 m sideways at 1.95 m is 1.5 px... at f = 10 px, 1.2 m is 6 px.
+  Pose sideways = Pose::Identity();
+  sideways.translation() = Vec3(1.2, 0, 0);
+  EXPECT_EQ(AssociatePixel(source, 12, target, sideways, options, &j),
+            AssociationOutcome::kOutsideImage);
+  // Lands on an invalid target pixel: 0.2 m sideways is 1 px.
+  sideways.translation() = Vec3(0.2, 0, 0);
+  EXPECT_EQ(AssociatePixel(source, 12, target, sideways, options, &j),
+            AssociationOutcome::kNoTargetPoint);
+  // Too far: 15 cm in front of the target point.
+  source = SinglePixelLevel(1.85f);
+  EXPECT_EQ(AssociatePixel(source, 12, target, Pose::Identity(), options, &j),
+            AssociationOutcome::kTooFar);
+  // Normals 40 degrees apart.
+  source = SinglePixelLevel(1.95f);
+  source.normals[12] = ExpSO3(Vec3(40.0 * kDegToRad, 0, 0)).cast<float>() * Vec3f(0, 0, -1);
+  EXPECT_EQ(AssociatePixel(source, 12, target, Pose::Identity(), options, &j),
+            AssociationOutcome::kNormalsDisagree);
+  source.normals[12] = ExpSO3(Vec3(20.0 * kDegToRad, 0, 0)).cast<float>() * Vec3f(0, 0, -1);
+  EXPECT_EQ(AssociatePixel(source, 12, target, Pose::Identity(), options, &j),
+            AssociationOutcome::kMatched);
+}
+
+class RgbdTracking : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    scene_ = new Scene(TestRoom());
+    T_world_target_ = LookAt(Vec3(0.4, 1.5, 1.6), Vec3(0.0, 0.5, -1.5));
+    // A hand-held step: 2 cm and 1.5 degrees.
+    T_world_source_ =
+        PosePlus(T_world_target_, (Vec6() << 0.01, -0.02, 0.008, 0.015, -0.01, 0.012).finished());
+  }
+  static void TearDownTestSuite() { delete scene_; }
+  static Pose TrueMotion() { return T_world_target_.inverse() * T_world_source_; }
+
+  static Scene* scene_;
+  static Pose T_world_target_;
+  static Pose T_world_source_;
+};
+Scene* RgbdTracking::scene_ = nullptr;
+Pose RgbdTracking::T_world_target_;
+Pose RgbdTracking::T_world_source_;
+
+TEST_F(RgbdTracking, ListAndFusedNormalEquationsAreTheSame) {
+  FrameOptions frame_options;
+  frame_options.levels = 1;
+  const FrameLevel target =
+      BuildFramePyramid(Render(*scene_, T_world_target_, 160, 120), frame_options).levels[0];
+  const FrameLevel source =
+      BuildFramePyramid(Render(*scene_, T_world_source_, 160, 120), frame_options).levels[0];
+  const AssociationOptions options;
+  for (const double huber : {0.0, 0.005}) {
+    const std::vector<Correspondence> pairs =
+        FindCorrespondences(source, target, Pose::Identity(), options);
+    const NormalEquations list = BuildNormalEquations(pairs, Pose::Identity(), huber, 1);
+    const NormalEquations fused =
+        AccumulateProjective(source, target, Pose::Identity(), options, huber, 2);
+    ASSERT_GT(list.count, 5000);
+    EXPECT_EQ(list.count, fused.count);
+    EXPECT_LT((list.H - fused.H).norm(), 1e-9 * list.H.norm());
+    EXPECT_LT((list.g - fused.g).norm(), 1e-9 * list.g.norm());
+  }
+}
+
+TEST_F(RgbdTracking, OneGaussNewtonStepRecoversASmallMotion) {
+  // With the true pairs (each source pixel's own surface point), one linearised step from
+  // the identity leaves only the second-order error of the small-angle model.
+  FrameOptions frame_options;
+  frame_options.levels = 1;
+  const FrameLevel source =
+      BuildFramePyramid(Render(*scene_, T_world_source_, 160, 120), frame_options).levels[0];
+  const FrameLevel target =
+      BuildFramePyramid(Render(*scene_, T_world_target_, 160, 120), frame_options).levels[0];
+  std::vector<Correspondence> pairs;
+  const Pose motion = TrueMotion();
+  for (int i = 0; i < source.width * source.height; ++i) {
+    int j = -1;
+    if (AssociatePixel(source, i, target, motion, AssociationOptions{}, &j) !=
+        AssociationOutcome::kMatched) {
+      continue;
+    }
+    // q: the source point itself in the target frame (on the surface), n: the target normal.
+    pairs.push_back({source.vertices[i].cast<double>(), motion * source.vertices[i].cast<double>(),
+                     target.normals[j].cast<double>()});
+  }
+  ASSERT_GT(pairs.size(), 5000u);
+  const NormalEquations equations = BuildNormalEquations(pairs, Pose::Identity(), 0.0);
+  const Pose stepped = ApplyLeftUpdate(SolveStep(equations, 2.0, 1e-12).x, Pose::Identity());
+  // 1.4 degrees and 2 cm: second-order terms ~ (0.024 rad)^2 x 3 m ~ 2 mm.
+  EXPECT_LT(TranslationError(stepped, motion), 3e-3);
+  EXPECT_LT(RotationErrorRad(stepped, motion), 1e-3);
+  const Pose converged = SolvePairsGaussNewton(pairs, Pose::Identity(), 0.0, 20);
+  EXPECT_LT(TranslationError(converged, motion), 1e-6);
+  EXPECT_LT(RotationErrorRad(converged, motion), 1e-6);
+}
+
+TEST_F(RgbdTracking, ClosedFormAndCeresAgreeOnTheSamePairs) {
+  FrameOptions frame_options;
+  frame_options.levels = 1;
+  const FrameLevel source =
+      BuildFramePyramid(Render(*scene_, T_world_source_, 80, 60, 0.0025, 1), frame_options)
+          .levels[0];
+  const FrameLevel target =
+      BuildFramePyramid(Render(*scene_, T_world_target_, 80, 60, 0.0025, 2), frame_options)
+          .levels[0];
+  const std::vector<Correspondence> pairs =
+      FindCorrespondences(source, target, Pose::Identity(), AssociationOptions{});
+  ASSERT_GT(pairs.size(), 1000u);
+  for (const double huber : {0.0, 0.01}) {
+    const Pose closed = SolvePairsGaussNewton(pairs, Pose::Identity(), huber, 100);
+    const Pose ceres = SolvePairsCeres(pairs, Pose::Identity(), huber);
+    EXPECT_LT(TranslationError(closed, ceres), 1e-9) << "huber " << huber;
+    EXPECT_LT(RotationErrorRad(closed, ceres), 1e-9) << "huber " << huber;
+    // And the solution moved: it is not the start.
+    EXPECT_GT(TranslationError(closed, Pose::Identity()), 5e-3);
+  }
+}
+
+TEST_F(RgbdTracking, CoarseToFineTrackingRecoversTheMotion) {
+  const FrameOptions frame_options;
+  const FramePyramid source =
+      BuildFramePyramid(Render(*scene_, T_world_source_, 320, 240), frame_options);
+  const FramePyramid target =
+      BuildFramePyramid(Render(*scene_, T_world_target_, 320, 240), frame_options);
+  const TrackResult result = TrackProjective(source, target, Pose::Identity(), IcpOptions{});
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_EQ(result.weak_directions, 0);
+  EXPECT_GT(result.matched_ratio, 0.8);
+  // Noise-free: the projective pairs are exact to the pixel footprint at convergence.
+  EXPECT_LT(TranslationError(result.T_target_source, TrueMotion()), 5e-4);
+  EXPECT_LT(RotationErrorRad(result.T_target_source, TrueMotion()), 2e-4);
+  EXPECT_LT(result.rmse_m, 1e-3);
+}
+
+TEST_F(RgbdTracking, AFlatWallHoldsWhatItCannotFix) {
+  // A camera facing the +Z wall from 1.5 m sees nothing but the wall: the translations along
+  // it and the rotation about its normal are unobservable and must not move.
+  Scene wall;
+  wall.size_x_m = 20.0;
+  wall.size_z_m = 20.0;
+  wall.wall_height_m = 20.0;
+  OrientedBox box;
+  box.center = Vec3(0, 0, -3.0);
+  box.half_extents = Vec3(10, 10, 0.1);
+  wall.boxes.push_back(box);
+  const Pose T_world_target = LookAt(Vec3(0, 0, -1.5), Vec3(0, 0, -3));
+  Pose T_world_source = T_world_target;
+  T_world_source.translation() += Vec3(0, 0, 0.01);  // 1 cm away from the wall
+  const FrameOptions frame_options;
+  const FramePyramid source =
+      BuildFramePyramid(Render(wall, T_world_source, 160, 120), frame_options);
+  const FramePyramid target =
+      BuildFramePyramid(Render(wall, T_world_target, 160, 120), frame_options);
+  // Start 3 cm off along the wall: that offset must stay, the 1 cm across must be found.
+  Pose start = Pose::Identity();
+  start.translation() = Vec3(0.03, 0.0, 0.0);
+  const TrackResult result = TrackProjective(source, target, start, IcpOptions{});
+  ASSERT_TRUE(result.success) << result.message;
+  EXPECT_EQ(result.weak_directions, 3);
+  const Pose motion = T_world_target.inverse() * T_world_source;
+  EXPECT_NEAR(result.T_target_source.translation().z(), motion.translation().z(), 1e-4);
+  EXPECT_NEAR(result.T_target_source.translation().x(), 0.03, 1e-6);
+  EXPECT_NEAR(result.T_target_source.translation().y(), 0.0, 1e-6);
+}
+
+// An in-memory sequence of rendered frames.
+class RenderedSequence final : public RgbdSequence {
+ public:
+  RenderedSequence(const Scene& scene, std::vector<Pose> poses, int width, int height, double noise)
+      : scene_(scene), poses_(std::move(poses)), width_(width), height_(height), noise_(noise) {}
+  int size() const override { return static_cast<int>(poses_.size()); }
+  RgbdFrame Frame(int index) const override {
+    RgbdFrame frame = Render(scene_, poses_[index], width_, height_, noise_, index);
+    frame.index = index;
+    frame.timestamp = index / 30.0;
+    return frame;
+  }
+  Trajectory GroundTruth() const override {
+    Trajectory gt;
+    for (int i = 0; i < size(); ++i) {
+      gt.timestamps.push_back(i / 30.0);
+      gt.poses.push_back(poses_[i]);
+    }
+    return gt;
+  }
+  std::string Describe() const override { return "rendered"; }
+
+ private:
+  const Scene& scene_;
+  std::vector<Pose> poses_;
+  int width_, height_;
+  double noise_;
+};
+
+std::vector<Pose> Walk(int frames) {
+  std::vector<Pose> poses;
+  for (int i = 0; i < frames; ++i) {
+    const double s = i / 30.0;  // seconds
+    const Vec3 eye(0.6 * std::sin(0.8 * s), 1.4 + 0.05 * std::sin(2.0 * s), 1.5 - 0.2 * s);
+    const Vec3 target(0.3 * std::sin(0.5 * s), 0.6, -1.8);
+    poses.push_back(LookAt(eye, target));
+  }
+  return poses;
+}
+
+TEST(RgbdOdometry, NoiseFreeWalkDriftsLessThanAMillimetrePerMetre) {
+  const Scene scene = TestRoom();
+  const RenderedSequence sequence(scene, Walk(30), 320, 240, 0.0);
+  OdometryOptions options;
+  options.icp.converged_rotation_rad = 1e-7;
+  options.icp.converged_translation_m = 1e-7;
+  const OdometryResult result = RunOdometry(sequence, options);
+  ASSERT_EQ(result.trajectory.poses.size(), 30u);
+  EXPECT_EQ(result.failures, 0);
+  const Trajectory gt = sequence.GroundTruth();
+  double travelled = 0.0;
+  for (int i = 1; i < 30; ++i) {
+    travelled += (gt.poses[i].translation() - gt.poses[i - 1].translation()).norm();
+  }
+  ASSERT_GT(travelled, 0.3);
+  // The first pose is the ground truth's; the last one's error is the drift.
+  EXPECT_LT(TranslationError(result.trajectory.poses[0], gt.poses[0]), 1e-12);
+  const double drift = TranslationError(result.trajectory.poses.back(), gt.poses.back());
+  EXPECT_LT(drift / travelled, 1e-3) << "drift " << drift << " m over " << travelled << " m";
+}
+
+TEST(RgbdOdometry, KeyframesAndStrideAndFailuresAreReported) {
+  const Scene scene = TestRoom();
+  std::vector<Pose> poses = Walk(12);
+  // Frame 6 looks at the ceiling-less sky: nothing to track.
+  poses[6] = LookAt(poses[6].translation(), poses[6].translation() + Vec3(0, 10, 0.01));
+  const RenderedSequence sequence(scene, poses, 160, 120, 0.0);
+  OdometryOptions options;
+  options.keyframes = true;
+  options.stride = 2;
+  const OdometryResult result = RunOdometry(sequence, options);
+  ASSERT_EQ(result.frames.size(), 6u);
+  EXPECT_EQ(result.frames[3].index, 6);
+  EXPECT_FALSE(result.frames[3].track.success);
+  EXPECT_EQ(result.failures, 1);
+  EXPECT_TRUE(result.frames[0].keyframe);
+  EXPECT_THROW(
+      {
+        OdometryOptions bad;
+        bad.first_frame = 12;
+        RunOdometry(sequence, bad);
+      },
+      InputError);
+}
+
+}  // namespace
+}  // namespace rigfit
