@@ -4,11 +4,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "cli/commands.h"
+#include "cli/output_dir.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
 #include "core/format.h"
@@ -142,35 +145,6 @@ void CheckArgs(const SimulateArgs& a) {
   }
 }
 
-/// Creates the output directory if missing (its parent must exist) and refuses to
-/// overwrite an earlier result unless --force.
-void PrepareOutputDir(const SimulateArgs& a) {
-  const fs::path dir(a.out_dir);
-  std::error_code ec;
-  if (fs::exists(dir, ec)) {
-    if (!fs::is_directory(dir, ec)) {
-      throw InputError("simulate: --out " + a.out_dir + " exists and is not a directory");
-    }
-  } else {
-    const fs::path parent = dir.has_parent_path() ? dir.parent_path() : fs::path(".");
-    if (!fs::is_directory(parent, ec)) {
-      throw InputError("simulate: --out " + a.out_dir + ": parent directory " + parent.string() +
-                       " does not exist");
-    }
-    if (!fs::create_directory(dir, ec) && ec) {
-      throw InputError("simulate: cannot create --out " + a.out_dir + ": " + ec.message());
-    }
-  }
-  if (a.force) return;
-  for (const char* name : kOutputFiles) {
-    const fs::path file = dir / name;
-    if (fs::exists(file, ec)) {
-      throw InputError("simulate: " + file.string() +
-                       " already exists; pass --force to overwrite it");
-    }
-  }
-}
-
 /// The simulation settings, recorded in the extrinsics files' _meta.
 nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
   nlohmann::json meta = {{"simulated",
@@ -201,7 +175,8 @@ nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
 int RunSimulate(const SimulateArgs& a) {
   CheckArgs(a);
   if (!a.config_path.empty()) LoadConfig(a.config_path);  // bad config: exit 2 before writing
-  PrepareOutputDir(a);
+  PrepareOutputDir("simulate", a.out_dir, a.force,
+                   std::vector<std::string>(std::begin(kOutputFiles), std::end(kOutputFiles)));
   const SimulatedRig rig = SimulateRig(a.sim);
   const fs::path dir(a.out_dir);
   WriteCapture((dir / "capture.h5").string(), rig.capture);
