@@ -164,13 +164,12 @@ Pose HandheldTrajectory::At(double t) const {
 }
 
 PinholeIntrinsics SequenceIntrinsics(int width, int height) {
-  constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5, kWidth = 640.0;
+  constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5, kWidth = 640.0, kHeight = 480.0;
   const double s = width / kWidth;
-  (void)height;  // square pixels: one scale, from the width
   PinholeIntrinsics K;
   K.fx = K.fy = kF * s;
   K.cx = (kCx + 0.5) * s - 0.5;
-  K.cy = (kCy + 0.5) * s - 0.5;
+  K.cy = (kCy + 0.5) * (height / kHeight) - 0.5;
   return K;
 }
 

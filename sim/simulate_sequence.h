@@ -102,8 +102,9 @@ struct SequenceOptions {
 };
 
 /// The intrinsics of a sequence of width x height: the TUM / ICL-NUIM default
-/// fx = fy = 525, cx = 319.5, cy = 239.5 at 640 x 480, scaled by width / 640 (pixel
-/// centres: c = (c_640 + 0.5) s - 0.5), so 320 x 240 has 262.5, 159.5, 119.5.
+/// fx = fy = 525, cx = 319.5, cy = 239.5 at 640 x 480, the focal length scaled by
+/// width / 640 (square pixels), cx and cy by width / 640 and height / 480 about pixel centres
+/// (c = (c_640 + 0.5) s - 0.5): 320 x 240 has 262.5, 159.5, 119.5.
 PinholeIntrinsics SequenceIntrinsics(int width, int height);
 
 /// The first surfaces a camera sees at T_world_camera: depth (camera z, metres) per pixel,

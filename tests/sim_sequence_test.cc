@@ -36,6 +36,10 @@ TEST(SimSequence, IntrinsicsScaleWithTheWidth) {
   EXPECT_DOUBLE_EQ(half.fx, 262.5);
   EXPECT_DOUBLE_EQ(half.cx, 159.5);
   EXPECT_DOUBLE_EQ(half.cy, 119.5);
+  // Another aspect ratio: the principal point stays at the centre.
+  const PinholeIntrinsics wide = SequenceIntrinsics(320, 180);
+  EXPECT_DOUBLE_EQ(wide.fy, 262.5);
+  EXPECT_DOUBLE_EQ(wide.cy, 89.5);
 }
 
 // Finite differences at the frame rate over two loops: the speed is the one asked for, the
