@@ -240,16 +240,7 @@ std::vector<Pose> PlaceCameras(const SimOptions& options, const Scene& scene) {
                       (0.5 * scene.size_z_m - inset) * std::sin(azimuth));
     const Vec3 target(rng.Uniform(-0.5, 0.5), 0.0, rng.Uniform(-0.5, 0.5));
     const double roll = rng.Uniform(-kMaxCameraRollDeg, kMaxCameraRollDeg) * kDegToRad;
-    // OpenCV camera axes in the world: z forward, x = z cross up (right), y = z cross x
-    // (down), then the roll about z.
-    const Vec3 z_axis = (target - centre).normalized();
-    const Vec3 x_axis = z_axis.cross(Vec3::UnitY()).normalized();
-    Mat3 R;
-    R << x_axis, z_axis.cross(x_axis), z_axis;
-    Pose T_world_camera = Pose::Identity();
-    T_world_camera.linear() = R * ExpSO3(roll * Vec3::UnitZ());
-    T_world_camera.translation() = centre;
-    poses.push_back(T_world_camera);
+    poses.push_back(CameraLookingAlong(centre, target - centre, roll));
   }
   return poses;
 }
@@ -273,6 +264,19 @@ std::vector<Pose> PerturbPoses(const SimOptions& options, const std::vector<Pose
 }
 
 }  // namespace
+
+Pose CameraLookingAlong(const Vec3& centre, const Vec3& forward, double roll) {
+  // OpenCV camera axes in the world: z forward, x = z cross up (right), y = z cross x
+  // (down), then the roll about z.
+  const Vec3 z_axis = forward.normalized();
+  const Vec3 x_axis = z_axis.cross(Vec3::UnitY()).normalized();
+  Mat3 R;
+  R << x_axis, z_axis.cross(x_axis), z_axis;
+  Pose T_world_camera = Pose::Identity();
+  T_world_camera.linear() = R * ExpSO3(roll * Vec3::UnitZ());
+  T_world_camera.translation() = centre;
+  return T_world_camera;
+}
 
 Rgb ShadeHit(const Scene& scene, const RayHit& hit, const Vec3& p_world) {
   static const Vec3 kLight = Vec3(0.35, 1.0, 0.25).normalized();

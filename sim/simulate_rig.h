@@ -79,6 +79,11 @@ PinholeIntrinsics SimIntrinsics(int width, int height);
 /// on the floor. Deterministic for a seed (its own random stream).
 Scene SimulateRoom(std::uint64_t seed, bool bare);
 
+/// T_world_camera of a camera at centre looking along `forward` (world, not vertical), level
+/// (its x axis horizontal, OpenCV axes: x right, y down, z forward, world +Y up), then rolled
+/// by `roll` radians about its z axis.
+Pose CameraLookingAlong(const Vec3& centre, const Vec3& forward, double roll);
+
 /// The colour of a ray's hit at p_world as the simulator renders it: the box's albedo,
 /// Lambertian-like shading lit from above and a little to the side, and a 0.5 m
 /// checkerboard on the floor (enough for a person to read the colour images).

@@ -150,17 +150,9 @@ Pose HandheldTrajectory::At(double t) const {
                      kYawSwingDeg * kDegToRad * std::sin(2 * theta + phase_[7]);
   const double pitch = pitch_ + kNodDeg * kDegToRad * std::sin(3 * theta + phase_[4]);
   const double roll = kRollDeg * kDegToRad * std::sin(5 * theta + phase_[1]);
-  const Vec3 z_axis(std::cos(pitch) * std::sin(yaw), std::sin(pitch),
-                    std::cos(pitch) * std::cos(yaw));
-  // OpenCV camera axes in the world as in the rig simulator: x = z cross up (right),
-  // y = z cross x (down), then the roll about z.
-  const Vec3 x_axis = z_axis.cross(Vec3::UnitY()).normalized();
-  Mat3 R;
-  R << x_axis, z_axis.cross(x_axis), z_axis;
-  Pose T_world_camera = Pose::Identity();
-  T_world_camera.linear() = R * ExpSO3(roll * Vec3::UnitZ());
-  T_world_camera.translation() = centre;
-  return T_world_camera;
+  const Vec3 forward(std::cos(pitch) * std::sin(yaw), std::sin(pitch),
+                     std::cos(pitch) * std::cos(yaw));
+  return CameraLookingAlong(centre, forward, roll);
 }
 
 PinholeIntrinsics SequenceIntrinsics(int width, int height) {
