@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "cli/commands.h"
-#include "cli/output_dir.h"
+#include "cli/simulate_common.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
 #include "core/format.h"
@@ -27,8 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kMaxCameras = 64;
-constexpr int kMinImageSize = 16;
-constexpr int kMaxImageSize = 8192;
 constexpr const char* kOutputFiles[] = {"capture.h5", "gt.json", "init.json"};
 
 struct SimulateArgs {
@@ -115,13 +113,7 @@ void CheckArgs(const SimulateArgs& a) {
     fail("--cameras must be in [1, " + std::to_string(kMaxCameras) + "], got " +
          std::to_string(o.cameras));
   }
-  for (const auto& [flag, value] :
-       {std::pair{"--width", o.width}, std::pair{"--height", o.height}}) {
-    if (value < kMinImageSize || value > kMaxImageSize) {
-      fail(std::string(flag) + " must be in [" + std::to_string(kMinImageSize) + ", " +
-           std::to_string(kMaxImageSize) + "] pixels, got " + std::to_string(value));
-    }
-  }
+  CheckImageSize("simulate", o.width, o.height);
   if (!finite_non_negative(o.noise)) fail("--noise must be a finite number >= 0");
   if (!(o.dropout >= 0.0 && o.dropout < 1.0)) fail("--dropout must be in [0, 1)");
   if (!finite_non_negative(o.perturb_yaw_deg) || o.perturb_yaw_deg > 180.0) {
@@ -213,12 +205,7 @@ Command AddSimulateCommand(CLI::App& app) {
       "for a given seed.");
   sub->add_option("--out", args->out_dir, "Output directory (created if missing)")->required();
   sub->add_option("--cameras", o.cameras, "Number of cameras")->capture_default_str();
-  sub->add_option("--seed", o.seed, "Random seed (0 to 2^64 - 1)")
-      ->check([](const std::string& value) {
-        // CLI11 would wrap a negative value around into the unsigned seed.
-        return value.find('-') == std::string::npos ? std::string() : "must not be negative";
-      })
-      ->capture_default_str();
+  AddSeedOption(sub, &o.seed, "Random seed (0 to 2^64 - 1)");
   sub->add_option("--width", o.width, "Image width, pixels")->capture_default_str();
   sub->add_option("--height", o.height, "Image height, pixels")->capture_default_str();
   sub->add_option("--noise", o.noise, "Depth noise: sigma = noise * z^2 (1/m)")

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "cli/commands.h"
-#include "cli/output_dir.h"
+#include "cli/simulate_common.h"
 #include "core/errors.h"
 #include "io/atomic_file.h"
 #include "io/trajectory_tum.h"
@@ -24,8 +24,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kMinImageSize = 16;
-constexpr int kMaxImageSize = 8192;
 constexpr int kMaxFrames = 1000000;
 constexpr double kMaxSpeedMps = 5.0;
 /// TUM RGB-D depth PNGs: metres x 5000 in 16 bits, 0 invalid.
@@ -47,13 +45,7 @@ void CheckArgs(const SimulateSequenceArgs& a) {
     fail("--frames must be in [1, " + std::to_string(kMaxFrames) + "], got " +
          std::to_string(o.frames));
   }
-  for (const auto& [flag, value] :
-       {std::pair{"--width", o.width}, std::pair{"--height", o.height}}) {
-    if (value < kMinImageSize || value > kMaxImageSize) {
-      fail(std::string(flag) + " must be in [" + std::to_string(kMinImageSize) + ", " +
-           std::to_string(kMaxImageSize) + "] pixels, got " + std::to_string(value));
-    }
-  }
+  CheckImageSize("simulate-sequence", o.width, o.height);
   if (!(o.rate_hz > 0.0) || !std::isfinite(o.rate_hz)) fail("--rate must be a finite number > 0");
   if (!(o.speed_mps > 0.0 && o.speed_mps <= kMaxSpeedMps)) {
     fail("--speed must be in (0, " + std::to_string(static_cast<int>(kMaxSpeedMps)) + "] m/s");
@@ -157,12 +149,7 @@ Command AddSimulateSequenceCommand(CLI::App& app) {
   sub->add_option("--frames", o.frames, "Number of frames")->capture_default_str();
   sub->add_option("--rate", o.rate_hz, "Frame rate, Hz")->capture_default_str();
   sub->add_option("--speed", o.speed_mps, "Mean speed of the camera, m/s")->capture_default_str();
-  sub->add_option("--seed", o.seed, "Random seed (0 to 2^64 - 1): room, path and noise")
-      ->check([](const std::string& value) {
-        // CLI11 would wrap a negative value around into the unsigned seed.
-        return value.find('-') == std::string::npos ? std::string() : "must not be negative";
-      })
-      ->capture_default_str();
+  AddSeedOption(sub, &o.seed, "Random seed (0 to 2^64 - 1): room, path and noise");
   sub->add_option("--width", o.width, "Image width, pixels")->capture_default_str();
   sub->add_option("--height", o.height, "Image height, pixels")->capture_default_str();
   sub->add_option("--noise", args->noise,

@@ -1,6 +1,7 @@
-#include "cli/output_dir.h"
+#include "cli/simulate_common.h"
 
 #include <filesystem>
+#include <utility>
 
 #include "core/errors.h"
 
@@ -41,6 +42,24 @@ void PrepareOutputDir(const std::string& command, const std::string& dir_name, b
                        " already exists; pass --force to overwrite it");
     }
   }
+}
+
+void CheckImageSize(const std::string& command, int width, int height) {
+  for (const auto& [flag, value] : {std::pair{"--width", width}, std::pair{"--height", height}}) {
+    if (value < kMinImageSize || value > kMaxImageSize) {
+      throw InputError(command + ": " + flag + " must be in [" + std::to_string(kMinImageSize) +
+                       ", " + std::to_string(kMaxImageSize) + "] pixels, got " +
+                       std::to_string(value));
+    }
+  }
+}
+
+CLI::Option* AddSeedOption(CLI::App* sub, std::uint64_t* seed, const std::string& description) {
+  return sub->add_option("--seed", *seed, description)
+      ->check([](const std::string& value) {
+        return value.find('-') == std::string::npos ? std::string() : "must not be negative";
+      })
+      ->capture_default_str();
 }
 
 }  // namespace rigfit::cli
