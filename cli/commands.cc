@@ -30,9 +30,10 @@ class SummaryFormatter : public CLI::Formatter {
 
 void RegisterCommands(CLI::App& app) {
   app.formatter(std::make_shared<SummaryFormatter>());
-  Registry() = {AddSimulateCommand(app),          AddRefineCommand(app),  AddEvaluateCommand(app),
-                AddImportPlyCommand(app),         AddCompareCommand(app), AddExportPlyCommand(app),
-                AddEvaluateTrajectoryCommand(app)};
+  Registry() = {
+      AddSimulateCommand(app),           AddRefineCommand(app),          AddEvaluateCommand(app),
+      AddImportPlyCommand(app),          AddCompareCommand(app),         AddExportPlyCommand(app),
+      AddEvaluateTrajectoryCommand(app), AddSimulateSequenceCommand(app)};
 }
 
 int RunSelected(const CLI::App& app) {

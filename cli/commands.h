@@ -21,6 +21,8 @@ struct Command {
 
 /// `rigfit simulate`: writes an example rig (capture, true and perturbed extrinsics).
 Command AddSimulateCommand(CLI::App& app);
+/// `rigfit simulate-sequence`: a synthetic RGB-D sequence with ground truth (TUM layout).
+Command AddSimulateSequenceCommand(CLI::App& app);
 /// `rigfit refine`: capture + initial extrinsics -> refined extrinsics (docs/usage.md).
 Command AddRefineCommand(CLI::App& app);
 /// `rigfit evaluate`: gauge-free errors of estimated extrinsics against ground truth.

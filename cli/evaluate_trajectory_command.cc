@@ -10,6 +10,8 @@
 #include "core/pose.h"
 #include "core/trajectory.h"
 #include "io/trajectory_tum.h"
+#include "report/refine_report.h"
+#include "report/trajectory_report.h"
 
 namespace rigfit::cli {
 namespace {
@@ -19,11 +21,13 @@ struct EvaluateTrajectoryArgs {
   std::string ground_truth_path;
   double max_dt = 0.02;
   int delta = 1;
+  std::string report_dir;  ///< empty: no report
 };
 
 int RunEvaluateTrajectory(const EvaluateTrajectoryArgs& a) {
   if (!(a.max_dt > 0.0)) throw InputError("evaluate-trajectory: --max-dt must be > 0");
   if (a.delta < 1) throw InputError("evaluate-trajectory: --delta must be >= 1");
+  if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "evaluate-trajectory: --report");
   const Trajectory est = ReadTumTrajectory(a.estimate_path);
   const Trajectory gt = ReadTumTrajectory(a.ground_truth_path);
   TrajectoryErrors e;
@@ -43,6 +47,11 @@ int RunEvaluateTrajectory(const EvaluateTrajectoryArgs& a) {
       "RPE over %d matched pose(s) (%d pairs): translation RMSE %.2f mm, rotation RMSE "
       "%.3f deg\n",
       a.delta, e.rpe_pairs, e.rpe_translation_rmse_m * 1e3, e.rpe_rotation_rmse_rad * kRadToDeg);
+  if (!a.report_dir.empty()) {
+    for (const std::string& file : WriteTrajectoryReport(a.report_dir, est, gt, e, a.max_dt)) {
+      std::printf("report: %s\n", file.c_str());
+    }
+  }
   return kExitOk;
 }
 
@@ -64,6 +73,10 @@ Command AddEvaluateTrajectoryCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--delta", args->delta, "RPE: matched poses between the two of a pair")
       ->capture_default_str();
+  sub->add_option("--report", args->report_dir,
+                  "Also write pictures to this directory (created if missing; its parent must "
+                  "exist): the aligned estimate and the ground truth seen from above (along the "
+                  "ground truth's axis of least spread) and the ATE over time (docs/usage.md)");
   return {sub, [args] { return RunEvaluateTrajectory(*args); }};
 }
 

@@ -4,11 +4,14 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "cli/commands.h"
+#include "cli/simulate_common.h"
 #include "core/errors.h"
 #include "core/evaluate.h"
 #include "core/format.h"
@@ -24,8 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kMaxCameras = 64;
-constexpr int kMinImageSize = 16;
-constexpr int kMaxImageSize = 8192;
 constexpr const char* kOutputFiles[] = {"capture.h5", "gt.json", "init.json"};
 
 struct SimulateArgs {
@@ -112,13 +113,7 @@ void CheckArgs(const SimulateArgs& a) {
     fail("--cameras must be in [1, " + std::to_string(kMaxCameras) + "], got " +
          std::to_string(o.cameras));
   }
-  for (const auto& [flag, value] :
-       {std::pair{"--width", o.width}, std::pair{"--height", o.height}}) {
-    if (value < kMinImageSize || value > kMaxImageSize) {
-      fail(std::string(flag) + " must be in [" + std::to_string(kMinImageSize) + ", " +
-           std::to_string(kMaxImageSize) + "] pixels, got " + std::to_string(value));
-    }
-  }
+  CheckImageSize("simulate", o.width, o.height);
   if (!finite_non_negative(o.noise)) fail("--noise must be a finite number >= 0");
   if (!(o.dropout >= 0.0 && o.dropout < 1.0)) fail("--dropout must be in [0, 1)");
   if (!finite_non_negative(o.perturb_yaw_deg) || o.perturb_yaw_deg > 180.0) {
@@ -139,35 +134,6 @@ void CheckArgs(const SimulateArgs& a) {
   }
   if (!finite_non_negative(o.disparity_quant_px)) {
     fail("--disparity-quant-px must be a finite number >= 0");
-  }
-}
-
-/// Creates the output directory if missing (its parent must exist) and refuses to
-/// overwrite an earlier result unless --force.
-void PrepareOutputDir(const SimulateArgs& a) {
-  const fs::path dir(a.out_dir);
-  std::error_code ec;
-  if (fs::exists(dir, ec)) {
-    if (!fs::is_directory(dir, ec)) {
-      throw InputError("simulate: --out " + a.out_dir + " exists and is not a directory");
-    }
-  } else {
-    const fs::path parent = dir.has_parent_path() ? dir.parent_path() : fs::path(".");
-    if (!fs::is_directory(parent, ec)) {
-      throw InputError("simulate: --out " + a.out_dir + ": parent directory " + parent.string() +
-                       " does not exist");
-    }
-    if (!fs::create_directory(dir, ec) && ec) {
-      throw InputError("simulate: cannot create --out " + a.out_dir + ": " + ec.message());
-    }
-  }
-  if (a.force) return;
-  for (const char* name : kOutputFiles) {
-    const fs::path file = dir / name;
-    if (fs::exists(file, ec)) {
-      throw InputError("simulate: " + file.string() +
-                       " already exists; pass --force to overwrite it");
-    }
   }
 }
 
@@ -201,7 +167,8 @@ nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
 int RunSimulate(const SimulateArgs& a) {
   CheckArgs(a);
   if (!a.config_path.empty()) LoadConfig(a.config_path);  // bad config: exit 2 before writing
-  PrepareOutputDir(a);
+  PrepareOutputDir("simulate", a.out_dir, a.force,
+                   std::vector<std::string>(std::begin(kOutputFiles), std::end(kOutputFiles)));
   const SimulatedRig rig = SimulateRig(a.sim);
   const fs::path dir(a.out_dir);
   WriteCapture((dir / "capture.h5").string(), rig.capture);
@@ -238,12 +205,7 @@ Command AddSimulateCommand(CLI::App& app) {
       "for a given seed.");
   sub->add_option("--out", args->out_dir, "Output directory (created if missing)")->required();
   sub->add_option("--cameras", o.cameras, "Number of cameras")->capture_default_str();
-  sub->add_option("--seed", o.seed, "Random seed (0 to 2^64 - 1)")
-      ->check([](const std::string& value) {
-        // CLI11 would wrap a negative value around into the unsigned seed.
-        return value.find('-') == std::string::npos ? std::string() : "must not be negative";
-      })
-      ->capture_default_str();
+  AddSeedOption(sub, &o.seed, "Random seed (0 to 2^64 - 1)");
   sub->add_option("--width", o.width, "Image width, pixels")->capture_default_str();
   sub->add_option("--height", o.height, "Image height, pixels")->capture_default_str();
   sub->add_option("--noise", o.noise, "Depth noise: sigma = noise * z^2 (1/m)")

@@ -289,4 +289,113 @@ Image DrawHistogram(const std::vector<HistogramSeries>& series, double half_rang
   return image;
 }
 
+PlotFrame FitPlotFrame(const std::vector<PlotCurve>& curves, int width, int height,
+                       bool equal_scale, bool y_from_zero) {
+  constexpr double kMarginFraction = 0.05;
+  constexpr double kZeroSpan = 1e-9;  // relative
+  constexpr int kLegendWidth = 280;
+  double min_x = INFINITY, max_x = -INFINITY, min_y = INFINITY, max_y = -INFINITY;
+  for (const PlotCurve& curve : curves) {
+    for (size_t i = 0; i < std::min(curve.x.size(), curve.y.size()); ++i) {
+      if (!std::isfinite(curve.x[i]) || !std::isfinite(curve.y[i])) continue;
+      min_x = std::min(min_x, curve.x[i]);
+      max_x = std::max(max_x, curve.x[i]);
+      min_y = std::min(min_y, curve.y[i]);
+      max_y = std::max(max_y, curve.y[i]);
+    }
+  }
+  if (!(min_x <= max_x)) min_x = max_x = min_y = max_y = 0.0;
+  if (y_from_zero) min_y = std::min(min_y, 0.0);
+  const auto widen = [&](double* lo, double* hi, bool from_zero) {
+    // A span within rounding of 0 (e.g. errors of 1e-13) is 0: no noise blown up to fill
+    // the plot.
+    if (*hi - *lo <= kZeroSpan * std::max({1.0, std::abs(*lo), std::abs(*hi)})) {
+      const double mid = 0.5 * (*lo + *hi);
+      if (from_zero && *lo == 0.0) {
+        *hi = 1.0;
+      } else {
+        *lo = mid - 0.5;
+        *hi = mid + 0.5;
+      }
+    }
+    const double margin = kMarginFraction * (*hi - *lo);
+    *lo -= margin;
+    *hi += margin;
+  };
+  widen(&min_x, &max_x, false);
+  widen(&min_y, &max_y, y_from_zero);
+  PlotFrame frame;
+  frame.width = width;
+  frame.height = height;
+  frame.x0 = 110;
+  frame.y0 = 110;
+  frame.x1 = width - kLegendWidth;
+  frame.y1 = height - 80;
+  if (equal_scale) {
+    // The larger span fills its side; the other window grows about its centre to fill its
+    // side at the same scale, so the plot keeps the whole rectangle.
+    const double px_per_unit = std::min((frame.x1 - frame.x0 - 1) / (max_x - min_x),
+                                        (frame.y1 - frame.y0 - 1) / (max_y - min_y));
+    const double half_x = 0.5 * (frame.x1 - frame.x0 - 1) / px_per_unit;
+    const double half_y = 0.5 * (frame.y1 - frame.y0 - 1) / px_per_unit;
+    const double cx = 0.5 * (min_x + max_x), cy = 0.5 * (min_y + max_y);
+    min_x = cx - half_x;
+    max_x = cx + half_x;
+    min_y = cy - half_y;
+    max_y = cy + half_y;
+  }
+  frame.min_x = min_x;
+  frame.max_x = max_x;
+  frame.min_y = min_y;
+  frame.max_y = max_y;
+  return frame;
+}
+
+Image DrawCurves(const std::vector<PlotCurve>& curves, const PlotFrame& frame,
+                 const std::string& title, const std::string& subtitle, const std::string& x_label,
+                 const std::string& y_label) {
+  Image image(frame.width, frame.height, kWhite);
+  DrawTitles(&image, title, subtitle);
+  const Rect plot{frame.x0, frame.y0, frame.x1, frame.y1};
+  const double x_step = NiceStep(frame.max_x - frame.min_x, 10);
+  for (double x : Ticks(frame.min_x, frame.max_x, x_step)) {
+    const int c = static_cast<int>(std::lround(frame.Column(x)));
+    DrawLine(&image, c, plot.y0, c, plot.y1 - 1, kGrid);
+    const std::string label = TickLabel(x, x_step);
+    DrawText(&image, c - TextWidth(label, kTextScale) / 2, plot.y1 + 8, label, kAxis);
+  }
+  const double y_step = NiceStep(frame.max_y - frame.min_y, 8);
+  for (double y : Ticks(frame.min_y, frame.max_y, y_step)) {
+    const int r = static_cast<int>(std::lround(frame.Row(y)));
+    DrawLine(&image, plot.x0, r, plot.x1 - 1, r, kGrid);
+    const std::string label = TickLabel(y, y_step);
+    DrawText(&image, plot.x0 - 10 - TextWidth(label, kTextScale), r - TextHeight(kTextScale) / 2,
+             label, kAxis);
+  }
+  DrawText(&image, (plot.x0 + plot.x1 - TextWidth(x_label, kTextScale)) / 2,
+           plot.y1 + 16 + TextHeight(kTextScale), x_label, kBlack);
+  DrawText(&image, 10, plot.y0 - 8 - TextHeight(kTextScale), y_label, kBlack);
+  for (const PlotCurve& curve : curves) {
+    const size_t n = std::min(curve.x.size(), curve.y.size());
+    for (size_t i = 0; i + 1 < n; ++i) {
+      const double xa = curve.x[i], ya = curve.y[i], xb = curve.x[i + 1], yb = curve.y[i + 1];
+      if (!std::isfinite(xa) || !std::isfinite(ya) || !std::isfinite(xb) || !std::isfinite(yb)) {
+        continue;
+      }
+      DrawLine(&image, frame.Column(xa), frame.Row(ya), frame.Column(xb), frame.Row(yb),
+               curve.color, curve.line_width);
+    }
+    if (n == 1 && std::isfinite(curve.x[0]) && std::isfinite(curve.y[0])) {
+      FillDisc(&image, frame.Column(curve.x[0]), frame.Row(curve.y[0]), curve.line_width,
+               curve.color);
+    }
+  }
+  DrawFrame(&image, plot, kAxis);
+  int y = plot.y0;
+  for (const PlotCurve& curve : curves) {
+    y = LegendRow(&image, plot.x1 + 20, y, curve.color, curve.label);
+  }
+  return image;
+}
+
 }  // namespace rigfit

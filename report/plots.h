@@ -1,5 +1,6 @@
-// The report's plots, drawn on report/image.h: a top-down (XZ) view of the cameras' points
-// and a histogram of residuals. Each returns an image of a fixed size.
+// The report's plots, drawn on report/image.h: a top-down (XZ) view of the cameras' points,
+// a histogram of residuals, and curves (polylines) on metric or plain axes. Each returns an
+// image of a fixed size.
 #pragma once
 
 #include <string>
@@ -66,5 +67,45 @@ struct HistogramSeries {
 Image DrawHistogram(const std::vector<HistogramSeries>& series, double half_range, double bin_width,
                     const std::string& title, const std::string& x_label,
                     const std::string& y_label);
+
+inline constexpr int kPlanViewWidth = 1200;  ///< pixels, curves at equal scale (FitPlotFrame)
+inline constexpr int kPlanViewHeight = 1000;
+inline constexpr int kTimePlotWidth = 1200;  ///< pixels, a quantity over time
+inline constexpr int kTimePlotHeight = 600;
+
+/// One curve of a plot: a polyline through (x[i], y[i]) in data units; a non-finite point
+/// breaks it.
+struct PlotCurve {
+  std::string label;  ///< legend text
+  Rgb color;
+  int line_width = 3;  ///< pixels
+  std::vector<double> x;
+  std::vector<double> y;
+};
+
+/// Where the data of a plot goes: the plot rectangle [x0, x1) x [y0, y1) in pixels of an
+/// image of width x height, and the data window it shows (y upward).
+struct PlotFrame {
+  int width = 0, height = 0;
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  double min_x = 0.0, max_x = 1.0, min_y = 0.0, max_y = 1.0;
+  double Column(double x) const { return x0 + (x - min_x) / (max_x - min_x) * (x1 - x0 - 1); }
+  double Row(double y) const { return y1 - 1 - (y - min_y) / (max_y - min_y) * (y1 - y0 - 1); }
+};
+
+/// The frame of an image of width x height holding every finite point of the curves with a
+/// margin of 5% of the span on each side (a span of 0, or within 1e-9 of the values' size,
+/// widened to 1). equal_scale: as many
+/// pixels per unit on both axes (a map: the window of the shorter span widens about its
+/// centre); y_from_zero: the y window holds 0 (a magnitude).
+PlotFrame FitPlotFrame(const std::vector<PlotCurve>& curves, int width, int height,
+                       bool equal_scale, bool y_from_zero);
+
+/// The curves in `frame`, each a polyline of its colour and width, drawn in order (the last
+/// on top), with grid, tick labels, axis labels, a title and subtitle, and a legend of the
+/// curves' labels on the right.
+Image DrawCurves(const std::vector<PlotCurve>& curves, const PlotFrame& frame,
+                 const std::string& title, const std::string& subtitle, const std::string& x_label,
+                 const std::string& y_label);
 
 }  // namespace rigfit

@@ -161,10 +161,12 @@ void AddBox(const Vec3& center, const Vec3& size, SurfaceKind kind, const Rgb& a
   scene->boxes.push_back(box);
 }
 
+}  // namespace
+
 /// The room: floor and wall slabs, then (unless bare) baseboards and furniture placed by
 /// rejection sampling so that footprints do not overlap.
-Scene MakeRoom(const SimOptions& options) {
-  SimRng rng(options.seed, kRoomStream);
+Scene SimulateRoom(std::uint64_t seed, bool bare) {
+  SimRng rng(seed, kRoomStream);
   Scene scene;
   scene.size_x_m = rng.Uniform(5.6, 6.4);
   scene.size_z_m = rng.Uniform(4.6, 5.4);
@@ -180,7 +182,7 @@ Scene MakeRoom(const SimOptions& options) {
     AddBox(Vec3(0.0, 0.5 * kWallHeight, s * (hz + 0.5 * t)), Vec3(2 * (hx + t), kWallHeight, t),
            SurfaceKind::kWall, kWallRgb, &scene);
   }
-  if (options.bare) return scene;
+  if (bare) return scene;
 
   const double b = kBaseboardDepth;
   for (double s : {-1.0, 1.0}) {
@@ -220,6 +222,8 @@ Scene MakeRoom(const SimOptions& options) {
   return scene;
 }
 
+namespace {
+
 /// True camera poses: spread in azimuth around the room, inset from the walls, at
 /// 1.8-2.5 m, looking at floor points near the room centre, with a little roll.
 std::vector<Pose> PlaceCameras(const SimOptions& options, const Scene& scene) {
@@ -236,16 +240,7 @@ std::vector<Pose> PlaceCameras(const SimOptions& options, const Scene& scene) {
                       (0.5 * scene.size_z_m - inset) * std::sin(azimuth));
     const Vec3 target(rng.Uniform(-0.5, 0.5), 0.0, rng.Uniform(-0.5, 0.5));
     const double roll = rng.Uniform(-kMaxCameraRollDeg, kMaxCameraRollDeg) * kDegToRad;
-    // OpenCV camera axes in the world: z forward, x = z cross up (right), y = z cross x
-    // (down), then the roll about z.
-    const Vec3 z_axis = (target - centre).normalized();
-    const Vec3 x_axis = z_axis.cross(Vec3::UnitY()).normalized();
-    Mat3 R;
-    R << x_axis, z_axis.cross(x_axis), z_axis;
-    Pose T_world_camera = Pose::Identity();
-    T_world_camera.linear() = R * ExpSO3(roll * Vec3::UnitZ());
-    T_world_camera.translation() = centre;
-    poses.push_back(T_world_camera);
+    poses.push_back(CameraLookingAlong(centre, target - centre, roll));
   }
   return poses;
 }
@@ -268,9 +263,22 @@ std::vector<Pose> PerturbPoses(const SimOptions& options, const std::vector<Pose
   return init;
 }
 
-/// Lambertian-like shading of a face, lit from above and a little to the side, and a
-/// 0.5 m checkerboard on the floor: enough for a person to read the colour images.
-Rgb Shade(const Scene& scene, const RayHit& hit, const Vec3& p_world) {
+}  // namespace
+
+Pose CameraLookingAlong(const Vec3& centre, const Vec3& forward, double roll) {
+  // OpenCV camera axes in the world: z forward, x = z cross up (right), y = z cross x
+  // (down), then the roll about z.
+  const Vec3 z_axis = forward.normalized();
+  const Vec3 x_axis = z_axis.cross(Vec3::UnitY()).normalized();
+  Mat3 R;
+  R << x_axis, z_axis.cross(x_axis), z_axis;
+  Pose T_world_camera = Pose::Identity();
+  T_world_camera.linear() = R * ExpSO3(roll * Vec3::UnitZ());
+  T_world_camera.translation() = centre;
+  return T_world_camera;
+}
+
+Rgb ShadeHit(const Scene& scene, const RayHit& hit, const Vec3& p_world) {
   static const Vec3 kLight = Vec3(0.35, 1.0, 0.25).normalized();
   const OrientedBox& box = scene.boxes[hit.box_index];
   double shade = 0.55 + 0.45 * std::abs(hit.normal_world.dot(kLight));
@@ -284,6 +292,8 @@ Rgb Shade(const Scene& scene, const RayHit& hit, const Vec3& p_world) {
   }
   return rgb;
 }
+
+namespace {
 
 /// Ray-casts one camera and corrupts its depth like a stereo camera (see SimulateRig).
 /// Every pixel draws its dropout and noise variates in row-major order, hit or not, so
@@ -327,7 +337,7 @@ void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_w
       const std::optional<RayHit> hit = scene.Raycast(origin, direction);
       if (!hit) continue;
       const size_t i = static_cast<size_t>(v) * w + u;
-      const Rgb rgb = Shade(scene, *hit, origin + hit->t * direction);
+      const Rgb rgb = ShadeHit(scene, *hit, origin + hit->t * direction);
       std::copy(rgb.begin(), rgb.end(), camera->color.begin() + 3 * i);
       // Stereo depth error grows with z^2: sigma = noise * z^2.
       double z = hit->t + options.noise * hit->t * hit->t * gaussian;
@@ -398,7 +408,7 @@ PinholeIntrinsics SimIntrinsics(int width, int height) {
 SimulatedRig SimulateRig(const SimOptions& options) {
   CheckOptions(options);
   SimulatedRig rig;
-  rig.scene = MakeRoom(options);
+  rig.scene = SimulateRoom(options.seed, options.bare);
   const std::vector<Pose> gt = PlaceCameras(options, rig.scene);
   const std::vector<Pose> init = PerturbPoses(options, gt);
   rig.capture.cameras.resize(gt.size());

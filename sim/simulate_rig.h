@@ -2,6 +2,7 @@
 // ZED-like depth cameras, with true and perturbed extrinsics. Deterministic for a seed.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -72,6 +73,21 @@ std::string SimSerial(int index);
 /// Pinhole intrinsics of a simulated camera: square pixels, kSimHorizontalFovDeg across the
 /// width, principal point at the image centre ((width - 1) / 2, (height - 1) / 2).
 PinholeIntrinsics SimIntrinsics(int width, int height);
+
+/// The room SimulateRig simulates for a seed (its `scene`): about 6 x 5 m with 2.5 m walls;
+/// unless bare, baseboards, boxes at random yaw, tables with thin legs and a chair, all resting
+/// on the floor. Deterministic for a seed (its own random stream).
+Scene SimulateRoom(std::uint64_t seed, bool bare);
+
+/// T_world_camera of a camera at centre looking along `forward` (world, not vertical), level
+/// (its x axis horizontal, OpenCV axes: x right, y down, z forward, world +Y up), then rolled
+/// by `roll` radians about its z axis.
+Pose CameraLookingAlong(const Vec3& centre, const Vec3& forward, double roll);
+
+/// The colour of a ray's hit at p_world as the simulator renders it: the box's albedo,
+/// Lambertian-like shading lit from above and a little to the side, and a 0.5 m
+/// checkerboard on the floor (enough for a person to read the colour images).
+std::array<std::uint8_t, 3> ShadeHit(const Scene& scene, const RayHit& hit, const Vec3& p_world);
 
 /// Simulates a rig. The scene is a room of about 6 x 5 m with 2.5 m walls; unless bare, it
 /// holds baseboards, boxes at random yaw, tables with thin legs and a chair, all resting on

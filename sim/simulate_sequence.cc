@@ -1,0 +1,247 @@
+#include "sim/simulate_sequence.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <thread>
+
+#include "core/parallel.h"
+#include "core/pose.h"
+#include "sim/simulate_rig.h"
+
+namespace rigfit {
+namespace {
+
+// Random streams of a seed (sim/random.h), apart from the room's (SimulateRoom); the pixel
+// noise of frame i uses kFrameStream + i.
+constexpr std::uint64_t kTrajectoryStream = 10;
+constexpr std::uint64_t kFrameStream = std::uint64_t{1} << 20;
+
+// The hand-held path (HandheldTrajectory).
+constexpr double kMinRadiusShare = 0.45;  // of the room's half extent
+constexpr double kMaxRadiusShare = 0.6;
+constexpr double kMinWallClearance = 0.6;  // metres
+constexpr double kSecondHarmonicM = 0.05;
+constexpr double kThirdHarmonicM = 0.03;
+constexpr double kSwayM = 0.01;  // 7th harmonic
+constexpr double kMinHeight = 1.3, kMaxHeight = 1.5, kHeightSwingM = 0.1;
+constexpr double kYawSwingDeg = 35.0;
+constexpr double kMinPitchDownDeg = 10.0, kMaxPitchDownDeg = 25.0, kNodDeg = 5.0;
+constexpr double kRollDeg = 3.0;
+constexpr int kArcSamples = 4096;  // arc length of a loop, for the speed
+
+constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
+
+void CheckOptions(const SequenceOptions& o) {
+  auto fail = [](const std::string& what) {
+    throw std::invalid_argument("SimulatedSequence: " + what);
+  };
+  auto finite_non_negative = [](double x) { return std::isfinite(x) && x >= 0.0; };
+  if (o.frames < 1) fail("frames must be at least 1");
+  if (o.width < 2 || o.height < 2) fail("width and height must be at least 2 pixels");
+  if (!(o.rate_hz > 0.0) || !std::isfinite(o.rate_hz)) fail("rate_hz must be finite and > 0");
+  if (!(o.speed_mps > 0.0) || !std::isfinite(o.speed_mps)) {
+    fail("speed_mps must be finite and > 0");
+  }
+  if (!(o.max_depth_m > 0.0)) fail("max_depth_m must be > 0");
+  const KinectNoiseOptions& k = o.kinect;
+  if (!finite_non_negative(k.shift_sigma_px)) fail("shift_sigma_px must be finite and >= 0");
+  if (!finite_non_negative(k.disparity_sigma)) fail("disparity_sigma must be finite and >= 0");
+  if (!(k.disparity_constant > 0.0) || !std::isfinite(k.disparity_constant)) {
+    fail("disparity_constant must be finite and > 0");
+  }
+  if (!std::isfinite(k.disparity_offset)) fail("disparity_offset must be finite");
+}
+
+}  // namespace
+
+double KinectNoiseSigma(const KinectNoiseOptions& options, double z_m) {
+  const double z_cm = 100.0 * z_m;
+  const double s = options.disparity_sigma;
+  const double disparity_cm =
+      z_cm * z_cm / options.disparity_constant * std::sqrt(s * s + 1.0 / 12);
+  return 0.01 * std::sqrt(disparity_cm * disparity_cm + 1.0 / 12);
+}
+
+std::vector<float> KinectNoise(const std::vector<float>& depth_m, int width, int height,
+                               const KinectNoiseOptions& options, double pixel_scale,
+                               double max_depth_m, SimRng& rng) {
+  const double shift_sigma = options.shift_sigma_px * pixel_scale;
+  const double C = options.disparity_constant;
+  const auto at = [&](int u, int v) { return depth_m[static_cast<size_t>(v) * width + u]; };
+  std::vector<float> noisy(depth_m.size(), kNaNf);
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const double dx = shift_sigma * rng.Normal();
+      const double dy = shift_sigma * rng.Normal();
+      const double n = options.disparity_sigma * rng.Normal();
+      // 1. The depth at the shifted position, bilinear; nearest where a neighbour of
+      //    non-zero weight is invalid.
+      const double x = std::clamp(u + dx, 0.0, width - 1.0);
+      const double y = std::clamp(v + dy, 0.0, height - 1.0);
+      const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+      const int x1 = std::min(x0 + 1, width - 1), y1 = std::min(y0 + 1, height - 1);
+      const double fx = x - x0, fy = y - y0;
+      const double w[4] = {(1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy};
+      const float z[4] = {at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1)};
+      double z_m = 0.0;
+      for (int k = 0; k < 4; ++k) {
+        if (w[k] == 0.0) continue;
+        if (!std::isfinite(z[k])) {
+          z_m = at(static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)));
+          break;
+        }
+        z_m += w[k] * z[k];
+      }
+      if (!std::isfinite(z_m)) continue;
+      // 2. Whole centimetres; 3. disparity noise and quantisation to 1/8 px.
+      const double z_cm = std::round(100.0 * z_m);
+      if (!(z_cm > 0.0)) continue;
+      const double d = std::round(C / z_cm + n + options.disparity_offset);
+      if (!(d > 0.0)) continue;
+      const double z_noisy = 0.01 * C / d;
+      if (z_noisy > max_depth_m) continue;
+      noisy[static_cast<size_t>(v) * width + u] = static_cast<float>(z_noisy);
+    }
+  }
+  return noisy;
+}
+
+HandheldTrajectory::HandheldTrajectory(const Scene& scene, double speed_mps, std::uint64_t seed) {
+  SimRng rng(seed, kTrajectoryStream);
+  const auto radius = [&](double half) {
+    return std::min(rng.Uniform(kMinRadiusShare, kMaxRadiusShare) * half, half - kMinWallClearance);
+  };
+  radius_x_ = radius(0.5 * scene.size_x_m);
+  radius_z_ = radius(0.5 * scene.size_z_m);
+  height_ = rng.Uniform(kMinHeight, kMaxHeight);
+  pitch_ = -rng.Uniform(kMinPitchDownDeg, kMaxPitchDownDeg) * kDegToRad;
+  direction_ = rng.Uniform() < 0.5 ? -1 : 1;
+  for (double& phase : phase_) phase = rng.Uniform(0.0, 2.0 * M_PI);
+  // The centre depends on theta only: speed = omega |dCentre/dtheta|, so the mean speed
+  // over a loop is omega L / (2 pi).
+  double length = 0.0;
+  Vec3 previous = Centre(0.0);
+  for (int k = 1; k <= kArcSamples; ++k) {
+    const Vec3 p = Centre(2.0 * M_PI * k / kArcSamples);
+    length += (p - previous).norm();
+    previous = p;
+  }
+  omega_ = 2.0 * M_PI * speed_mps / length;
+}
+
+Vec3 HandheldTrajectory::Centre(double theta) const {
+  const double* f = phase_;
+  return Vec3(
+      radius_x_ * std::cos(theta) + kSecondHarmonicM * std::cos(2 * theta + f[1]) +
+          kThirdHarmonicM * std::cos(3 * theta + f[2]) + kSwayM * std::cos(7 * theta + f[3]),
+      height_ + kHeightSwingM * std::sin(2 * theta + f[4]) + kSwayM * std::sin(7 * theta + f[5]),
+      radius_z_ * std::sin(theta) + kSecondHarmonicM * std::sin(2 * theta + f[1]) +
+          kThirdHarmonicM * std::sin(3 * theta + f[2]) + kSwayM * std::sin(7 * theta + f[6]));
+}
+
+Pose HandheldTrajectory::At(double t) const {
+  const double theta = phase_[0] + direction_ * omega_ * t;
+  const Vec3 centre = Centre(theta);
+  // Heading toward the room centre (never at it: the curve keeps about a metre away), then
+  // the swing, nod and roll.
+  const double yaw = std::atan2(-centre.x(), -centre.z()) +
+                     kYawSwingDeg * kDegToRad * std::sin(2 * theta + phase_[7]);
+  const double pitch = pitch_ + kNodDeg * kDegToRad * std::sin(3 * theta + phase_[4]);
+  const double roll = kRollDeg * kDegToRad * std::sin(5 * theta + phase_[1]);
+  const Vec3 forward(std::cos(pitch) * std::sin(yaw), std::sin(pitch),
+                     std::cos(pitch) * std::cos(yaw));
+  return CameraLookingAlong(centre, forward, roll);
+}
+
+PinholeIntrinsics SequenceIntrinsics(int width, int height) {
+  constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5, kWidth = 640.0, kHeight = 480.0;
+  const double s = width / kWidth;
+  PinholeIntrinsics K;
+  K.fx = K.fy = kF * s;
+  K.cx = (kCx + 0.5) * s - 0.5;
+  K.cy = (kCy + 0.5) * (height / kHeight) - 0.5;
+  return K;
+}
+
+std::vector<float> RenderDepth(const Scene& scene, const Pose& T_world_camera,
+                               const PinholeIntrinsics& K, int width, int height,
+                               double max_depth_m, std::vector<std::uint8_t>* color) {
+  std::vector<float> depth(static_cast<size_t>(width) * height, kNaNf);
+  if (color) color->assign(depth.size() * 3, 0);
+  const Mat3& R = T_world_camera.linear();
+  const Vec3 origin = T_world_camera.translation();
+  const int threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  ParallelFor(
+      height, threads,
+      [&](int v) {
+        for (int u = 0; u < width; ++u) {
+          // With the camera-frame direction ((u - cx) / fx, (v - cy) / fy, 1), the ray
+          // parameter of the hit is its depth z.
+          const Vec3 direction = R * Vec3((u - K.cx) / K.fx, (v - K.cy) / K.fy, 1.0);
+          const std::optional<RayHit> hit = scene.Raycast(origin, direction);
+          if (!hit || hit->t > max_depth_m) continue;
+          const size_t i = static_cast<size_t>(v) * width + u;
+          depth[i] = static_cast<float>(hit->t);
+          if (color) {
+            const auto rgb = ShadeHit(scene, *hit, origin + hit->t * direction);
+            std::copy(rgb.begin(), rgb.end(), color->begin() + 3 * i);
+          }
+        }
+      },
+      8);
+  return depth;
+}
+
+SimulatedSequence::SimulatedSequence(const SequenceOptions& options) : options_(options) {
+  CheckOptions(options);
+  scene_ = SimulateRoom(options.seed, options.bare);
+  trajectory_ = HandheldTrajectory(scene_, options.speed_mps, options.seed);
+  intrinsics_ = SequenceIntrinsics(options.width, options.height);
+}
+
+double SimulatedSequence::Timestamp(int index) const {
+  return std::round(index * 1e6 / options_.rate_hz) * 1e-6;
+}
+
+RgbdFrame SimulatedSequence::Frame(int index) const {
+  if (index < 0 || index >= options_.frames) {
+    throw std::out_of_range("SimulatedSequence: frame " + std::to_string(index) + " out of range");
+  }
+  RgbdFrame frame;
+  frame.index = index;
+  frame.timestamp = Timestamp(index);
+  frame.source = "simulated frame " + std::to_string(index);
+  frame.width = options_.width;
+  frame.height = options_.height;
+  frame.intrinsics = intrinsics_;
+  const Pose T_world_camera = trajectory_.At(frame.timestamp);
+  frame.T_world_camera_gt = T_world_camera;
+  frame.depth_m = RenderDepth(scene_, T_world_camera, intrinsics_, options_.width, options_.height,
+                              options_.max_depth_m, options_.color ? &frame.color : nullptr);
+  if (options_.noise == SequenceNoise::kKinect) {
+    SimRng rng(options_.seed, kFrameStream + static_cast<std::uint64_t>(index));
+    frame.depth_m = KinectNoise(frame.depth_m, options_.width, options_.height, options_.kinect,
+                                options_.width / 640.0, options_.max_depth_m, rng);
+  }
+  return frame;
+}
+
+Trajectory SimulatedSequence::GroundTruth() const {
+  Trajectory gt;
+  for (int i = 0; i < options_.frames; ++i) {
+    gt.timestamps.push_back(Timestamp(i));
+    gt.poses.push_back(trajectory_.At(gt.timestamps.back()));
+  }
+  return gt;
+}
+
+std::string SimulatedSequence::Describe() const {
+  return "simulated sequence: " + std::to_string(options_.frames) + " frames of " +
+         std::to_string(options_.width) + "x" + std::to_string(options_.height) + " at " +
+         std::to_string(options_.rate_hz) + " Hz, seed " + std::to_string(options_.seed) +
+         (options_.noise == SequenceNoise::kKinect ? ", Kinect noise" : ", no noise");
+}
+
+}  // namespace rigfit
