@@ -233,10 +233,7 @@ std::vector<ListedImage> ReadImageList(const fs::path& list) {
   std::vector<ListedImage> images;
   for (const TextRow& row : ReadTextRows(path)) {
     const std::string where = LineWhere(path, row.line);
-    if (row.fields.size() != 2) {
-      throw InputError(where + ": expected 'timestamp filename', got " +
-                       std::to_string(row.fields.size()) + " fields");
-    }
+    ExpectFields(row, 2, "'timestamp filename'", path);
     const double t = ParseFiniteNumber(row.fields[0], where);
     CheckIncreasing(images, t, row.fields[0], where);
     images.push_back({t, (list.parent_path() / row.fields[1]).string()});
@@ -333,10 +330,7 @@ std::vector<FrameFiles> IclNuimAssociations(const fs::path& list, double seconds
   std::vector<ListedImage> depths;
   for (const TextRow& row : ReadTextRows(path)) {
     const std::string where = LineWhere(path, row.line);
-    if (row.fields.size() != 4) {
-      throw InputError(where + ": expected 'timestamp filename timestamp filename', got " +
-                       std::to_string(row.fields.size()) + " fields");
-    }
+    ExpectFields(row, 4, "'timestamp filename timestamp filename'", path);
     const bool depth_first = row.fields[1].rfind("depth", 0) == 0;
     if (!depth_first && row.fields[3].rfind("depth", 0) != 0) {
       throw InputError(where + ": neither file is under depth/");
@@ -394,10 +388,7 @@ Eigen::MatrixXd ReadMatrixFile(const std::string& path, int rows, int cols) {
   for (int r = 0; r < rows; ++r) {
     const TextRow& row = lines[static_cast<size_t>(r)];
     const std::string where = LineWhere(path, row.line);
-    if (static_cast<int>(row.fields.size()) != cols) {
-      throw InputError(where + ": expected " + std::to_string(cols) + " numbers, got " +
-                       std::to_string(row.fields.size()));
-    }
+    ExpectFields(row, static_cast<size_t>(cols), std::to_string(cols) + " numbers", path);
     for (int c = 0; c < cols; ++c) {
       M(r, c) = ParseFiniteNumber(row.fields[static_cast<size_t>(c)], where);
     }

@@ -29,6 +29,14 @@ std::string LineWhere(const std::string& path, int line) {
   return path + ": line " + std::to_string(line);
 }
 
+void ExpectFields(const TextRow& row, size_t count, const std::string& what,
+                  const std::string& path) {
+  if (row.fields.size() != count) {
+    throw InputError(LineWhere(path, row.line) + ": expected " + what + ", got " +
+                     std::to_string(row.fields.size()) + " fields");
+  }
+}
+
 double ParseFiniteNumber(const std::string& token, const std::string& where) {
   double value = 0.0;
   try {

@@ -21,6 +21,11 @@ std::vector<TextRow> ReadTextRows(const std::string& path);
 /// "<path>: line <n>", the prefix of every message about a line.
 std::string LineWhere(const std::string& path, int line);
 
+/// Fails unless `row` has `count` fields: InputError("<path>: line <n>: expected <what>, got
+/// <k> fields").
+void ExpectFields(const TextRow& row, size_t count, const std::string& what,
+                  const std::string& path);
+
 /// The whole token as a finite number. Throws InputError("<where>: '<token>' is not a number")
 /// or ("<where>: '<token>' is not finite").
 double ParseFiniteNumber(const std::string& token, const std::string& where);

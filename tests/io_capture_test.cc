@@ -277,23 +277,7 @@ TEST_F(CaptureTest, MedianDepthDecidesTheUnitMistake) {
 
 TEST_F(CaptureTest, BurstBecomesThePerPixelMedianOfValidSamples) {
   const std::string path = Path("burst.h5");
-  {
-    H5Builder h5(path);
-    h5.Root();
-    // F = 3 frames of a 2x3 image; frame-major, pixel i of frame f at f * 6 + i.
-    const std::vector<float> frames = {
-        1, kNaN, kNaN, 0,  kInf,  7,  // frame 0
-        2, 1,    kNaN, -1, 2,     7,  // frame 1
-        3, 4,    kNaN, 5,  -kInf, 1,  // frame 2
-    };
-    h5.Dataset("/cameras/cam/depth", H5T_IEEE_F32LE, {3, 2, 3}, frames);
-    h5.Intrinsics("cam", {5.0, 0.0, 1.0, 0.0, 5.0, 1.0, 0.0, 0.0, 1.0});
-    // The same as uint16 millimetres, 0 invalid.
-    h5.Dataset("/cameras/mm/depth", H5T_STD_U16LE, {2, 1, 2},
-               std::vector<std::uint16_t>{1000, 0, 3000, 0});
-    h5.NumberAttribute("/cameras/mm/depth", "depth_scale", H5T_IEEE_F64LE, 0.001);
-    h5.Intrinsics("mm", {5.0, 0.0, 1.0, 0.0, 5.0, 0.5, 0.0, 0.0, 1.0});
-  }
+  io_test::WriteBurstCapture(path);
   const RigCapture capture = ReadCapture(path);
   ASSERT_THAT(capture.cameras, SizeIs(2));
   const CameraCapture& cam = capture.cameras[0];

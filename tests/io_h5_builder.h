@@ -6,6 +6,7 @@
 #include <hdf5.h>
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -121,5 +122,27 @@ class H5Builder {
 
   hid_t file_;
 };
+
+/// A capture of two depth bursts. Camera "cam": F = 3 frames of a 2x3 float32 image
+/// (frame-major, pixel i of frame f at f * 6 + i) with invalid samples (NaN, 0, -1, +-inf),
+/// K = [5 0 1; 0 5 1; 0 0 1]. Camera "mm": the same idea as uint16 millimetres, 2 frames of
+/// 1x2, 0 invalid, K = [5 0 1; 0 5 0.5; 0 0 1].
+inline void WriteBurstCapture(const std::string& path) {
+  constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  H5Builder h5(path);
+  h5.Root();
+  const std::vector<float> frames = {
+      1, kNaN, kNaN, 0,  kInf,  7,  // frame 0
+      2, 1,    kNaN, -1, 2,     7,  // frame 1
+      3, 4,    kNaN, 5,  -kInf, 1,  // frame 2
+  };
+  h5.Dataset("/cameras/cam/depth", H5T_IEEE_F32LE, {3, 2, 3}, frames);
+  h5.Intrinsics("cam", {5.0, 0.0, 1.0, 0.0, 5.0, 1.0, 0.0, 0.0, 1.0});
+  h5.Dataset("/cameras/mm/depth", H5T_STD_U16LE, {2, 1, 2},
+             std::vector<std::uint16_t>{1000, 0, 3000, 0});
+  h5.NumberAttribute("/cameras/mm/depth", "depth_scale", H5T_IEEE_F64LE, 0.001);
+  h5.Intrinsics("mm", {5.0, 0.0, 1.0, 0.0, 5.0, 0.5, 0.0, 0.0, 1.0});
+}
 
 }  // namespace rigfit::io_test

@@ -13,10 +13,7 @@ namespace {
 class PngTest : public io_test::TempDirTest {};
 
 TEST_F(PngTest, Grey16RoundTripIsExact) {
-  Grey16Raster image;
-  image.width = 3;
-  image.height = 2;
-  image.values = {0, 1, 0x1234, 5000, 65534, 65535};
+  const Grey16Raster image{3, 2, {0, 1, 0x1234, 5000, 65534, 65535}};
   const std::string path = Path("d.png");
   WritePngGrey16(path, image);
   const Grey16Raster read = ReadPngGrey16(path);
@@ -26,12 +23,8 @@ TEST_F(PngTest, Grey16RoundTripIsExact) {
 }
 
 TEST_F(PngTest, Grey16ReaderRefusesOtherFormatsNamingTheFile) {
-  RgbRaster rgb;
-  rgb.width = 2;
-  rgb.height = 1;
-  rgb.rgb = {1, 2, 3, 4, 5, 6};
   const std::string rgb_path = Path("rgb.png");
-  WritePng(rgb_path, rgb);
+  WritePng(rgb_path, RgbRaster{2, 1, {1, 2, 3, 4, 5, 6}});
   EXPECT_EQ(io_test::InputErrorMessage([&] { ReadPngGrey16(rgb_path); }),
             rgb_path + ": cannot read PNG: expected a 16-bit greyscale PNG (depth), got 8-bit RGB");
   const std::string text_path = Path("not.png");

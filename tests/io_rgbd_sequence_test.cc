@@ -41,11 +41,7 @@ class RgbdSequenceTest : public io_test::TempDirTest {
 
 void WriteDepth(const std::string& path, int width, int height,
                 const std::vector<std::uint16_t>& values) {
-  Grey16Raster image;
-  image.width = width;
-  image.height = height;
-  image.values = values;
-  WritePngGrey16(path, image);
+  WritePngGrey16(path, Grey16Raster{width, height, values});
 }
 
 RgbRaster Colour(int width, int height, std::uint8_t seed) {
@@ -359,7 +355,7 @@ TEST_F(RgbdSequenceTest, SevenScenesMillimetresPosesAndIntrinsicsFile) {
               StartsWith(pose1 + ": rotation block is not a rotation"));
   io_test::WriteText(pose1, "1 0 0 0\n0 1 0\n0 0 1 0\n0 0 0 1\n");
   EXPECT_EQ(io_test::InputErrorMessage([&] { OpenRgbdSequence(root.string()); }),
-            pose1 + ": line 2: expected 4 numbers, got 3");
+            pose1 + ": line 2: expected 4 numbers, got 3 fields");
   fs::remove(pose1);
   EXPECT_THAT(io_test::InputErrorMessage([&] { OpenRgbdSequence(root.string()); }),
               StartsWith(pose1 + ": cannot open"));
@@ -370,41 +366,37 @@ TEST_F(RgbdSequenceTest, SevenScenesMillimetresPosesAndIntrinsicsFile) {
 
 TEST_F(RgbdSequenceTest, RigCaptureBurstIsASequenceOfItsFrames) {
   const std::string path = Path("burst.h5");
-  const float nan = std::numeric_limits<float>::quiet_NaN();
-  {
-    io_test::H5Builder h5(path);
-    h5.Root();
-    h5.Dataset("/cameras/a/depth", H5T_IEEE_F32LE, {3, 2, 2},
-               std::vector<float>{1, 2, 3, 4, 0, 2.5f, nan, 4, 1, 1, 1, -1});
-    h5.Intrinsics("a", {5.0, 0.0, 1.0, 0.0, 6.0, 0.5, 0.0, 0.0, 1.0});
-    h5.Dataset("/cameras/b/depth", H5T_STD_U16LE, {2, 1, 2},
-               std::vector<std::uint16_t>{1000, 0, 3000, 7});
-    h5.NumberAttribute("/cameras/b/depth", "depth_scale", H5T_IEEE_F64LE, 0.001);
-    h5.Intrinsics("b", {5.0, 0.0, 1.0, 0.0, 5.0, 0.5, 0.0, 0.0, 1.0});
-  }
-  const auto a = OpenRgbdSequence(path);
-  ASSERT_EQ(a->size(), 3);
-  EXPECT_THAT(a->Describe(), HasSubstr("camera a"));
-  const RgbdFrame f1 = a->Frame(1);
+  io_test::WriteBurstCapture(path);
+  const auto cam = OpenRgbdSequence(path);
+  ASSERT_EQ(cam->size(), 3);
+  EXPECT_THAT(cam->Describe(), HasSubstr("camera cam"));
+  const RgbdFrame f1 = cam->Frame(1);
+  EXPECT_EQ(f1.index, 1);
   EXPECT_DOUBLE_EQ(f1.timestamp, 1 / 30.0);
-  EXPECT_EQ(f1.width, 2);
+  EXPECT_EQ(f1.width, 3);
   EXPECT_EQ(f1.height, 2);
-  EXPECT_EQ(f1.intrinsics.fy, 6.0);
-  EXPECT_TRUE(std::isnan(f1.Depth(0, 0)));  // 0: invalid
-  EXPECT_EQ(f1.Depth(1, 0), 2.5f);
+  EXPECT_EQ(f1.intrinsics.fx, 5.0);
+  EXPECT_EQ(f1.intrinsics.cy, 1.0);
+  // Frame 1 is {2, 1, NaN; -1, 2, 7}: -1 is invalid.
+  EXPECT_EQ(f1.Depth(0, 0), 2.0f);
+  EXPECT_EQ(f1.Depth(1, 0), 1.0f);
+  EXPECT_TRUE(std::isnan(f1.Depth(2, 0)));
   EXPECT_TRUE(std::isnan(f1.Depth(0, 1)));
-  EXPECT_TRUE(std::isnan(a->Frame(2).Depth(1, 1)));  // negative: invalid
-  EXPECT_TRUE(a->GroundTruth().poses.empty());
+  EXPECT_EQ(f1.Depth(2, 1), 7.0f);
+  EXPECT_TRUE(std::isnan(cam->Frame(0).Depth(1, 1)));  // +inf: invalid
+  EXPECT_EQ(cam->Frame(2).Depth(0, 1), 5.0f);
+  EXPECT_TRUE(cam->GroundTruth().poses.empty());
 
   SequenceOptions options;
-  options.serial = "b";
-  const auto b = OpenRgbdSequence(path, options);
-  ASSERT_EQ(b->size(), 2);
-  EXPECT_NEAR(b->Frame(1).Depth(0, 0), 3.0, kDepthTolerance);
-  EXPECT_NEAR(b->Frame(1).Depth(1, 0), 0.007, kDepthTolerance);
+  options.serial = "mm";
+  options.stride = 2;
+  const auto mm = OpenRgbdSequence(path, options);
+  ASSERT_EQ(mm->size(), 1);
+  EXPECT_NEAR(mm->Frame(0).Depth(0, 0), 1.0, kDepthTolerance);
+  EXPECT_TRUE(std::isnan(mm->Frame(0).Depth(1, 0)));
   options.serial = "c";
   EXPECT_EQ(io_test::InputErrorMessage([&] { OpenRgbdSequence(path, options); }),
-            path + ": camera c: not in the file (cameras: a, b)");
+            path + ": camera c: not in the file (cameras: cam, mm)");
 }
 
 // ---------------------------------------------------------------------------------------------
