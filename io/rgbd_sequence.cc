@@ -405,6 +405,7 @@ PngSequenceLayout ReadSevenScenesFolder(fs::path folder, const SequenceOptions& 
     depths = FilesMatching(folder, kDepthFile);
   }
   PngSequenceLayout layout;
+  if (depths.empty()) return layout;  // no 7-Scenes folder
   layout.format = "7-Scenes";
   layout.folder = folder.string();
   layout.metres_per_unit = kSevenScenesMetresPerUnit;
