@@ -14,9 +14,8 @@
 #include "cli/simulate_common.h"
 #include "core/errors.h"
 #include "io/atomic_file.h"
+#include "io/png.h"
 #include "io/trajectory_tum.h"
-#include "report/image.h"
-#include "report/png.h"
 #include "sim/simulate_sequence.h"
 
 namespace rigfit::cli {
@@ -35,11 +34,11 @@ struct SimulateSequenceArgs {
   bool force = false;
   bool no_color = false;
   std::string noise = "kinect";
-  SequenceOptions sequence;
+  SimSequenceOptions sequence;
 };
 
 void CheckArgs(const SimulateSequenceArgs& a) {
-  const SequenceOptions& o = a.sequence;
+  const SimSequenceOptions& o = a.sequence;
   auto fail = [](const std::string& what) { throw InputError("simulate-sequence: " + what); };
   if (o.frames < 1 || o.frames > kMaxFrames) {
     fail("--frames must be in [1, " + std::to_string(kMaxFrames) + "], got " +
@@ -87,7 +86,7 @@ int RunSimulateSequence(SimulateSequenceArgs a) {
   }
 
   const SimulatedSequence sequence(a.sequence);
-  const SequenceOptions& o = a.sequence;
+  const SimSequenceOptions& o = a.sequence;
   const std::string header = "# rigfit simulate-sequence, seed " + std::to_string(o.seed) +
                              ", noise " + a.noise + "\n# timestamp filename\n";
   std::string depth_list = "# depth maps\n" + header;
@@ -96,15 +95,12 @@ int RunSimulateSequence(SimulateSequenceArgs a) {
     const RgbdFrame frame = sequence.Frame(i);
     const std::string stamp = Stamp(frame.timestamp);
     const std::string depth_name = "depth/" + stamp + ".png";
-    WritePngGray16((dir / depth_name).string(), frame.width, frame.height, TumDepth(frame.depth_m));
+    WritePngGrey16((dir / depth_name).string(),
+                   Grey16Raster{frame.width, frame.height, TumDepth(frame.depth_m)});
     depth_list += stamp + " " + depth_name + "\n";
     if (o.color) {
-      Image image;
-      image.width = frame.width;
-      image.height = frame.height;
-      image.rgb = frame.color;
       const std::string rgb_name = "rgb/" + stamp + ".png";
-      WritePng((dir / rgb_name).string(), image);
+      WritePng((dir / rgb_name).string(), RgbRaster{frame.width, frame.height, frame.color});
       rgb_list += stamp + " " + rgb_name + "\n";
     }
     if ((i + 1) % kProgressEvery == 0 || i + 1 == sequence.size()) {
@@ -134,7 +130,7 @@ int RunSimulateSequence(SimulateSequenceArgs a) {
 
 Command AddSimulateSequenceCommand(CLI::App& app) {
   auto args = std::make_shared<SimulateSequenceArgs>();
-  SequenceOptions& o = args->sequence;
+  SimSequenceOptions& o = args->sequence;
   CLI::App* sub = app.add_subcommand(
       "simulate-sequence",
       "Write a synthetic RGB-D sequence in the TUM RGB-D layout: a hand-held Kinect-like "

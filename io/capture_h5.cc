@@ -407,7 +407,10 @@ void DropDepthGlitches(std::vector<float>& metres, CameraCapture& camera, const 
   }
 }
 
-void ReadDepth(hid_t group, CameraCapture& camera, const Context& where) {
+/// Reads the depth of a camera; with `frames`, every frame of a burst too ([F, H, W] metres,
+/// the same samples the median is taken of).
+void ReadDepth(hid_t group, CameraCapture& camera, const Context& where,
+               std::vector<float>* frames) {
   const Dataset depth = OpenDataset(group, "depth", where);
   if (depth.dims.size() != 2 && depth.dims.size() != 3) {
     where.Fail("depth", "expected rank 2 or 3, got " + std::to_string(depth.dims.size()) + " " +
@@ -436,6 +439,7 @@ void ReadDepth(hid_t group, CameraCapture& camera, const Context& where) {
   }
   const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
   DropDepthGlitches(metres, camera, where);
+  if (frames != nullptr) *frames = metres;
   camera.depth_m = num_frames == 1 ? std::move(metres) : BurstMedian(metres, num_frames, pixels);
 }
 
@@ -522,7 +526,9 @@ void ReadColor(hid_t group, CameraCapture& camera, const Context& where) {
   camera.color = ReadAll<std::uint8_t>(d, H5T_NATIVE_UINT8, where);
 }
 
-CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::string& file) {
+/// Reads one camera; with `frames`, every frame of its depth too (ReadDepth).
+CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::string& file,
+                         std::vector<float>* frames = nullptr) {
   const Context where{file, serial};
   const H5Id group = OpenChild(cameras, serial, where, "");
   if (H5Iget_type(group.get()) != H5I_GROUP) where.Fail("", "expected a group under /cameras");
@@ -544,7 +550,7 @@ CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::st
   CameraCapture camera;
   camera.serial = serial;
   if (has_depth) {
-    ReadDepth(group.get(), camera, where);
+    ReadDepth(group.get(), camera, where, frames);
     ReadIntrinsics(group.get(), camera, where);
     if (has("confidence")) ReadConfidence(group.get(), camera, where);
     if (has("color")) ReadColor(group.get(), camera, where);
@@ -562,16 +568,17 @@ CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::st
   return camera;
 }
 
-RigCapture ReadOpenFile(hid_t file, const std::string& name) {
+/// The checked /cameras group of an open capture (root attributes checked too) and its
+/// serials, sorted.
+H5Id OpenCameras(hid_t file, const std::string& name, std::vector<std::string>* serials) {
   const Context where{name, ""};
   CheckRootAttributes(file, where);
-  const H5Id cameras = OpenChild(file, "cameras", where, "/cameras");
+  H5Id cameras = OpenChild(file, "cameras", where, "/cameras");
   if (!cameras.valid()) where.Fail("", "missing group /cameras");
   if (H5Iget_type(cameras.get()) != H5I_GROUP) where.Fail("/cameras", "expected a group");
   H5G_info_t info;
   if (H5Gget_info(cameras.get(), &info) < 0) where.Fail("/cameras", "cannot list");
   if (info.nlinks == 0) where.Fail("/cameras", "is empty (no camera)");
-  std::vector<std::string> serials;
   for (hsize_t i = 0; i < info.nlinks; ++i) {
     const ssize_t length = H5Lget_name_by_idx(cameras.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i,
                                               nullptr, 0, H5P_DEFAULT);
@@ -580,9 +587,15 @@ RigCapture ReadOpenFile(hid_t file, const std::string& name) {
     H5Lget_name_by_idx(cameras.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, serial.data(),
                        serial.size(), H5P_DEFAULT);
     serial.resize(static_cast<size_t>(length));
-    serials.push_back(serial);
+    serials->push_back(serial);
   }
-  std::sort(serials.begin(), serials.end());
+  std::sort(serials->begin(), serials->end());
+  return cameras;
+}
+
+RigCapture ReadOpenFile(hid_t file, const std::string& name) {
+  std::vector<std::string> serials;
+  const H5Id cameras = OpenCameras(file, name, &serials);
   RigCapture capture;
   for (const std::string& serial : serials) {
     capture.cameras.push_back(ReadCamera(cameras.get(), serial, name));
@@ -837,9 +850,9 @@ struct ReadingChild {
   }
 };
 
-}  // namespace
-
-RigCapture ReadCapture(const std::string& path) {
+/// A capture file opened for reading; InputError naming it when it is missing, unreadable or
+/// no HDF5 file.
+H5Id OpenCaptureFile(const std::string& path) {
   SilenceHdf5Errors();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec) || !std::ifstream(path).good()) {
@@ -847,9 +860,35 @@ RigCapture ReadCapture(const std::string& path) {
   }
   if (H5Fis_hdf5(path.c_str()) <= 0) throw InputError(path + ": not an HDF5 file");
   const H5Id fapl = StrongCloseAccess();
-  const H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose);
+  H5Id file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl.get()), H5Fclose);
   if (!file.valid()) throw InputError(path + ": cannot open as HDF5 (damaged file?)");
+  return file;
+}
+
+}  // namespace
+
+RigCapture ReadCapture(const std::string& path) {
+  const H5Id file = OpenCaptureFile(path);
   return ReadOpenFile(file.get(), path);
+}
+
+CameraBurst ReadCaptureBurst(const std::string& path, const std::string& serial) {
+  const H5Id file = OpenCaptureFile(path);
+  std::vector<std::string> serials;
+  const H5Id cameras = OpenCameras(file.get(), path, &serials);
+  const std::string chosen = serial.empty() ? serials.front() : serial;
+  if (std::find(serials.begin(), serials.end(), chosen) == serials.end()) {
+    std::string known;
+    for (const std::string& s : serials) known += (known.empty() ? "" : ", ") + s;
+    throw InputError(path + ": camera " + chosen + ": not in the file (cameras: " + known + ")");
+  }
+  CameraBurst burst;
+  burst.camera = ReadCamera(cameras.get(), chosen, path, &burst.frames_depth_m);
+  if (!burst.camera.HasDepth()) {
+    throw InputError(path + ": camera " + chosen + ": has points, not depth frames");
+  }
+  burst.num_frames = static_cast<int>(burst.frames_depth_m.size() / burst.camera.depth_m.size());
+  return burst;
 }
 
 RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {

@@ -23,6 +23,23 @@ namespace rigfit {
 /// and are counted in CameraCapture::glitch_depth_samples (CaptureWarnings says so).
 RigCapture ReadCapture(const std::string& path);
 
+/// One depth camera of a rig capture with every frame of its depth.
+struct CameraBurst {
+  /// The camera as ReadCapture returns it (a burst's depth_m is its per-pixel median).
+  CameraCapture camera;
+  /// Number of frames: F of a depth [F, H, W], 1 for [H, W].
+  int num_frames = 0;
+  /// Every frame, [F, H, W] metres with NaN where invalid (ReadCapture's rules, glitches
+  /// included).
+  std::vector<float> frames_depth_m;
+};
+
+/// Reads the camera `serial` of a capture (empty: the first by serial) with every frame of its
+/// depth, under exactly ReadCapture's rules and messages for the root attributes, /cameras and
+/// that camera (the other cameras are not read). Also throws InputError naming the file for an
+/// unknown serial (listing the cameras) and for a camera of points.
+CameraBurst ReadCaptureBurst(const std::string& path, const std::string& serial = "");
+
 /// One warning per camera with glitch depth samples read as invalid, naming the file
 /// (`path`), the camera and the count; empty when there are none.
 std::vector<std::string> CaptureWarnings(const RigCapture& capture, const std::string& path);

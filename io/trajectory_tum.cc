@@ -7,7 +7,7 @@
 
 #include "core/errors.h"
 #include "io/atomic_file.h"
-#include "io/read_file.h"
+#include "io/text_table.h"
 
 namespace rigfit {
 namespace {
@@ -18,30 +18,16 @@ constexpr double kQuaternionNormTolerance = 1e-2;
 }  // namespace
 
 Trajectory ReadTumTrajectory(const std::string& path) {
-  std::istringstream text(ReadWholeFile(path));
   Trajectory trajectory;
-  std::string line;
-  for (int number = 1; std::getline(text, line); ++number) {
-    const size_t first = line.find_first_not_of(" \t\r");
-    if (first == std::string::npos || line[first] == '#') continue;
-    const std::string where = path + ": line " + std::to_string(number);
-    std::istringstream fields(line);
+  for (const TextRow& row : ReadTextRows(path)) {
+    const std::string where = LineWhere(path, row.line);
     double v[8];
     int count = 0;
-    std::string token, stamp;
-    while (fields >> token) {
-      if (count == 0) stamp = token;
+    for (const std::string& token : row.fields) {
       if (count == 8) throw InputError(where + ": more than 8 values");
-      try {
-        size_t used = 0;
-        v[count] = std::stod(token, &used);
-        if (used != token.size()) throw std::invalid_argument(token);
-      } catch (const std::exception&) {
-        throw InputError(where + ": '" + token + "' is not a number");
-      }
-      if (!std::isfinite(v[count])) throw InputError(where + ": '" + token + "' is not finite");
-      ++count;
+      v[count++] = ParseFiniteNumber(token, where);
     }
+    const std::string& stamp = row.fields.front();
     if (count != 8) {
       throw InputError(where + ": expected 8 values (timestamp tx ty tz qx qy qz qw), got " +
                        std::to_string(count));

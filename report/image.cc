@@ -45,7 +45,7 @@ Rgb Mix(const Rgb& a, const Rgb& b, double t) {
 }
 
 Image::Image(int width, int height, const Rgb& background)
-    : width(width), height(height), rgb(static_cast<size_t>(width) * height * 3) {
+    : RgbRaster{width, height, std::vector<std::uint8_t>(static_cast<size_t>(width) * height * 3)} {
   for (size_t i = 0; i < rgb.size(); i += 3) {
     rgb[i] = background.r;
     rgb[i + 1] = background.g;

@@ -4,7 +4,10 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "io/png.h"
 
 namespace rigfit {
 
@@ -27,14 +30,13 @@ std::string HexColor(const Rgb& color);
 /// `a` moved toward `b` by `t` in [0, 1] (0 gives a, 1 gives b), per channel, rounded.
 Rgb Mix(const Rgb& a, const Rgb& b, double t);
 
-/// An RGB image, row-major from the top-left pixel, 3 bytes per pixel.
-struct Image {
-  int width = 0;
-  int height = 0;
-  std::vector<std::uint8_t> rgb;
-
+/// An RGB image to draw on: the pixels of io/png.h (row-major from the top-left pixel, 3 bytes
+/// per pixel, written and read by WritePng and ReadPng) with pixel access.
+struct Image : RgbRaster {
   Image() = default;
   Image(int width, int height, const Rgb& background);
+  /// The pixels of a PNG read by ReadPng.
+  Image(RgbRaster pixels) : RgbRaster(std::move(pixels)) {}  // NOLINT: implicit on purpose
 
   bool Contains(int x, int y) const { return x >= 0 && y >= 0 && x < width && y < height; }
   /// The pixel at column x, row y (must be inside).

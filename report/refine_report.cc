@@ -6,9 +6,9 @@
 #include "core/errors.h"
 #include "core/format.h"
 #include "core/geometry.h"
+#include "io/png.h"
 #include "report/palette.h"
 #include "report/plots.h"
-#include "report/png.h"
 #include "rig/diagnostics.h"
 
 namespace rigfit {

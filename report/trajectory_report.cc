@@ -5,8 +5,8 @@
 
 #include "core/errors.h"
 #include "core/format.h"
+#include "io/png.h"
 #include "report/palette.h"
-#include "report/png.h"
 #include "report/refine_report.h"
 
 namespace rigfit {

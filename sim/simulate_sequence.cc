@@ -33,7 +33,7 @@ constexpr int kArcSamples = 4096;  // arc length of a loop, for the speed
 
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
-void CheckOptions(const SequenceOptions& o) {
+void CheckOptions(const SimSequenceOptions& o) {
   auto fail = [](const std::string& what) {
     throw std::invalid_argument("SimulatedSequence: " + what);
   };
@@ -194,7 +194,7 @@ std::vector<float> RenderDepth(const Scene& scene, const Pose& T_world_camera,
   return depth;
 }
 
-SimulatedSequence::SimulatedSequence(const SequenceOptions& options) : options_(options) {
+SimulatedSequence::SimulatedSequence(const SimSequenceOptions& options) : options_(options) {
   CheckOptions(options);
   scene_ = SimulateRoom(options.seed, options.bare);
   trajectory_ = HandheldTrajectory(scene_, options.speed_mps, options.seed);

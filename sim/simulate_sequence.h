@@ -87,7 +87,7 @@ class HandheldTrajectory {
 enum class SequenceNoise { kNone, kKinect };
 
 /// What to simulate. Defaults are those of `rigfit simulate-sequence`.
-struct SequenceOptions {
+struct SimSequenceOptions {
   int frames = 300;
   double rate_hz = 30.0;
   double speed_mps = 0.4;  ///< mean speed of the camera centre
@@ -121,7 +121,7 @@ class SimulatedSequence : public RgbdSequence {
  public:
   /// Throws std::invalid_argument for options out of range (frames < 1, width or
   /// height < 2, non-positive rate or speed, negative noise parameters, ...).
-  explicit SimulatedSequence(const SequenceOptions& options);
+  explicit SimulatedSequence(const SimSequenceOptions& options);
 
   int size() const override { return options_.frames; }
   RgbdFrame Frame(int index) const override;
@@ -131,13 +131,13 @@ class SimulatedSequence : public RgbdSequence {
 
   const Scene& scene() const { return scene_; }
   const HandheldTrajectory& trajectory() const { return trajectory_; }
-  const SequenceOptions& options() const { return options_; }
+  const SimSequenceOptions& options() const { return options_; }
   /// Seconds of frame index: index / rate_hz rounded to the microsecond, so that the
   /// TUM files' 6-decimal names and timestamps are exact.
   double Timestamp(int index) const;
 
  private:
-  SequenceOptions options_;
+  SimSequenceOptions options_;
   Scene scene_;
   HandheldTrajectory trajectory_;
   PinholeIntrinsics intrinsics_;

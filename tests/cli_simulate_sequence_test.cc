@@ -1,6 +1,6 @@
 // `rigfit simulate-sequence`: the TUM RGB-D layout written and read back (depth PNG values,
-// colour, file lists, ground truth), the output folder guarded, bad flags refused; and the
-// 16-bit PNG writer it uses (report/png.h).
+// colour, file lists, ground truth), the output folder guarded, bad flags refused (the 16-bit
+// PNG writer it uses is tested in io_png_test.cc).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,8 +13,8 @@
 
 #include "cli_test_util.h"
 #include "core/errors.h"
+#include "io/png.h"
 #include "io/trajectory_tum.h"
-#include "report/png.h"
 #include "sim/simulate_sequence.h"
 
 namespace rigfit {
@@ -49,25 +49,6 @@ std::vector<std::vector<std::string>> DataLines(const fs::path& path) {
   return lines;
 }
 
-TEST(PngGray16, RoundTripsEveryValueExactly) {
-  const fs::path path =
-      fs::temp_directory_path() / ("rigfit_png16_" + std::to_string(getpid()) + ".png");
-  constexpr int kWidth = 256, kHeight = 256;
-  std::vector<std::uint16_t> values(kWidth * kHeight);
-  for (size_t i = 0; i < values.size(); ++i) values[i] = static_cast<std::uint16_t>(i);
-  WritePngGray16(path.string(), kWidth, kHeight, values);
-  int width = 0, height = 0;
-  EXPECT_EQ(ReadPngGray16(path.string(), &width, &height), values);
-  EXPECT_EQ(width, kWidth);
-  EXPECT_EQ(height, kHeight);
-  // An 8-bit RGB PNG is not a depth image.
-  WritePng(path.string(), Image(4, 3, kWhite));
-  EXPECT_THROW(ReadPngGray16(path.string(), &width, &height), InputError);
-  fs::remove(path);
-  EXPECT_THROW(ReadPngGray16(path.string(), &width, &height), InputError);
-  EXPECT_THROW(WritePngGray16(path.string(), 3, 3, values), InputError);
-}
-
 // Noise-free frames: the depth PNGs hold round(z x 5000) of the sequence's own frames, so
 // they give back the ray-cast depth to 1/10000 m; the lists and the ground truth name the
 // same timestamps.
@@ -81,7 +62,7 @@ TEST_F(CliSimulateSequence, WritesTheTumLayoutAndItReadsBack) {
   ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
   EXPECT_NE(r.err.find("frame 3 of 3"), std::string::npos) << r.err;
 
-  SequenceOptions o;
+  SimSequenceOptions o;
   o.frames = kFrames;
   o.width = kWidth;
   o.height = kHeight;
@@ -106,11 +87,10 @@ TEST_F(CliSimulateSequence, WritesTheTumLayoutAndItReadsBack) {
     EXPECT_DOUBLE_EQ(gt.timestamps[i], std::stod(stamps[i]));
     EXPECT_TRUE(gt.poses[i].isApprox(expected.poses[i], 1e-12)) << i;
 
-    int width = 0, height = 0;
-    const std::vector<std::uint16_t> depth =
-        ReadPngGray16((seq / depth_lines[i][1]).string(), &width, &height);
-    ASSERT_EQ(width, kWidth);
-    ASSERT_EQ(height, kHeight);
+    const Grey16Raster png = ReadPngGrey16((seq / depth_lines[i][1]).string());
+    ASSERT_EQ(png.width, kWidth);
+    ASSERT_EQ(png.height, kHeight);
+    const std::vector<std::uint16_t>& depth = png.values;
     int valid = 0;
     for (size_t p = 0; p < depth.size(); ++p) {
       const float z = frame.depth_m[p];
@@ -123,7 +103,7 @@ TEST_F(CliSimulateSequence, WritesTheTumLayoutAndItReadsBack) {
       EXPECT_LE(std::abs(depth[p] / kTumDepthScale - z), 0.5 / kTumDepthScale + 1e-7) << p;
     }
     EXPECT_GT(valid, kWidth * kHeight / 2);
-    const Image rgb = ReadPng((seq / rgb_lines[i][1]).string());
+    const RgbRaster rgb = ReadPng((seq / rgb_lines[i][1]).string());
     EXPECT_EQ(rgb.width, kWidth);
     EXPECT_EQ(rgb.rgb, frame.color);
   }

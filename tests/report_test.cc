@@ -7,10 +7,10 @@
 #include <fstream>
 
 #include "core/errors.h"
+#include "io/png.h"
 #include "report/image.h"
 #include "report/palette.h"
 #include "report/plots.h"
-#include "report/png.h"
 #include "report/refine_report.h"
 #include "sim/simulate_rig.h"
 

@@ -16,8 +16,8 @@ namespace {
 
 constexpr double kRateHz = 30.0;
 
-SequenceOptions SmallSequence(SequenceNoise noise) {
-  SequenceOptions o;
+SimSequenceOptions SmallSequence(SequenceNoise noise) {
+  SimSequenceOptions o;
   o.frames = 4;
   o.width = 80;
   o.height = 60;
@@ -53,7 +53,7 @@ TEST(SimSequence, TrajectoryIsSmoothAndInsideTheRoom) {
   constexpr double kMaxAngularRateDeg = 60.0;   // deg/s
   constexpr double kMaxAngularAccelDeg = 60.0;  // deg/s^2
   constexpr double kMinClearance = 0.1;         // metres to the nearest surface
-  SequenceOptions o = SmallSequence(SequenceNoise::kNone);
+  SimSequenceOptions o = SmallSequence(SequenceNoise::kNone);
   o.speed_mps = kSpeed;
   for (std::uint64_t seed : {0u, 1u, 2u, 3u}) {
     o.seed = seed;
@@ -96,7 +96,7 @@ TEST(SimSequence, TrajectoryIsSmoothAndInsideTheRoom) {
 TEST(SimSequence, DeterministicForASeed) {
   const SimulatedSequence a(SmallSequence(SequenceNoise::kKinect));
   const SimulatedSequence b(SmallSequence(SequenceNoise::kKinect));
-  SequenceOptions other = SmallSequence(SequenceNoise::kKinect);
+  SimSequenceOptions other = SmallSequence(SequenceNoise::kKinect);
   other.seed = 8;
   const SimulatedSequence c(other);
   for (double t : {0.0, 1.3, 17.0}) {
@@ -276,7 +276,7 @@ TEST(SimSequence, KinectNoiseShiftKeepsInvalidPixelsAndBlursEdges) {
 }
 
 TEST(SimSequence, RejectsBadOptions) {
-  SequenceOptions o = SmallSequence(SequenceNoise::kNone);
+  SimSequenceOptions o = SmallSequence(SequenceNoise::kNone);
   o.frames = 0;
   EXPECT_THROW(SimulatedSequence{o}, std::invalid_argument);
   o = SmallSequence(SequenceNoise::kNone);

@@ -13,9 +13,9 @@
 
 #include "cli_test_util.h"
 #include "core/pose.h"
+#include "io/png.h"
 #include "io/trajectory_tum.h"
 #include "report/palette.h"
-#include "report/png.h"
 
 namespace rigfit {
 namespace {
