@@ -31,9 +31,9 @@ class SummaryFormatter : public CLI::Formatter {
 void RegisterCommands(CLI::App& app) {
   app.formatter(std::make_shared<SummaryFormatter>());
   Registry() = {
-      AddSimulateCommand(app),           AddRefineCommand(app),          AddEvaluateCommand(app),
-      AddImportPlyCommand(app),          AddCompareCommand(app),         AddExportPlyCommand(app),
-      AddEvaluateTrajectoryCommand(app), AddSimulateSequenceCommand(app)};
+      AddSimulateCommand(app),           AddRefineCommand(app),           AddEvaluateCommand(app),
+      AddImportPlyCommand(app),          AddCompareCommand(app),          AddExportPlyCommand(app),
+      AddEvaluateTrajectoryCommand(app), AddSimulateSequenceCommand(app), AddTrackCommand(app)};
 }
 
 int RunSelected(const CLI::App& app) {

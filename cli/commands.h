@@ -29,6 +29,8 @@ Command AddRefineCommand(CLI::App& app);
 Command AddEvaluateCommand(CLI::App& app);
 /// `rigfit evaluate-trajectory`: ATE and RPE of a camera trajectory against ground truth.
 Command AddEvaluateTrajectoryCommand(CLI::App& app);
+/// `rigfit track`: frame-to-frame dense RGB-D odometry over a sequence (docs/rgbd.md).
+Command AddTrackCommand(CLI::App& app);
 
 /// `rigfit import-ply`: a rig capture (points layout) from one PLY cloud per camera.
 Command AddImportPlyCommand(CLI::App& app);

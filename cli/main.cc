@@ -9,7 +9,9 @@
 #include "core/errors.h"
 
 int main(int argc, char** argv) {
-  CLI::App app{"rigfit: refines the extrinsics of a rig of fixed depth cameras"};
+  CLI::App app{
+      "rigfit: refines the extrinsics of a rig of fixed depth cameras, and tracks moving RGB-D "
+      "cameras"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "rigfit 0.1.0");
   rigfit::cli::RegisterCommands(app);

@@ -24,6 +24,7 @@ struct TrackArgs {
   OdometryOptions odometry;
   std::string prior = "constant-velocity";
   std::vector<int> iterations = {10, 5, 4};
+  std::vector<double> intrinsics;  ///< fx, fy, cx, cy
   bool evaluate = false;
   bool quiet = false;
 };
@@ -53,11 +54,22 @@ int RunTrack(TrackArgs a) {
         a.odometry.icp.association.max_normal_angle_deg <= 180.0)) {
     throw InputError("track: --max-distance must be > 0 and --max-angle in (0, 180]");
   }
-  if (!(a.odometry.icp.huber_delta_m >= 0.0)) throw InputError("track: --huber must be >= 0");
+  if (!(a.odometry.icp.weighting.huber_delta_m >= 0.0)) {
+    throw InputError("track: --huber must be >= 0");
+  }
   if (a.odometry.threads < 1) throw InputError("track: --threads must be >= 1");
 
+  if (!a.intrinsics.empty()) {
+    if (a.intrinsics.size() != 4) throw InputError("track: --intrinsics takes fx,fy,cx,cy");
+    a.sequence.intrinsics =
+        PinholeIntrinsics{a.intrinsics[0], a.intrinsics[1], a.intrinsics[2], a.intrinsics[3]};
+  }
+
   const Log log = StderrLog("track: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
-  const std::unique_ptr<RgbdSequence> sequence = OpenRgbdSequence(a.sequence_path, a.sequence);
+  std::vector<std::string> warnings;
+  const std::unique_ptr<RgbdSequence> sequence =
+      OpenRgbdSequence(a.sequence_path, a.sequence, &warnings);
+  for (const std::string& warning : warnings) log.Warning(warning);
   log.Info(sequence->Describe());
   int last_percent = -1;
   const auto progress = [&](int done, int total) {
@@ -113,7 +125,13 @@ Command AddTrackCommand(CLI::App& app) {
       "codes: 0 done (failed frames are warned and counted); 2 bad input or usage.");
   sub->add_option("SEQUENCE", args->sequence_path, "Sequence folder or capture file")->required();
   sub->add_option("--out", args->out_path, "Trajectory to write (TUM format)")->required();
-  sub->add_option("--camera", args->sequence.camera, "Capture file: the camera's serial");
+  sub->add_option("--camera", args->sequence.serial,
+                  "Capture file: the camera's serial (default: the first)");
+  sub->add_option("--tum-camera", args->sequence.tum_camera,
+                  "TUM folder: fr1, fr2, fr3 or default (default: from the folder or depth.txt)");
+  sub->add_option("--intrinsics", args->intrinsics,
+                  "fx,fy,cx,cy of the depth image instead of the format's")
+      ->delimiter(',');
   sub->add_option("--first", args->odometry.first_frame, "First frame index")
       ->capture_default_str();
   sub->add_option("--max-frames", args->odometry.max_frames, "Frames to track (0 = all)")
@@ -141,7 +159,9 @@ Command AddTrackCommand(CLI::App& app) {
   sub->add_option("--max-angle", args->odometry.icp.association.max_normal_angle_deg,
                   "Association: largest normal angle, degrees")
       ->capture_default_str();
-  sub->add_option("--huber", args->odometry.icp.huber_delta_m,
+  sub->add_flag("--depth-weights", args->odometry.icp.weighting.depth_noise,
+                "Weigh pairs by the inverse variance of depth noise growing as z^2");
+  sub->add_option("--huber", args->odometry.icp.weighting.huber_delta_m,
                   "Huber threshold on the point-to-plane distance, metres (0 = off)")
       ->capture_default_str();
   sub->add_option("--threads", args->odometry.threads, "Threads")->capture_default_str();

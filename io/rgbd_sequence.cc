@@ -487,14 +487,14 @@ std::unique_ptr<RgbdSequence> OpenRgbdSequence(const std::string& path,
   if (!FilesMatching(folder, std::regex(R"(.*\.gt\.freiburg)")).empty() ||
       (has("associations.txt") && !has("rgb.txt"))) {
     layout = ReadIclNuimFolder(folder, options);
-  } else if (has("depth.txt") && has("rgb.txt")) {
+  } else if (has("depth.txt")) {
     layout = ReadTumFolder(folder, options);
   } else {
     layout = ReadSevenScenesFolder(folder, options, warnings);
     if (layout.frames.empty()) {
       throw InputError(path +
-                       ": no RGB-D sequence of a known format: expected depth.txt and rgb.txt "
-                       "(TUM RGB-D), a *.gt.freiburg file or associations.txt (ICL-NUIM), "
+                       ": no RGB-D sequence of a known format: expected depth.txt (TUM RGB-D; "
+                       "rgb.txt optional), a *.gt.freiburg file or associations.txt (ICL-NUIM), "
                        "frame-XXXXXX.depth.png files here or in frames/ (7-Scenes), or a rig "
                        "capture file");
     }

@@ -60,36 +60,50 @@ std::vector<float> Downsample(const std::vector<float>& depth, int width, int he
 std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
                                    double sigma_px, double sigma_m, int threads) {
   const int radius = std::max(1, static_cast<int>(std::ceil(2.0 * sigma_px)));
-  std::vector<double> spatial((2 * radius + 1) * (2 * radius + 1));
-  for (int dv = -radius; dv <= radius; ++dv) {
-    for (int du = -radius; du <= radius; ++du) {
-      spatial[(dv + radius) * (2 * radius + 1) + du + radius] =
-          std::exp(-(du * du + dv * dv) / (2.0 * sigma_px * sigma_px));
-    }
+  std::vector<float> spatial(2 * radius + 1);
+  for (int d = -radius; d <= radius; ++d) {
+    spatial[d + radius] = static_cast<float>(std::exp(-d * d / (2.0 * sigma_px * sigma_px)));
   }
-  const double inv_two_sigma_m2 = 1.0 / (2.0 * sigma_m * sigma_m);
-  std::vector<float> out(depth_m.size(), kNaN);
-  ForEachRow(height, threads, [&](int v) {
-    for (int u = 0; u < width; ++u) {
-      const float z = depth_m[static_cast<std::size_t>(v) * width + u];
-      if (std::isnan(z)) continue;
-      double sum = 0.0;
-      double weight = 0.0;
-      for (int dv = std::max(-radius, -v); dv <= std::min(radius, height - 1 - v); ++dv) {
-        for (int du = std::max(-radius, -u); du <= std::min(radius, width - 1 - u); ++du) {
-          const float zn = depth_m[static_cast<std::size_t>(v + dv) * width + u + du];
+  // The range weight exp(-dz^2 / 2 sigma_m^2) tabulated every kRangeSteps-th of sigma_m up to
+  // 4 sigma_m (beyond: 0, below 3.4e-4).
+  constexpr int kRangeSteps = 64;
+  constexpr int kRangeSigmas = 4;
+  std::vector<float> range(kRangeSteps * kRangeSigmas + 1);
+  for (std::size_t k = 0; k < range.size(); ++k) {
+    const double t = static_cast<double>(k) / kRangeSteps;
+    range[k] = static_cast<float>(std::exp(-0.5 * t * t));
+  }
+  const float steps_per_m = static_cast<float>(kRangeSteps / sigma_m);
+  const float last_step = static_cast<float>(range.size() - 1);
+  // One pass along x (dx = 1) or y (dx = width): the 2D filter as two 1D ones, the range
+  // weight taken against the pass's centre pixel.
+  const auto pass = [&](const std::vector<float>& in, bool along_x) {
+    std::vector<float> out(in.size(), kNaN);
+    ForEachRow(height, threads, [&](int v) {
+      for (int u = 0; u < width; ++u) {
+        const std::size_t i = static_cast<std::size_t>(v) * width + u;
+        const float z = in[i];
+        if (std::isnan(z)) continue;
+        const int c = along_x ? u : v;
+        const int n = along_x ? width : height;
+        const std::ptrdiff_t stride = along_x ? 1 : width;
+        float sum = 0.0f;
+        float weight = 0.0f;
+        for (int d = std::max(-radius, -c); d <= std::min(radius, n - 1 - c); ++d) {
+          const float zn = in[i + d * stride];
           if (std::isnan(zn)) continue;
-          const double dz = zn - z;
-          const double w = spatial[(dv + radius) * (2 * radius + 1) + du + radius] *
-                           std::exp(-dz * dz * inv_two_sigma_m2);
+          const float step = std::abs(zn - z) * steps_per_m;
+          if (step >= last_step) continue;
+          const float w = spatial[d + radius] * range[static_cast<int>(step + 0.5f)];
           sum += w * zn;
           weight += w;
         }
+        out[i] = sum / weight;
       }
-      out[static_cast<std::size_t>(v) * width + u] = static_cast<float>(sum / weight);
-    }
-  });
-  return out;
+    });
+    return out;
+  };
+  return pass(pass(depth_m, true), false);
 }
 
 void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int threads) {
@@ -138,6 +152,10 @@ void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int
       level->normals[i] = normal;
     }
   });
+  level->valid_pixels.clear();
+  for (int i = 0; i < width * height; ++i) {
+    if (level->Valid(i)) level->valid_pixels.push_back(i);
+  }
 }
 
 FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& options, int threads) {

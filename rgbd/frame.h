@@ -41,6 +41,8 @@ struct FrameLevel {
   std::vector<float> depth_m;
   std::vector<Vec3f> vertices;  ///< camera frame, metres
   std::vector<Vec3f> normals;   ///< unit, facing the camera (n . v < 0)
+  /// The pixels with a vertex and a normal, in pixel order (what tracking iterates over).
+  std::vector<int> valid_pixels;
 
   bool Valid(int i) const { return !std::isnan(normals[i].x()); }
 };
@@ -60,10 +62,13 @@ FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& optio
 /// The vertex and normal maps of a depth image (NaN for invalid depth). The normal of pixel
 /// (u, v) is (V(u+1, v) - V(u-1, v)) x (V(u, v+1) - V(u, v-1)), normalised and turned to face
 /// the camera; invalid at the image border, next to an invalid pixel, or across a depth jump.
+/// Fills valid_pixels.
 void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int threads = 2);
 
-/// Depth filtered by a bilateral filter (window radius 2 sigma_px): weights
-/// exp(-d_px^2 / 2 sigma_px^2 - dz^2 / 2 sigma_m^2) over the valid neighbours.
+/// Depth filtered by a bilateral filter (window radius 2 sigma_px), as two 1D passes (along
+/// x, then y; the usual separable approximation, 8x fewer taps than the 2D window at
+/// sigma_px = 2): weights exp(-d_px^2 / 2 sigma_px^2 - dz^2 / 2 sigma_m^2) over the valid
+/// neighbours, the range weight tabulated and zero beyond 4 sigma_m.
 std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
                                    double sigma_px, double sigma_m, int threads = 2);
 

@@ -37,8 +37,8 @@ class Associator {
     if (!(u >= -0.5 && u < target_.width - 0.5 && v >= -0.5 && v < target_.height - 0.5)) {
       return AssociationOutcome::kOutsideImage;
     }
-    const int j = static_cast<int>(std::floor(v + 0.5)) * target_.width +
-                  static_cast<int>(std::floor(u + 0.5));
+    // u + 0.5 >= 0 here, so truncation is the floor.
+    const int j = static_cast<int>(v + 0.5) * target_.width + static_cast<int>(u + 0.5);
     if (!target_.Valid(j)) return AssociationOutcome::kNoTargetPoint;
     if ((p - target_.vertices[j].cast<double>()).squaredNorm() >= max_distance2_) {
       return AssociationOutcome::kTooFar;
@@ -61,28 +61,46 @@ class Associator {
   const double min_cos_;
 };
 
-// Adds one pair to the normal equations: A = [(p' x n)^T n^T], b = n^T (p' - q).
-void AddPair(const Vec3& moved, const Vec3& q, const Vec3& n, double huber_delta_m,
-             NormalEquations* equations) {
-  const double b = n.dot(moved - q);
-  Vec6 A;
-  A.head<3>() = moved.cross(n);
-  A.tail<3>() = n;
-  const double w =
-      huber_delta_m > 0.0 && std::abs(b) > huber_delta_m ? huber_delta_m / std::abs(b) : 1.0;
-  equations->H.selfadjointView<Eigen::Upper>().rankUpdate(A, w);
-  equations->g += (w * b) * A;
-  equations->squared_error += b * b;
-  ++equations->count;
-}
+// Per-thread sums of the normal equations: the 21 entries of H's upper triangle and g, in
+// plain arrays (a rank-one update of a 6x6 Eigen matrix per pair costs twice as much).
+struct Accumulator {
+  double h[21] = {};
+  double g[6] = {};
+  double squared_error = 0.0;
+  int count = 0;
 
-// Sums per-thread partial equations in chunk order (deterministic for a thread count) and
-// fills the lower triangle.
-NormalEquations Sum(const std::vector<NormalEquations>& parts) {
+  // One pair: A = [(p' x n)^T n^T], b = n^T (p' - q), weighed as PairWeighting says (z_p:
+  // the source point's depth in its own camera).
+  void Add(const Vec3& moved, double z_p, const Vec3& q, const Vec3& n,
+           const PairWeighting& weighting) {
+    const double b = n.dot(moved - q);
+    const Vec3 c = moved.cross(n);
+    const double A[6] = {c.x(), c.y(), c.z(), n.x(), n.y(), n.z()};
+    double w = weighting.depth_noise ? DepthNoiseWeight(z_p, q.z()) : 1.0;
+    const double whitened = std::sqrt(w) * std::abs(b);
+    if (weighting.huber_delta_m > 0.0 && whitened > weighting.huber_delta_m) {
+      w *= weighting.huber_delta_m / whitened;
+    }
+    int k = 0;
+    for (int r = 0; r < 6; ++r) {
+      const double wa = w * A[r];
+      for (int col = r; col < 6; ++col) h[k++] += wa * A[col];
+      g[r] += wa * b;
+    }
+    squared_error += b * b;
+    ++count;
+  }
+};
+
+// Sums per-thread accumulators in chunk order (deterministic for a thread count).
+NormalEquations Sum(const std::vector<Accumulator>& parts) {
   NormalEquations total;
-  for (const NormalEquations& part : parts) {
-    total.H += part.H;
-    total.g += part.g;
+  for (const Accumulator& part : parts) {
+    int k = 0;
+    for (int r = 0; r < 6; ++r) {
+      for (int col = r; col < 6; ++col) total.H(r, col) += part.h[k++];
+      total.g(r) += part.g[r];
+    }
     total.squared_error += part.squared_error;
     total.count += part.count;
   }
@@ -97,6 +115,10 @@ bool Converged(const Vec6& x, const IcpOptions& options) {
 
 }  // namespace
 
+double DepthNoiseWeight(double z_p, double z_q) {
+  return 2.0 / (z_p * z_p * z_p * z_p + z_q * z_q * z_q * z_q);
+}
+
 AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLevel& target,
                                   const Pose& T_target_source, const AssociationOptions& options,
                                   int* target_index) {
@@ -108,13 +130,14 @@ std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const 
                                                 const Pose& T_target_source,
                                                 const AssociationOptions& options, int threads) {
   const Associator associate(source, target, T_target_source, options);
-  const int n = source.width * source.height;
+  const std::vector<int>& pixels = source.valid_pixels;
   const int chunks = std::max(1, threads);
   std::vector<std::vector<Correspondence>> parts(chunks);
-  ParallelForChunks(n, chunks, [&](int c, int begin, int end) {
+  ParallelForChunks(static_cast<int>(pixels.size()), chunks, [&](int c, int begin, int end) {
     Vec3 moved;
     int j = 0;
-    for (int i = begin; i < end; ++i) {
+    for (int k = begin; k < end; ++k) {
+      const int i = pixels[k];
       if (associate(i, &moved, &j) == AssociationOutcome::kMatched) {
         parts[c].push_back({source.vertices[i].cast<double>(), target.vertices[j].cast<double>(),
                             target.normals[j].cast<double>()});
@@ -127,13 +150,13 @@ std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const 
 }
 
 NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
-                                     const Pose& T_target_source, double huber_delta_m,
+                                     const Pose& T_target_source, const PairWeighting& weighting,
                                      int threads) {
   const int chunks = std::max(1, threads);
-  std::vector<NormalEquations> parts(chunks);
+  std::vector<Accumulator> parts(chunks);
   ParallelForChunks(static_cast<int>(pairs.size()), chunks, [&](int c, int begin, int end) {
     for (int k = begin; k < end; ++k) {
-      AddPair(T_target_source * pairs[k].p, pairs[k].q, pairs[k].n, huber_delta_m, &parts[c]);
+      parts[c].Add(T_target_source * pairs[k].p, pairs[k].p.z(), pairs[k].q, pairs[k].n, weighting);
     }
   });
   return Sum(parts);
@@ -141,17 +164,18 @@ NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
 
 NormalEquations AccumulateProjective(const FrameLevel& source, const FrameLevel& target,
                                      const Pose& T_target_source, const AssociationOptions& options,
-                                     double huber_delta_m, int threads) {
+                                     const PairWeighting& weighting, int threads) {
   const Associator associate(source, target, T_target_source, options);
   const int chunks = std::max(1, threads);
-  std::vector<NormalEquations> parts(chunks);
-  ParallelForChunks(source.width * source.height, chunks, [&](int c, int begin, int end) {
+  std::vector<Accumulator> parts(chunks);
+  const std::vector<int>& pixels = source.valid_pixels;
+  ParallelForChunks(static_cast<int>(pixels.size()), chunks, [&](int c, int begin, int end) {
     Vec3 moved;
     int j = 0;
-    for (int i = begin; i < end; ++i) {
-      if (associate(i, &moved, &j) == AssociationOutcome::kMatched) {
-        AddPair(moved, target.vertices[j].cast<double>(), target.normals[j].cast<double>(),
-                huber_delta_m, &parts[c]);
+    for (int k = begin; k < end; ++k) {
+      if (associate(pixels[k], &moved, &j) == AssociationOutcome::kMatched) {
+        parts[c].Add(moved, source.vertices[pixels[k]].z(), target.vertices[j].cast<double>(),
+                     target.normals[j].cast<double>(), weighting);
       }
     }
   });
@@ -201,14 +225,9 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   }
   // Rotation weighs as the displacement it causes at the scene's depth: the mean source depth.
   double depth_sum = 0.0;
-  int valid = 0;
   const FrameLevel& finest = source.levels[0];
-  for (int i = 0; i < finest.width * finest.height; ++i) {
-    if (finest.Valid(i)) {
-      depth_sum += finest.vertices[i].z();
-      ++valid;
-    }
-  }
+  const int valid = static_cast<int>(finest.valid_pixels.size());
+  for (const int i : finest.valid_pixels) depth_sum += finest.vertices[i].z();
   if (valid == 0) {
     result.message = "the source frame has no valid pixel";
     return result;
@@ -222,7 +241,7 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
         options.iterations[std::min<std::size_t>(level, options.iterations.size() - 1)];
     for (int it = 0; it < iterations; ++it) {
       last = AccumulateProjective(source.levels[level], target.levels[level], T,
-                                  options.association, options.huber_delta_m, threads);
+                                  options.association, options.weighting, threads);
       const StepSolution step = SolveStep(last, length_m, options.weak_direction_ratio);
       if (last.count < 6) break;
       T = ApplyLeftUpdate(step.x, T);
@@ -234,7 +253,7 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   if (last.count == 0 || levels > 1) {
     // The statistics of the final estimate at the finest level.
     last = AccumulateProjective(source.levels[0], target.levels[0], T, options.association,
-                                options.huber_delta_m, threads);
+                                options.weighting, threads);
   }
   result.T_target_source = Reorthonormalized(T);
   result.correspondences = last.count;
@@ -253,10 +272,10 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
 }
 
 Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose& T_init,
-                           double huber_delta_m, int max_iterations, int threads) {
+                           const PairWeighting& weighting, int max_iterations, int threads) {
   Pose T = T_init;
   for (int it = 0; it < max_iterations; ++it) {
-    const NormalEquations equations = BuildNormalEquations(pairs, T, huber_delta_m, threads);
+    const NormalEquations equations = BuildNormalEquations(pairs, T, weighting, threads);
     // Every direction the pairs determine at all is solved: a ratio at rounding level.
     const Vec6 x = SolveStep(equations, 1.0, 1e-14).x;
     T = ApplyLeftUpdate(x, T);
@@ -266,7 +285,7 @@ Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose&
 }
 
 Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_init,
-                     double huber_delta_m, int threads) {
+                     const PairWeighting& weighting, int threads) {
   if (pairs.empty()) return T_init;
   double pose[kPoseAmbientSize];
   double identity[kPoseAmbientSize];
@@ -277,9 +296,12 @@ Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_ini
   ceres::Problem problem(problem_options);
   PoseManifold manifold;
   // One loss object shared by every block: the problem deletes it once.
-  ceres::LossFunction* loss = huber_delta_m > 0.0 ? new ceres::HuberLoss(huber_delta_m) : nullptr;
+  ceres::LossFunction* loss =
+      weighting.huber_delta_m > 0.0 ? new ceres::HuberLoss(weighting.huber_delta_m) : nullptr;
   for (const Correspondence& pair : pairs) {
-    problem.AddResidualBlock(PointToPlaneCost::Create(pair.p, pair.q, pair.n), loss, pose,
+    const double scale =
+        weighting.depth_noise ? std::sqrt(DepthNoiseWeight(pair.p.z(), pair.q.z())) : 1.0;
+    problem.AddResidualBlock(PointToPlaneCost::Create(pair.p, pair.q, scale * pair.n), loss, pose,
                              identity);
   }
   problem.SetManifold(pose, &manifold);

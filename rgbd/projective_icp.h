@@ -64,8 +64,22 @@ std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const 
                                                 const Pose& T_target_source,
                                                 const AssociationOptions& options, int threads = 2);
 
+/// How the pairs are weighed. With depth_noise, a pair's residual is divided by its standard
+/// deviation for a sensor whose depth noise grows as z^2 (structured light, stereo: Kinect,
+/// RealSense, ZED): sigma^2 ~ z_p^4 + z_q^4 with z_p the source point's depth in its own
+/// camera and z_q the target point's, normalised to 1 for two points at 1 m; a near point
+/// then counts more than a far one, as its depth is better. The Huber kernel (delta > 0)
+/// acts on that (whitened) residual: w = min(1, delta / |r|).
+struct PairWeighting {
+  double huber_delta_m = 0.0;
+  bool depth_noise = false;
+};
+
+/// The noise weight 1 / sigma^2 of a pair (PairWeighting::depth_noise): 2 / (z_p^4 + z_q^4).
+double DepthNoiseWeight(double z_p, double z_q);
+
 /// The normal equations of one Gauss-Newton step at T_target_source: H = sum w A^T A,
-/// g = sum w A^T b, with Huber weights w = min(1, delta / |b|) when huber_delta_m > 0.
+/// g = sum w A^T b, w the pair's weight (PairWeighting).
 struct NormalEquations {
   Mat6 H = Mat6::Zero();
   Vec6 g = Vec6::Zero();
@@ -75,14 +89,14 @@ struct NormalEquations {
 
 /// The normal equations of a list of pairs (the reference path).
 NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
-                                     const Pose& T_target_source, double huber_delta_m,
+                                     const Pose& T_target_source, const PairWeighting& weighting,
                                      int threads = 2);
 
 /// The same normal equations with the association done on the fly, without a list of pairs
 /// (the fast path: one pass over the source pixels, accumulated per thread).
 NormalEquations AccumulateProjective(const FrameLevel& source, const FrameLevel& target,
                                      const Pose& T_target_source, const AssociationOptions& options,
-                                     double huber_delta_m, int threads = 2);
+                                     const PairWeighting& weighting, int threads = 2);
 
 /// Directions the normal equations do not fix: eigenvectors of H (rotation scaled by
 /// `length_m`, so that a radian and `length_m` metres weigh alike) whose eigenvalue is below
@@ -103,8 +117,7 @@ Pose ApplyLeftUpdate(const Vec6& x, const Pose& T);
 
 struct IcpOptions {
   AssociationOptions association;
-  /// Huber threshold on the point-to-plane distance (metres); 0 = plain least squares.
-  double huber_delta_m = 0.0;
+  PairWeighting weighting;
   /// Gauss-Newton iterations per pyramid level, finest first (KinectFusion: 10, 5, 4).
   std::vector<int> iterations = {10, 5, 4};
   /// Converged when the step's rotation and translation are both below these.
@@ -137,12 +150,13 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
 /// Gauss-Newton on a FIXED set of pairs until converged (the closed-form path of the
 /// two-path comparison; docs/rgbd.md).
 Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose& T_init,
-                           double huber_delta_m, int max_iterations, int threads = 2);
+                           const PairWeighting& weighting, int max_iterations, int threads = 2);
 
 /// The same problem solved by Ceres: one PointToPlaneCost (residuals/point_to_plane.h) per
-/// pair, the source pose T_target_source on the pose manifold, the target's pose the fixed
-/// identity, a HuberLoss when huber_delta_m > 0.
+/// pair (its normal scaled by the square root of the depth-noise weight, which whitens the
+/// residual), the source pose T_target_source on the pose manifold, the target's pose the
+/// fixed identity, a HuberLoss when weighting.huber_delta_m > 0.
 Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_init,
-                     double huber_delta_m, int threads = 1);
+                     const PairWeighting& weighting, int threads = 1);
 
 }  // namespace rigfit

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "core/errors.h"
 #include "core/pose.h"
@@ -107,6 +108,7 @@ FrameLevel SinglePixelLevel(float z) {
   level.depth_m[12] = z;
   level.vertices[12] = Vec3f(0, 0, z);
   level.normals[12] = Vec3f(0, 0, -1);
+  level.valid_pixels = {12};
   return level;
 }
 
@@ -271,12 +273,13 @@ TEST_F(RgbdTracking, ListAndFusedNormalEquationsAreTheSame) {
   const FrameLevel source =
       BuildFramePyramid(Render(*scene_, T_world_source_, 160, 120), frame_options).levels[0];
   const AssociationOptions options;
-  for (const double huber : {0.0, 0.005}) {
-    const std::vector<Correspondence> pairs =
-        FindCorrespondences(source, target, Pose::Identity(), options);
-    const NormalEquations list = BuildNormalEquations(pairs, Pose::Identity(), huber, 1);
+  const std::vector<Correspondence> pairs =
+      FindCorrespondences(source, target, Pose::Identity(), options);
+  for (const PairWeighting weighting :
+       {PairWeighting{}, PairWeighting{0.005, false}, PairWeighting{0.005, true}}) {
+    const NormalEquations list = BuildNormalEquations(pairs, Pose::Identity(), weighting, 1);
     const NormalEquations fused =
-        AccumulateProjective(source, target, Pose::Identity(), options, huber, 2);
+        AccumulateProjective(source, target, Pose::Identity(), options, weighting, 2);
     ASSERT_GT(list.count, 5000);
     EXPECT_EQ(list.count, fused.count);
     EXPECT_LT((list.H - fused.H).norm(), 1e-9 * list.H.norm());
@@ -306,12 +309,12 @@ TEST_F(RgbdTracking, OneGaussNewtonStepRecoversASmallMotion) {
                      target.normals[j].cast<double>()});
   }
   ASSERT_GT(pairs.size(), 5000u);
-  const NormalEquations equations = BuildNormalEquations(pairs, Pose::Identity(), 0.0);
+  const NormalEquations equations = BuildNormalEquations(pairs, Pose::Identity(), {});
   const Pose stepped = ApplyLeftUpdate(SolveStep(equations, 2.0, 1e-12).x, Pose::Identity());
   // 1.4 degrees and 2 cm: second-order terms ~ (0.024 rad)^2 x 3 m ~ 2 mm.
   EXPECT_LT(TranslationError(stepped, motion), 3e-3);
   EXPECT_LT(RotationErrorRad(stepped, motion), 1e-3);
-  const Pose converged = SolvePairsGaussNewton(pairs, Pose::Identity(), 0.0, 20);
+  const Pose converged = SolvePairsGaussNewton(pairs, Pose::Identity(), {}, 20);
   EXPECT_LT(TranslationError(converged, motion), 1e-6);
   EXPECT_LT(RotationErrorRad(converged, motion), 1e-6);
 }
@@ -328,11 +331,14 @@ TEST_F(RgbdTracking, ClosedFormAndCeresAgreeOnTheSamePairs) {
   const std::vector<Correspondence> pairs =
       FindCorrespondences(source, target, Pose::Identity(), AssociationOptions{});
   ASSERT_GT(pairs.size(), 1000u);
-  for (const double huber : {0.0, 0.01}) {
-    const Pose closed = SolvePairsGaussNewton(pairs, Pose::Identity(), huber, 100);
-    const Pose ceres = SolvePairsCeres(pairs, Pose::Identity(), huber);
-    EXPECT_LT(TranslationError(closed, ceres), 1e-9) << "huber " << huber;
-    EXPECT_LT(RotationErrorRad(closed, ceres), 1e-9) << "huber " << huber;
+  for (const PairWeighting weighting : {PairWeighting{}, PairWeighting{0.01, false},
+                                        PairWeighting{0.0, true}, PairWeighting{0.01, true}}) {
+    const Pose closed = SolvePairsGaussNewton(pairs, Pose::Identity(), weighting, 100);
+    const Pose ceres = SolvePairsCeres(pairs, Pose::Identity(), weighting);
+    const std::string what = "huber " + std::to_string(weighting.huber_delta_m) +
+                             (weighting.depth_noise ? ", depth noise" : "");
+    EXPECT_LT(TranslationError(closed, ceres), 1e-9) << what;
+    EXPECT_LT(RotationErrorRad(closed, ceres), 1e-9) << what;
     // And the solution moved: it is not the start.
     EXPECT_GT(TranslationError(closed, Pose::Identity()), 5e-3);
   }

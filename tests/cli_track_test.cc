@@ -1,0 +1,96 @@
+// `rigfit track` end to end: a small synthetic sequence written by `rigfit simulate-sequence`
+// is tracked, the trajectory file read back and measured against the sequence's ground truth;
+// bad input is refused naming what is wrong.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "cli_test_util.h"
+#include "core/trajectory.h"
+#include "io/trajectory_tum.h"
+#include "sim/simulate_sequence.h"
+
+namespace rigfit {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kWidth = 160;
+constexpr int kHeight = 120;
+constexpr int kFrames = 24;
+
+class CliTrack : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ =
+        new fs::path(fs::temp_directory_path() / ("rigfit_cli_track_" + std::to_string(getpid())));
+    fs::remove_all(*dir_);
+    fs::create_directories(*dir_);
+    const cli_test::RunResult r =
+        cli_test::RunRigfit({"simulate-sequence", "--out", (*dir_ / "seq").string(), "--frames",
+                             std::to_string(kFrames), "--width", std::to_string(kWidth), "--height",
+                             std::to_string(kHeight), "--noise", "none", "--no-color"},
+                            *dir_);
+    ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir_);
+    delete dir_;
+  }
+  /// The intrinsics the sequence was rendered with (the TUM layout does not carry them).
+  static std::string Intrinsics() {
+    const PinholeIntrinsics K = SequenceIntrinsics(kWidth, kHeight);
+    return std::to_string(K.fx) + "," + std::to_string(K.fy) + "," + std::to_string(K.cx) + "," +
+           std::to_string(K.cy);
+  }
+
+  static fs::path* dir_;
+};
+fs::path* CliTrack::dir_ = nullptr;
+
+TEST_F(CliTrack, TracksASyntheticSequenceToTheMillimetre) {
+  const fs::path out = *dir_ / "traj.txt";
+  const cli_test::RunResult r =
+      cli_test::RunRigfit({"track", (*dir_ / "seq").string(), "--out", out.string(), "--intrinsics",
+                           Intrinsics(), "--evaluate"},
+                          *dir_);
+  ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
+  EXPECT_NE(r.out.find("tracked 24 frames (0 failed"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ATE RMSE"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("24/24 frames"), std::string::npos) << r.err;  // progress
+  const Trajectory estimate = ReadTumTrajectory(out.string());
+  const Trajectory truth = ReadTumTrajectory((*dir_ / "seq" / "groundtruth.txt").string());
+  ASSERT_EQ(estimate.poses.size(), static_cast<std::size_t>(kFrames));
+  // The first pose is the ground truth's; the walk covers about 0.3 m.
+  EXPECT_TRUE(estimate.poses[0].isApprox(truth.poses[0], 1e-9));
+  const TrajectoryErrors e = EvaluateTrajectory(estimate, truth, 0.02, 1);
+  EXPECT_EQ(e.pairs, kFrames);
+  // Noise-free depth at 160x120 (a pixel is 1.2 cm at 1 m): well under a millimetre per step.
+  EXPECT_LT(e.ate_rmse_m, 2e-3);
+  EXPECT_LT(e.rpe_translation_rmse_m, 1e-3);
+}
+
+TEST_F(CliTrack, RefusesBadInputNamingIt) {
+  const fs::path out = *dir_ / "bad.txt";
+  const std::string seq = (*dir_ / "seq").string();
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"track", (*dir_ / "missing").string(), "--out", out.string()}, "missing"},
+      {{"track", seq, "--out", out.string(), "--iterations", "1,1,1,1,1,1,1"}, "--iterations"},
+      {{"track", seq, "--out", out.string(), "--prior", "sideways"}, "--prior"},
+      {{"track", seq, "--out", out.string(), "--max-depth", "0.1"}, "--max-depth"},
+      {{"track", seq, "--out", out.string(), "--intrinsics", "500,500"}, "--intrinsics"},
+      {{"track", seq, "--out", out.string(), "--first", "99"}, "first frame 99"},
+  };
+  for (const auto& [args, expected] : cases) {
+    const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);
+    EXPECT_EQ(r.exit_code, 2) << args[3] << "\n" << cli_test::Describe(r);
+    EXPECT_NE(r.err.find(expected), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+}  // namespace
+}  // namespace rigfit
