@@ -107,6 +107,11 @@ int RunTrack(TrackArgs a) {
           "frame %.2f mm / %.3f deg\n",
           e.pairs, e.ate_rmse_m * 1e3, e.rpe_translation_rmse_m * 1e3,
           e.rpe_rotation_rmse_rad * kRadToDeg);
+      const EndPointDrift drift = MeasureEndPointDrift(result.trajectory, gt, 0.02);
+      if (drift.anchored && drift.path_m > 0.0) {
+        std::printf("end-point drift %.2f mm over %.2f m travelled (%.2f mm per metre)\n",
+                    drift.drift_m * 1e3, drift.path_m, drift.drift_m * 1e3 / drift.path_m);
+      }
     }
   }
   return kExitOk;
@@ -145,22 +150,23 @@ Command AddTrackCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--prior", args->prior, "Start of each frame: constant-velocity or identity")
       ->capture_default_str();
-  sub->add_flag("--keyframes", args->odometry.keyframes,
-                "Track against a keyframe, renewed after 10 cm, 5 deg or half the pixels lost");
+  sub->add_flag("--keyframes,!--no-keyframes", args->odometry.keyframes,
+                "Track against a keyframe, renewed after 10 cm, 5 deg or half the pixels lost "
+                "(default), or against the previous frame");
   sub->add_option("--min-depth", args->odometry.frame.min_depth_m, "Depth used from, metres")
       ->capture_default_str();
   sub->add_option("--max-depth", args->odometry.frame.max_depth_m, "Depth used up to, metres")
       ->capture_default_str();
-  sub->add_flag("--bilateral", args->odometry.frame.bilateral,
-                "Bilateral filter of the depth before the pyramid");
+  sub->add_flag("--bilateral,!--no-bilateral", args->odometry.frame.bilateral,
+                "Bilateral filter of the depth before the pyramid (default)");
   sub->add_option("--max-distance", args->odometry.icp.association.max_distance_m,
                   "Association: largest point distance, metres")
       ->capture_default_str();
   sub->add_option("--max-angle", args->odometry.icp.association.max_normal_angle_deg,
                   "Association: largest normal angle, degrees")
       ->capture_default_str();
-  sub->add_flag("--depth-weights", args->odometry.icp.weighting.depth_noise,
-                "Weigh pairs by the inverse variance of depth noise growing as z^2");
+  sub->add_flag("--depth-weights,!--no-depth-weights", args->odometry.icp.weighting.depth_noise,
+                "Weigh pairs by the inverse variance of depth noise growing as z^2 (default)");
   sub->add_option("--huber", args->odometry.icp.weighting.huber_delta_m,
                   "Huber threshold on the point-to-plane distance, metres (0 = off)")
       ->capture_default_str();

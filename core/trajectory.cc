@@ -111,4 +111,25 @@ TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt,
   return e;
 }
 
+EndPointDrift MeasureEndPointDrift(const Trajectory& est, const Trajectory& gt, double max_dt) {
+  const std::vector<std::pair<int, int>> pairs =
+      AssociateByTimestamp(est.timestamps, gt.timestamps, max_dt);
+  if (pairs.size() < 2) {
+    throw std::invalid_argument("end-point drift needs at least 2 poses matched in time, got " +
+                                std::to_string(pairs.size()));
+  }
+  EndPointDrift drift;
+  const auto& [e0, g0] = pairs.front();
+  const auto& [e1, g1] = pairs.back();
+  const Vec6 start = PoseDifference(gt.poses[g0], est.poses[e0]);
+  drift.anchored = start.head<3>().norm() < 1e-6 && start.tail<3>().norm() < 1e-6;
+  drift.drift_m = (est.poses[e1].translation() - gt.poses[g1].translation()).norm();
+  for (std::size_t k = 1; k < pairs.size(); ++k) {
+    drift.path_m +=
+        (gt.poses[pairs[k].second].translation() - gt.poses[pairs[k - 1].second].translation())
+            .norm();
+  }
+  return drift;
+}
+
 }  // namespace rigfit

@@ -48,4 +48,17 @@ struct TrajectoryErrors {
 TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt, double max_dt,
                                     int delta);
 
+/// How far a trajectory that starts at the truth has wandered off at its end: over the pairs
+/// of AssociateByTimestamp(max_dt), the distance between the last pair's positions (no
+/// alignment) and the length of the true path between the first and the last pair.
+/// `anchored` is false when the first pair's poses differ (by more than 1e-6 m or rad): the
+/// drift of an estimate in another frame means nothing. Throws std::invalid_argument with
+/// fewer than 2 pairs.
+struct EndPointDrift {
+  double drift_m = 0.0;
+  double path_m = 0.0;
+  bool anchored = false;
+};
+EndPointDrift MeasureEndPointDrift(const Trajectory& est, const Trajectory& gt, double max_dt);
+
 }  // namespace rigfit

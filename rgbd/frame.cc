@@ -106,13 +106,12 @@ std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width,
   return pass(pass(depth_m, true), false);
 }
 
-void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int threads) {
-  const int width = level->width;
-  const int height = level->height;
-  const PinholeIntrinsics& K = level->intrinsics;
-  const std::size_t n = static_cast<std::size_t>(width) * height;
-  level->vertices.assign(n, Vec3f::Constant(kNaN));
-  level->normals.assign(n, Vec3f::Constant(kNaN));
+namespace {
+
+// The back-projection V(u, v) = z ((u - cx) / fx, (v - cy) / fy, 1); NaN where z is NaN.
+std::vector<Vec3f> BackProject(const std::vector<float>& depth_m, int width, int height,
+                               const PinholeIntrinsics& K, int threads) {
+  std::vector<Vec3f> vertices(depth_m.size(), Vec3f::Constant(kNaN));
   const float inv_fx = static_cast<float>(1.0 / K.fx);
   const float inv_fy = static_cast<float>(1.0 / K.fy);
   const float cx = static_cast<float>(K.cx);
@@ -120,35 +119,52 @@ void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int
   ForEachRow(height, threads, [&](int v) {
     for (int u = 0; u < width; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * width + u;
-      const float z = level->depth_m[i];
+      const float z = depth_m[i];
       if (std::isnan(z)) continue;
-      level->vertices[i] = Vec3f((u - cx) * inv_fx * z, (v - cy) * inv_fy * z, z);
+      vertices[i] = Vec3f((u - cx) * inv_fx * z, (v - cy) * inv_fy * z, z);
     }
   });
+  return vertices;
+}
+
+}  // namespace
+
+void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int threads,
+                             const std::vector<float>* normal_depth_m) {
+  const int width = level->width;
+  const int height = level->height;
+  level->vertices = BackProject(level->depth_m, width, height, level->intrinsics, threads);
+  level->normals.assign(level->vertices.size(), Vec3f::Constant(kNaN));
+  const std::vector<float>& depth = normal_depth_m ? *normal_depth_m : level->depth_m;
+  std::vector<Vec3f> smoothed_vertices;
+  if (normal_depth_m) {
+    smoothed_vertices = BackProject(depth, width, height, level->intrinsics, threads);
+  }
+  const std::vector<Vec3f>& vertices = normal_depth_m ? smoothed_vertices : level->vertices;
   const float ratio = static_cast<float>(max_depth_jump_ratio);
   ForEachRow(height, threads, [&](int v) {
     if (v == 0 || v == height - 1) return;
     for (int u = 1; u + 1 < width; ++u) {
       const std::size_t i = static_cast<std::size_t>(v) * width + u;
-      const float z = level->depth_m[i];
-      if (std::isnan(z)) continue;
+      const float z = depth[i];
+      if (std::isnan(z) || std::isnan(level->depth_m[i])) continue;
       const std::size_t neighbours[4] = {i - 1, i + 1, i - width, i + width};
       bool usable = true;
       for (const std::size_t j : neighbours) {
-        const float zj = level->depth_m[j];
+        const float zj = depth[j];
         if (std::isnan(zj) || std::abs(zj - z) > ratio * z) {
           usable = false;
           break;
         }
       }
       if (!usable) continue;
-      const Vec3f du = level->vertices[i + 1] - level->vertices[i - 1];
-      const Vec3f dv = level->vertices[i + width] - level->vertices[i - width];
+      const Vec3f du = vertices[i + 1] - vertices[i - 1];
+      const Vec3f dv = vertices[i + width] - vertices[i - width];
       Vec3f normal = du.cross(dv);
       const float norm = normal.norm();
       if (!(norm > 0.0f)) continue;
       normal /= norm;
-      if (normal.dot(level->vertices[i]) > 0.0f) normal = -normal;
+      if (normal.dot(vertices[i]) > 0.0f) normal = -normal;
       level->normals[i] = normal;
     }
   });
@@ -178,9 +194,10 @@ FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& optio
   for (float& z : base.depth_m) {
     if (!(z >= z_min && z <= z_max)) z = kNaN;
   }
+  std::vector<float> filtered;
   if (options.bilateral) {
-    base.depth_m = BilateralFilter(base.depth_m, base.width, base.height,
-                                   options.bilateral_sigma_px, options.bilateral_sigma_m, threads);
+    filtered = BilateralFilter(base.depth_m, base.width, base.height, options.bilateral_sigma_px,
+                               options.bilateral_sigma_m, threads);
   }
   for (int l = 1; l < options.levels; ++l) {
     const FrameLevel& fine = pyramid.levels[l - 1];
@@ -194,8 +211,9 @@ FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& optio
     coarse.depth_m =
         Downsample(fine.depth_m, fine.width, fine.height, options.max_depth_jump_ratio);
   }
-  for (FrameLevel& level : pyramid.levels) {
-    ComputeVertexNormalMaps(&level, options.max_depth_jump_ratio, threads);
+  for (int l = 0; l < options.levels; ++l) {
+    ComputeVertexNormalMaps(&pyramid.levels[l], options.max_depth_jump_ratio, threads,
+                            l == 0 && options.bilateral ? &filtered : nullptr);
   }
   return pyramid;
 }

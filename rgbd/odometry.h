@@ -24,10 +24,11 @@ struct OdometryOptions {
   FrameOptions frame;
   IcpOptions icp;
   MotionPrior prior = MotionPrior::kConstantVelocity;
-  /// Track against a keyframe instead of the previous frame; a new keyframe is taken when the
-  /// camera has moved or turned more than these from it, or when fewer than
-  /// keyframe_min_matched_ratio of the pixels still match it.
-  bool keyframes = false;
+  /// Track against a keyframe instead of the previous frame (on by default: the small errors
+  /// of consecutive frame-to-frame steps do not add up while the keyframe stays); a new
+  /// keyframe is taken when the camera has moved or turned more than these from it, or when
+  /// fewer than keyframe_min_matched_ratio of the pixels still match it.
+  bool keyframes = true;
   double keyframe_translation_m = 0.1;
   double keyframe_rotation_deg = 5.0;
   double keyframe_min_matched_ratio = 0.5;

@@ -75,6 +75,9 @@ struct PairWeighting {
   bool depth_noise = false;
 };
 
+/// Tracking's default: depth-noise weights on (the sensors rigfit reads all have z^2 noise).
+inline constexpr PairWeighting kTrackingWeighting{0.0, true};
+
 /// The noise weight 1 / sigma^2 of a pair (PairWeighting::depth_noise): 2 / (z_p^4 + z_q^4).
 double DepthNoiseWeight(double z_p, double z_q);
 
@@ -117,7 +120,7 @@ Pose ApplyLeftUpdate(const Vec6& x, const Pose& T);
 
 struct IcpOptions {
   AssociationOptions association;
-  PairWeighting weighting;
+  PairWeighting weighting = kTrackingWeighting;
   /// Gauss-Newton iterations per pyramid level, finest first (KinectFusion: 10, 5, 4).
   std::vector<int> iterations = {10, 5, 4};
   /// Converged when the step's rotation and translation are both below these.

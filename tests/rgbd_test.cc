@@ -157,8 +157,17 @@ TEST(RgbdFrame, TruncationAndVertexAndNormalMapsOfATiltedPlane) {
   frame.depth_m[5] = 10.0f;  // beyond max_depth_m: dropped
   FrameOptions options;
   options.levels = 1;
+  options.bilateral = false;
   const FrameLevel level = BuildFramePyramid(frame, options).levels[0];
   EXPECT_TRUE(std::isnan(level.depth_m[5]));
+  // The bilateral filter smooths the normals only: the vertices stay the measured points.
+  options.bilateral = true;
+  const FrameLevel filtered = BuildFramePyramid(frame, options).levels[0];
+  for (int i = 0; i < 32 * 24; ++i) {
+    if (level.Valid(i) && filtered.Valid(i)) {
+      EXPECT_EQ(filtered.vertices[i], level.vertices[i]) << i;
+    }
+  }
   const Vec3 expected = Vec3(0.5, 0.0, -1.0).normalized();  // facing the camera
   int checked = 0;
   for (int v = 1; v < 23; ++v) {

@@ -71,6 +71,30 @@ TEST(Trajectory, TooFewMatchesIsAnError) {
   EXPECT_THROW(EvaluateTrajectory(est, Loop(), 0.02, 1), std::invalid_argument);
 }
 
+TEST(Trajectory, EndPointDriftOfAnAnchoredEstimate) {
+  const Trajectory gt = Loop();
+  double path = 0.0;
+  for (size_t k = 1; k < gt.poses.size(); ++k) {
+    path += (gt.poses[k].translation() - gt.poses[k - 1].translation()).norm();
+  }
+  // The estimate starts at the truth and ends 3 cm off, drifting linearly.
+  Trajectory est = gt;
+  for (size_t k = 0; k < est.poses.size(); ++k) {
+    est.poses[k].translation().x() += 0.03 * k / (est.poses.size() - 1);
+  }
+  const EndPointDrift drift = MeasureEndPointDrift(est, gt, 0.02);
+  EXPECT_TRUE(drift.anchored);
+  EXPECT_NEAR(drift.drift_m, 0.03, 1e-12);
+  EXPECT_NEAR(drift.path_m, path, 1e-12);
+  // Started elsewhere, it is not anchored; one matched pose is an error.
+  est.poses[0].translation().y() += 1e-3;
+  EXPECT_FALSE(MeasureEndPointDrift(est, gt, 0.02).anchored);
+  Trajectory one;
+  one.timestamps = {0.0};
+  one.poses = {gt.poses[0]};
+  EXPECT_THROW(MeasureEndPointDrift(one, gt, 0.02), std::invalid_argument);
+}
+
 class TumTrajectoryTest : public io_test::TempDirTest {};
 
 TEST_F(TumTrajectoryTest, RoundTripIsExact) {
