@@ -72,7 +72,13 @@ Canvas::Canvas(int width, int height, const Rgb& background)
       height_(height),
       surface_(cairo_image_surface_create(CAIRO_FORMAT_RGB24, width, height)),
       cr_(cairo_create(surface_)) {
-  Check();
+  try {
+    Check();  // e.g. a size Cairo cannot allocate
+  } catch (...) {
+    cairo_destroy(cr_);
+    cairo_surface_destroy(surface_);
+    throw;
+  }
   FillRect(0, 0, width, height, background);
 }
 
