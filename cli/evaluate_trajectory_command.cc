@@ -7,6 +7,7 @@
 
 #include "cli/commands.h"
 #include "core/errors.h"
+#include "core/format.h"
 #include "core/pose.h"
 #include "core/trajectory.h"
 #include "io/trajectory_tum.h"
@@ -37,18 +38,24 @@ int RunEvaluateTrajectory(const EvaluateTrajectoryArgs& a) {
     throw InputError("evaluate-trajectory: " + a.estimate_path + " against " + a.ground_truth_path +
                      ": " + error.what());
   }
-  std::printf(
-      "%s against %s: %d of %zu poses matched in time (within %.3f s), the estimate "
-      "aligned rigidly (no scale)\n\n",
-      a.estimate_path.c_str(), a.ground_truth_path.c_str(), e.pairs, est.poses.size(), a.max_dt);
-  std::printf("ATE (absolute trajectory error, mm): RMSE %.2f, mean %.2f, median %.2f, max %.2f\n",
-              e.ate_rmse_m * 1e3, e.ate_mean_m * 1e3, e.ate_median_m * 1e3, e.ate_max_m * 1e3);
-  std::printf(
-      "RPE over %d matched pose(s) (%d pairs): translation RMSE %.2f mm, rotation RMSE "
-      "%.3f deg\n",
-      a.delta, e.rpe_pairs, e.rpe_translation_rmse_m * 1e3, e.rpe_rotation_rmse_rad * kRadToDeg);
+  std::string summary;
+  Appendf(&summary,
+          "%s against %s: %d of %zu poses matched in time (within %.3f s), the estimate "
+          "aligned rigidly (no scale)\n\n",
+          a.estimate_path.c_str(), a.ground_truth_path.c_str(), e.pairs, est.poses.size(),
+          a.max_dt);
+  Appendf(&summary,
+          "ATE (absolute trajectory error, mm): RMSE %.2f, mean %.2f, median %.2f, max %.2f\n",
+          e.ate_rmse_m * 1e3, e.ate_mean_m * 1e3, e.ate_median_m * 1e3, e.ate_max_m * 1e3);
+  Appendf(&summary,
+          "RPE over %d matched pose(s) (%d pairs): translation RMSE %.2f mm, rotation RMSE "
+          "%.3f deg\n",
+          a.delta, e.rpe_pairs, e.rpe_translation_rmse_m * 1e3,
+          e.rpe_rotation_rmse_rad * kRadToDeg);
+  std::fputs(summary.c_str(), stdout);
   if (!a.report_dir.empty()) {
-    for (const std::string& file : WriteTrajectoryReport(a.report_dir, est, gt, e, a.max_dt)) {
+    for (const std::string& file :
+         WriteTrajectoryReport(a.report_dir, est, gt, e, a.max_dt, summary)) {
       std::printf("report: %s\n", file.c_str());
     }
   }

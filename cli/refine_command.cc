@@ -147,16 +147,18 @@ std::string FixedOrDash(bool measured, double value, int digits) {
   return measured ? Fixed(value, digits) : "-";
 }
 
-void PrintSummary(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
-                  const Timings& t) {
+/// The summary the command prints (and the report's page shows).
+std::string Summary(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
+                    const Timings& t) {
+  std::string text;
   constexpr char kCameraRow[] = "%-16s %7s %6s %7s %7s %7s %7s %8s %8s %6s %6s %6s  %s\n";
   std::string groups = std::string(16, ' ') + " " + Centered("leveling", 14) + " " +
                        Centered("registration", 15) + " " + Centered("against the rig", 15) + " " +
                        Centered("1-sigma (joint covariance)", 38);
   groups.erase(groups.find_last_not_of(' ') + 1);
-  std::printf("\n%s\n", groups.c_str());
-  std::printf(kCameraRow, "camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg",
-              "x mm", "y mm", "z mm", "result");
+  Appendf(&text, "\n%s\n", groups.c_str());
+  Appendf(&text, kCameraRow, "camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg",
+          "x mm", "y mm", "z mm", "result");
   int leveled = 0;
   for (const CameraReport& c : result.cameras) {
     const GroundResult& g = c.ground;
@@ -178,67 +180,68 @@ void PrintSummary(const RefineResult& result, const RefineOptions& options, cons
     }
     const bool registered = ChangeMeasured(result, c);
     const PoseSigma sigma = SigmaOf(c.covariance);
-    std::printf(kCameraRow, c.serial.c_str(),
-                FixedOrDash(level_shown, g.correction_rotation_deg, 3).c_str(),
-                FixedOrDash(level_shown, g.correction_translation_m * 1e3, 1).c_str(),
-                FixedOrDash(registered, c.delta_rotation_deg, 3).c_str(),
-                FixedOrDash(registered, c.delta_translation_m * 1e3, 1).c_str(),
-                FixedOrDash(registered, c.own_rotation_deg, 3).c_str(),
-                FixedOrDash(registered, c.own_translation_m * 1e3, 1).c_str(),
-                FixedOrDash(c.has_covariance, sigma.yaw_deg, 3).c_str(),
-                FixedOrDash(c.has_covariance, sigma.tilt_deg, 3).c_str(),
-                FixedOrDash(c.has_covariance, sigma.x_mm, 2).c_str(),
-                FixedOrDash(c.has_covariance, sigma.y_mm, 2).c_str(),
-                FixedOrDash(c.has_covariance, sigma.z_mm, 2).c_str(), status.c_str());
+    Appendf(&text, kCameraRow, c.serial.c_str(),
+            FixedOrDash(level_shown, g.correction_rotation_deg, 3).c_str(),
+            FixedOrDash(level_shown, g.correction_translation_m * 1e3, 1).c_str(),
+            FixedOrDash(registered, c.delta_rotation_deg, 3).c_str(),
+            FixedOrDash(registered, c.delta_translation_m * 1e3, 1).c_str(),
+            FixedOrDash(registered, c.own_rotation_deg, 3).c_str(),
+            FixedOrDash(registered, c.own_translation_m * 1e3, 1).c_str(),
+            FixedOrDash(c.has_covariance, sigma.yaw_deg, 3).c_str(),
+            FixedOrDash(c.has_covariance, sigma.tilt_deg, 3).c_str(),
+            FixedOrDash(c.has_covariance, sigma.x_mm, 2).c_str(),
+            FixedOrDash(c.has_covariance, sigma.y_mm, 2).c_str(),
+            FixedOrDash(c.has_covariance, sigma.z_mm, 2).c_str(), status.c_str());
   }
   if (!a.no_icp) {
     // Pairwise ICP moves b onto a; the joint mode moves both.
     const std::string link = result.mode == RefineMode::kPairwise ? " <- " : " - ";
-    std::printf("\n%-35s %7s %22s %6s  %s\n", "pair", "fitness", "RMSE before->after mm", "iters",
-                "result");
+    Appendf(&text, "\n%-35s %7s %22s %6s  %s\n", "pair", "fitness", "RMSE before->after mm",
+            "iters", "result");
     for (const PairReport& p : result.pairs) {
       const std::string name = p.serial_a + link + p.serial_b;
       const std::string rmse =
           Fixed(p.rmse_before_m * 1e3, 2) + " -> " + Fixed(p.rmse_after_m * 1e3, 2);
-      std::printf("%-35s %7s %22s %6d  %s\n", name.c_str(), Fixed(p.fitness, 3).c_str(),
-                  rmse.c_str(), p.iterations,
-                  p.accepted ? "accepted" : ("rejected: " + p.message).c_str());
+      Appendf(&text, "%-35s %7s %22s %6d  %s\n", name.c_str(), Fixed(p.fitness, 3).c_str(),
+              rmse.c_str(), p.iterations,
+              p.accepted ? "accepted" : ("rejected: " + p.message).c_str());
     }
-    if (result.pairs.empty()) std::printf("(no candidate pairs)\n");
+    if (result.pairs.empty()) Appendf(&text, "(no candidate pairs)\n");
     if (result.surface.ran) {
       const SurfaceBundleReport& sb = result.surface;
-      std::printf(
-          "\nsurface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the "
-          "noise model\n%-35s %22s\n",
-          sb.planes, sb.pixels, sb.rounds, sb.noise_scale, "camera", "plane thickness (sigma)");
+      Appendf(&text,
+              "\nsurface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the "
+              "noise model\n%-35s %22s\n",
+              sb.planes, sb.pixels, sb.rounds, sb.noise_scale, "camera", "plane thickness (sigma)");
       for (const CameraReport& c : result.cameras) {
         const std::string thickness =
             Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2);
-        std::printf("%-35s %22s%s\n", c.serial.c_str(), thickness.c_str(),
-                    c.surface_fallback ? "  kept its joint pose" : "");
+        Appendf(&text, "%-35s %22s%s\n", c.serial.c_str(), thickness.c_str(),
+                c.surface_fallback ? "  kept its joint pose" : "");
       }
     }
   }
-  std::printf(
-      "\ntime (s): load %.2f, leveling %.2f, preprocessing %.2f, registration %.2f, "
-      "pose graph %.2f, output %.2f, total %.2f\n",
-      t.load_s, t.solver.leveling_s, t.solver.preprocessing_s, t.solver.registration_s,
-      t.solver.pose_graph_s, t.output_s, t.total_s);
+  Appendf(&text,
+          "\ntime (s): load %.2f, leveling %.2f, preprocessing %.2f, registration %.2f, "
+          "pose graph %.2f, output %.2f, total %.2f\n",
+          t.load_s, t.solver.leveling_s, t.solver.preprocessing_s, t.solver.registration_s,
+          t.solver.pose_graph_s, t.output_s, t.total_s);
   const int cameras = static_cast<int>(result.cameras.size());
   if (a.no_icp) {
-    std::printf("leveled %d of %d cameras (registration skipped) -> %s\n", leveled, cameras,
-                a.out_path.c_str());
-    return;
+    Appendf(&text, "leveled %d of %d cameras (registration skipped) -> %s\n", leveled, cameras,
+            a.out_path.c_str());
+    return text;
   }
   int refined = 0;
   for (const CameraReport& c : result.cameras) refined += !c.reference && c.accepted ? 1 : 0;
   if (result.success) {
-    std::printf("refined %d of %d non-reference cameras -> %s\n", refined, cameras - 1,
-                a.out_path.c_str());
+    Appendf(&text, "refined %d of %d non-reference cameras -> %s\n", refined, cameras - 1,
+            a.out_path.c_str());
   } else {
-    std::printf("refinement not applied: %s; wrote the %s poses -> %s\n", result.message.c_str(),
-                options.ground.enabled ? "leveled" : "input", a.out_path.c_str());
+    Appendf(&text, "refinement not applied: %s; wrote the %s poses -> %s\n", result.message.c_str(),
+            options.ground.enabled ? "leveled" : "input", a.out_path.c_str());
   }
+  return text;
 }
 
 int RunRefine(const RefineArgs& a) {
@@ -294,11 +297,12 @@ int RunRefine(const RefineArgs& a) {
   WriteExtrinsics(a.out_path, poses, initial.document, meta, InputFiles(a));
   timings.output_s = SecondsSince(output_start);
   timings.total_s = SecondsSince(start);
-  PrintSummary(result, options, a, timings);
+  const std::string summary = Summary(result, options, a, timings);
+  std::fputs(summary.c_str(), stdout);
   if (!a.report_dir.empty()) {
     log.Info("writing the report to " + a.report_dir);
     for (const std::string& file :
-         WriteRefineReport(a.report_dir, capture, result, poses, options, a.threads)) {
+         WriteRefineReport(a.report_dir, capture, result, poses, options, a.threads, summary)) {
       std::printf("report: %s\n", file.c_str());
     }
   }

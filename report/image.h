@@ -1,5 +1,5 @@
-// A minimal RGB raster and the drawing primitives the report's plots need: filled
-// rectangles, lines, discs and text (stb_easy_font's bitmap font, Debian libstb-dev).
+// A minimal RGB raster: the pixels of a PNG (io/png.h) and of a drawn picture
+// (report/canvas.h).
 #pragma once
 
 #include <cstdint>
@@ -44,25 +44,5 @@ struct Image : RgbRaster {
   /// Sets the pixel at column x, row y; pixels outside are ignored (clipping).
   void Set(int x, int y, const Rgb& color);
 };
-
-/// Fills the pixels x in [x0, x1), y in [y0, y1), clipped to the image.
-void FillRect(Image* image, int x0, int y0, int x1, int y1, const Rgb& color);
-
-/// A straight line from (x0, y0) to (x1, y1), pixel centres at integer coordinates,
-/// `width` pixels wide (a square brush), clipped to the image.
-void DrawLine(Image* image, double x0, double y0, double x1, double y1, const Rgb& color,
-              int width = 1);
-
-/// A filled disc of the given radius (pixels) centred at (cx, cy).
-void FillDisc(Image* image, double cx, double cy, double radius, const Rgb& color);
-
-/// Height in pixels of one line of text at `scale` (stb_easy_font's cell is 12 units).
-int TextHeight(int scale);
-/// Width in pixels of `text` at `scale`.
-int TextWidth(const std::string& text, int scale);
-
-/// Draws one line of printable ASCII text with its top-left corner at (x, y), each font
-/// unit `scale` pixels (2 reads comfortably). Other characters are drawn as '?'.
-void DrawText(Image* image, int x, int y, const std::string& text, const Rgb& color, int scale = 2);
 
 }  // namespace rigfit

@@ -5,6 +5,7 @@
 #include <cstdint>
 
 #include "core/format.h"
+#include "report/canvas.h"
 #include "rig/region.h"
 
 namespace rigfit {
@@ -13,8 +14,11 @@ namespace {
 constexpr Rgb kGrid{225, 225, 225};
 constexpr Rgb kAxis{60, 60, 60};
 constexpr Rgb kMuted{90, 90, 90};
-constexpr int kTitleScale = 3;
-constexpr int kTextScale = 2;
+constexpr double kTitleSize = 26.0;  ///< font size, pixels per em
+constexpr double kTextSize = 18.0;
+/// The rows one line of text takes in a layout.
+constexpr int kTitleHeight = 30;
+constexpr int kTextHeight = 20;
 
 /// A tick spacing of 1, 2 or 5 times a power of ten giving at most max_ticks intervals
 /// over span.
@@ -45,26 +49,50 @@ std::vector<double> Ticks(double lo, double hi, double step) {
 /// A pixel rectangle [x0, x1) x [y0, y1).
 struct Rect {
   int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  bool Contains(int x, int y) const { return x >= x0 && x < x1 && y >= y0 && y < y1; }
 };
 
-void DrawFrame(Image* image, const Rect& r, const Rgb& color) {
-  DrawLine(image, r.x0, r.y0, r.x1 - 1, r.y0, color);
-  DrawLine(image, r.x0, r.y1 - 1, r.x1 - 1, r.y1 - 1, color);
-  DrawLine(image, r.x0, r.y0, r.x0, r.y1 - 1, color);
-  DrawLine(image, r.x1 - 1, r.y0, r.x1 - 1, r.y1 - 1, color);
+void DrawFrame(Canvas* canvas, const Rect& r, const Rgb& color) {
+  canvas->Line(r.x0, r.y0, r.x1 - 1, r.y0, color);
+  canvas->Line(r.x0, r.y1 - 1, r.x1 - 1, r.y1 - 1, color);
+  canvas->Line(r.x0, r.y0, r.x0, r.y1 - 1, color);
+  canvas->Line(r.x1 - 1, r.y0, r.x1 - 1, r.y1 - 1, color);
 }
 
-void DrawTitles(Image* image, const std::string& title, const std::string& subtitle) {
-  DrawText(image, 20, 16, title, kBlack, kTitleScale);
-  DrawText(image, 20, 24 + TextHeight(kTitleScale), subtitle, kMuted, kTextScale);
+void DrawTitles(Canvas* canvas, const std::string& title, const std::string& subtitle) {
+  canvas->Text(20, 16, title, kBlack, kTitleSize, true);
+  canvas->Text(20, 24 + kTitleHeight, subtitle, kMuted, kTextSize);
+}
+
+/// Text of kTextSize with its capitals centred on row y.
+void TextCentredOn(Canvas* canvas, double x, double y, const std::string& text, const Rgb& color) {
+  canvas->Text(x, y - 0.5 * Canvas::kCapHeight * kTextSize, text, color, kTextSize);
+}
+
+/// The grid line and tick label of value `label` at column c, under the plot.
+void XTick(Canvas* canvas, const Rect& plot, int c, const std::string& label) {
+  canvas->Line(c, plot.y0, c, plot.y1 - 1, kGrid);
+  canvas->Text(c - 0.5 * canvas->TextWidth(label, kTextSize), plot.y1 + 8, label, kAxis, kTextSize);
+}
+
+/// The grid line and tick label of value `label` at row r, left of the plot.
+void YTick(Canvas* canvas, const Rect& plot, int r, const std::string& label) {
+  canvas->Line(plot.x0, r, plot.x1 - 1, r, kGrid);
+  TextCentredOn(canvas, plot.x0 - 10 - canvas->TextWidth(label, kTextSize), r, label, kAxis);
+}
+
+/// The axis labels: x centred under the tick labels, y above the plot's top left corner.
+void AxisLabels(Canvas* canvas, const Rect& plot, const std::string& x_label,
+                const std::string& y_label) {
+  canvas->Text(0.5 * (plot.x0 + plot.x1 - canvas->TextWidth(x_label, kTextSize)),
+               plot.y1 + 16 + kTextHeight, x_label, kBlack, kTextSize);
+  canvas->Text(10, plot.y0 - 8 - kTextHeight, y_label, kBlack, kTextSize);
 }
 
 /// A legend swatch and its text, one row at (x, y); returns the next row's y.
-int LegendRow(Image* image, int x, int y, const Rgb& color, const std::string& text) {
-  const int size = TextHeight(kTextScale) + 2;
-  FillRect(image, x, y, x + size, y + size, color);
-  DrawText(image, x + size + 10, y + 2, text, kBlack, kTextScale);
+int LegendRow(Canvas* canvas, int x, int y, const Rgb& color, const std::string& text) {
+  const int size = kTextHeight + 2;
+  canvas->FillRect(x, y, x + size, y + size, color);
+  TextCentredOn(canvas, x + size + 10, y + 0.5 * size, text, kBlack);
   return y + size + 10;
 }
 
@@ -95,8 +123,8 @@ GroundWindow FitGroundWindow(const std::vector<const std::vector<TopDownCamera>*
 
 Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow& window,
                   double point_size_m, const std::string& title, const std::string& subtitle) {
-  Image image(kTopDownWidth, kTopDownHeight, kWhite);
-  DrawTitles(&image, title, subtitle);
+  Canvas canvas(kTopDownWidth, kTopDownHeight, kWhite);
+  DrawTitles(&canvas, title, subtitle);
   constexpr int kLegendWidth = 260;
   const Rect available{90, 110, kTopDownWidth - kLegendWidth - 20, kTopDownHeight - 80};
   const double span_x = window.max_x - window.min_x;
@@ -112,22 +140,12 @@ Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow&
   // Grid and tick labels, in metres.
   const double step = NiceStep(std::max(span_x, span_z), 10);
   for (double x : Ticks(window.min_x, window.max_x, step)) {
-    const int c = static_cast<int>(std::lround(column(x)));
-    DrawLine(&image, c, plot.y0, c, plot.y1 - 1, kGrid);
-    const std::string label = TickLabel(x, step);
-    DrawText(&image, c - TextWidth(label, kTextScale) / 2, plot.y1 + 8, label, kAxis);
+    XTick(&canvas, plot, static_cast<int>(std::lround(column(x))), TickLabel(x, step));
   }
   for (double z : Ticks(window.min_z, window.max_z, step)) {
-    const int r = static_cast<int>(std::lround(row(z)));
-    DrawLine(&image, plot.x0, r, plot.x1 - 1, r, kGrid);
-    const std::string label = TickLabel(z, step);
-    DrawText(&image, plot.x0 - 10 - TextWidth(label, kTextScale), r - TextHeight(kTextScale) / 2,
-             label, kAxis);
+    YTick(&canvas, plot, static_cast<int>(std::lround(row(z))), TickLabel(z, step));
   }
-  const std::string x_label = "x (m)";
-  DrawText(&image, (plot.x0 + plot.x1 - TextWidth(x_label, kTextScale)) / 2,
-           plot.y1 + 16 + TextHeight(kTextScale), x_label, kBlack);
-  DrawText(&image, 10, plot.y0 - 8 - TextHeight(kTextScale), "z (m)", kBlack);
+  AxisLabels(&canvas, plot, "x (m)", "z (m)");
 
   // Point density per camera and pixel, then one colour per pixel.
   const size_t n = cameras.size();
@@ -145,6 +163,7 @@ Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow&
       }
     }
   }
+  Image image = canvas.ToImage();
   for (int r = 0; r < height; ++r) {
     for (int c = 0; c < width; ++c) {
       const std::uint16_t* pixel = &counts[(static_cast<size_t>(r) * width + c) * n];
@@ -163,6 +182,7 @@ Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow&
                 Mix(image.At(plot.x0 + c, plot.y0 + r), mixed, total / kSaturationPoints));
     }
   }
+  canvas.SetImage(image);
 
   // Camera centres and viewing directions (the camera z axis on the ground).
   constexpr double kHeadingPx = 45.0;
@@ -172,46 +192,46 @@ Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow&
     const double cx = column(centre.x()), cy = row(centre.z());
     const double norm = std::hypot(forward.x(), forward.z());
     if (norm > 1e-9) {
-      DrawLine(&image, cx, cy, cx + kHeadingPx * forward.x() / norm,
-               cy + kHeadingPx * forward.z() / norm, kBlack, 3);
+      canvas.Line(cx, cy, cx + kHeadingPx * forward.x() / norm,
+                  cy + kHeadingPx * forward.z() / norm, kBlack, 3);
     }
-    FillDisc(&image, cx, cy, 10.0, kBlack);
-    FillDisc(&image, cx, cy, 7.0, camera.color);
+    canvas.Disc(cx, cy, 10.0, kBlack);
+    canvas.Disc(cx, cy, 7.0, camera.color);
   }
-  DrawFrame(&image, plot, kAxis);
+  DrawFrame(&canvas, plot, kAxis);
 
   // Scale bar in the lower left corner of the plot.
   const double bar_m = NiceStep(span_x, 5);
   const int bar_px = static_cast<int>(std::lround(bar_m * px_per_m));
   const int bar_x = plot.x0 + 20, bar_y = plot.y1 - 24;
-  FillRect(&image, bar_x, bar_y, bar_x + bar_px, bar_y + 5, kBlack);
+  canvas.FillRect(bar_x, bar_y, bar_x + bar_px, bar_y + 5, kBlack);
   for (int end : {bar_x, bar_x + bar_px - 2})
-    FillRect(&image, end, bar_y - 8, end + 2, bar_y + 5, kBlack);
+    canvas.FillRect(end, bar_y - 8, end + 2, bar_y + 5, kBlack);
   const std::string bar_label = TickLabel(bar_m, bar_m) + " m";
-  DrawText(&image, bar_x + (bar_px - TextWidth(bar_label, kTextScale)) / 2,
-           bar_y - 12 - TextHeight(kTextScale), bar_label, kBlack);
+  canvas.Text(bar_x + 0.5 * (bar_px - canvas.TextWidth(bar_label, kTextSize)),
+              bar_y - 12 - kTextHeight, bar_label, kBlack, kTextSize);
 
   // Legend.
   const int legend_x = kTopDownWidth - kLegendWidth + 10;
   int y = available.y0;
-  DrawText(&image, legend_x, y, "cameras", kBlack, kTextScale);
-  y += TextHeight(kTextScale) + 14;
+  canvas.Text(legend_x, y, "cameras", kBlack, kTextSize);
+  y += kTextHeight + 14;
   for (const TopDownCamera& camera : cameras)
-    y = LegendRow(&image, legend_x, y, camera.color, camera.label);
+    y = LegendRow(&canvas, legend_x, y, camera.color, camera.label);
   y += 16;
   for (const char* line : {"disc: camera centre", "line: viewing direction", "pale: floor points",
                            "strong: walls, objects", "(many points over", " one spot)"}) {
-    DrawText(&image, legend_x, y, line, kMuted, kTextScale);
-    y += TextHeight(kTextScale) + 8;
+    canvas.Text(legend_x, y, line, kMuted, kTextSize);
+    y += kTextHeight + 8;
   }
-  return image;
+  return canvas.ToImage();
 }
 
 Image DrawHistogram(const std::vector<HistogramSeries>& series, double half_range, double bin_width,
                     const std::string& title, const std::string& x_label,
                     const std::string& y_label) {
-  Image image(kHistogramWidth, kHistogramHeight, kWhite);
-  DrawTitles(&image, title, "");
+  Canvas canvas(kHistogramWidth, kHistogramHeight, kWhite);
+  DrawTitles(&canvas, title, "");
   const Rect plot{110, 90, kHistogramWidth - 330, kHistogramHeight - 80};
   const int bins = std::max(1, static_cast<int>(std::lround(2.0 * half_range / bin_width)));
   std::vector<std::vector<int>> counts(series.size(), std::vector<int>(bins, 0));
@@ -233,41 +253,32 @@ Image DrawHistogram(const std::vector<HistogramSeries>& series, double half_rang
   };
   const double x_step = NiceStep(2.0 * half_range, 10);
   for (double v : Ticks(-half_range, half_range, x_step)) {
-    const int c = static_cast<int>(std::lround(column(v)));
-    DrawLine(&image, c, plot.y0, c, plot.y1 - 1, kGrid);
-    const std::string label = TickLabel(v, x_step);
-    DrawText(&image, c - TextWidth(label, kTextScale) / 2, plot.y1 + 8, label, kAxis);
+    XTick(&canvas, plot, static_cast<int>(std::lround(column(v))), TickLabel(v, x_step));
   }
   for (double count : Ticks(0.0, y_max, y_step)) {
-    const int r = static_cast<int>(std::lround(row(count)));
-    DrawLine(&image, plot.x0, r, plot.x1 - 1, r, kGrid);
-    const std::string label = TickLabel(count, std::max(1.0, y_step));
-    DrawText(&image, plot.x0 - 10 - TextWidth(label, kTextScale), r - TextHeight(kTextScale) / 2,
-             label, kAxis);
+    YTick(&canvas, plot, static_cast<int>(std::lround(row(count))),
+          TickLabel(count, std::max(1.0, y_step)));
   }
-  DrawText(&image, (plot.x0 + plot.x1 - TextWidth(x_label, kTextScale)) / 2,
-           plot.y1 + 16 + TextHeight(kTextScale), x_label, kBlack);
-  DrawText(&image, 10, plot.y0 - 8 - TextHeight(kTextScale), y_label, kBlack);
+  AxisLabels(&canvas, plot, x_label, y_label);
   for (size_t s = 0; s < series.size(); ++s) {
     const Rgb& color = series[s].color;
-    double previous = row(0.0);
+    // The first series as bars, the others as a step outline from 0 to 0.
+    std::vector<std::pair<double, double>> outline = {{column(-half_range), row(0.0)}};
     for (int b = 0; b < bins; ++b) {
       const double left = column(-half_range + b * bin_width);
       const double right = column(-half_range + (b + 1) * bin_width);
       const double top = row(counts[s][b]);
       if (s == 0) {
-        FillRect(&image, static_cast<int>(std::lround(left)), static_cast<int>(std::lround(top)),
-                 static_cast<int>(std::lround(right)), plot.y1, Mix(kWhite, color, 0.45));
-      } else {
-        DrawLine(&image, left, previous, left, top, color, 3);
-        DrawLine(&image, left, top, right, top, color, 3);
+        canvas.FillRect(static_cast<int>(std::lround(left)), static_cast<int>(std::lround(top)),
+                        static_cast<int>(std::lround(right)), plot.y1, Mix(kWhite, color, 0.45));
       }
-      previous = top;
+      outline.emplace_back(left, top);
+      outline.emplace_back(right, top);
     }
-    if (s > 0)
-      DrawLine(&image, column(half_range), previous, column(half_range), row(0.0), color, 3);
+    outline.emplace_back(column(half_range), row(0.0));
+    if (s > 0) canvas.Polyline(outline, color, 3);
   }
-  DrawFrame(&image, plot, kAxis);
+  DrawFrame(&canvas, plot, kAxis);
   int y = plot.y0;
   for (size_t s = 0; s < series.size(); ++s) {
     const Rgb swatch = s == 0 ? Mix(kWhite, series[s].color, 0.45) : series[s].color;
@@ -276,17 +287,17 @@ Image DrawHistogram(const std::vector<HistogramSeries>& series, double half_rang
     for (size_t end = series[s].label.find('\n');; end = series[s].label.find('\n', start)) {
       const std::string line = series[s].label.substr(start, end - start);
       if (start == 0) {
-        y = LegendRow(&image, plot.x1 + 20, y, swatch, line);
+        y = LegendRow(&canvas, plot.x1 + 20, y, swatch, line);
       } else {
-        DrawText(&image, plot.x1 + 20 + TextHeight(kTextScale) + 12, y - 4, line, kMuted);
-        y += TextHeight(kTextScale) + 8;
+        canvas.Text(plot.x1 + 20 + kTextHeight + 12, y - 4, line, kMuted, kTextSize);
+        y += kTextHeight + 8;
       }
       if (end == std::string::npos) break;
       start = end + 1;
     }
     y += 14;
   }
-  return image;
+  return canvas.ToImage();
 }
 
 PlotFrame FitPlotFrame(const std::vector<PlotCurve>& curves, int width, int height,
@@ -354,48 +365,44 @@ PlotFrame FitPlotFrame(const std::vector<PlotCurve>& curves, int width, int heig
 Image DrawCurves(const std::vector<PlotCurve>& curves, const PlotFrame& frame,
                  const std::string& title, const std::string& subtitle, const std::string& x_label,
                  const std::string& y_label) {
-  Image image(frame.width, frame.height, kWhite);
-  DrawTitles(&image, title, subtitle);
+  Canvas canvas(frame.width, frame.height, kWhite);
+  DrawTitles(&canvas, title, subtitle);
   const Rect plot{frame.x0, frame.y0, frame.x1, frame.y1};
   const double x_step = NiceStep(frame.max_x - frame.min_x, 10);
   for (double x : Ticks(frame.min_x, frame.max_x, x_step)) {
-    const int c = static_cast<int>(std::lround(frame.Column(x)));
-    DrawLine(&image, c, plot.y0, c, plot.y1 - 1, kGrid);
-    const std::string label = TickLabel(x, x_step);
-    DrawText(&image, c - TextWidth(label, kTextScale) / 2, plot.y1 + 8, label, kAxis);
+    XTick(&canvas, plot, static_cast<int>(std::lround(frame.Column(x))), TickLabel(x, x_step));
   }
   const double y_step = NiceStep(frame.max_y - frame.min_y, 8);
   for (double y : Ticks(frame.min_y, frame.max_y, y_step)) {
-    const int r = static_cast<int>(std::lround(frame.Row(y)));
-    DrawLine(&image, plot.x0, r, plot.x1 - 1, r, kGrid);
-    const std::string label = TickLabel(y, y_step);
-    DrawText(&image, plot.x0 - 10 - TextWidth(label, kTextScale), r - TextHeight(kTextScale) / 2,
-             label, kAxis);
+    YTick(&canvas, plot, static_cast<int>(std::lround(frame.Row(y))), TickLabel(y, y_step));
   }
-  DrawText(&image, (plot.x0 + plot.x1 - TextWidth(x_label, kTextScale)) / 2,
-           plot.y1 + 16 + TextHeight(kTextScale), x_label, kBlack);
-  DrawText(&image, 10, plot.y0 - 8 - TextHeight(kTextScale), y_label, kBlack);
+  AxisLabels(&canvas, plot, x_label, y_label);
   for (const PlotCurve& curve : curves) {
     const size_t n = std::min(curve.x.size(), curve.y.size());
-    for (size_t i = 0; i + 1 < n; ++i) {
-      const double xa = curve.x[i], ya = curve.y[i], xb = curve.x[i + 1], yb = curve.y[i + 1];
-      if (!std::isfinite(xa) || !std::isfinite(ya) || !std::isfinite(xb) || !std::isfinite(yb)) {
+    // Each run of finite points is one polyline.
+    std::vector<std::pair<double, double>> run;
+    const auto flush = [&] {
+      if (run.size() >= 2) canvas.Polyline(run, curve.color, curve.line_width);
+      run.clear();
+    };
+    for (size_t i = 0; i < n; ++i) {
+      if (!std::isfinite(curve.x[i]) || !std::isfinite(curve.y[i])) {
+        flush();
         continue;
       }
-      DrawLine(&image, frame.Column(xa), frame.Row(ya), frame.Column(xb), frame.Row(yb),
-               curve.color, curve.line_width);
+      run.emplace_back(frame.Column(curve.x[i]), frame.Row(curve.y[i]));
     }
+    flush();
     if (n == 1 && std::isfinite(curve.x[0]) && std::isfinite(curve.y[0])) {
-      FillDisc(&image, frame.Column(curve.x[0]), frame.Row(curve.y[0]), curve.line_width,
-               curve.color);
+      canvas.Disc(frame.Column(curve.x[0]), frame.Row(curve.y[0]), curve.line_width, curve.color);
     }
   }
-  DrawFrame(&image, plot, kAxis);
+  DrawFrame(&canvas, plot, kAxis);
   int y = plot.y0;
   for (const PlotCurve& curve : curves) {
-    y = LegendRow(&image, plot.x1 + 20, y, curve.color, curve.label);
+    y = LegendRow(&canvas, plot.x1 + 20, y, curve.color, curve.label);
   }
-  return image;
+  return canvas.ToImage();
 }
 
 }  // namespace rigfit

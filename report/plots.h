@@ -1,6 +1,6 @@
-// The report's plots, drawn on report/image.h: a top-down (XZ) view of the cameras' points,
-// a histogram of residuals, and curves (polylines) on metric or plain axes. Each returns an
-// image of a fixed size.
+// The report's plots, drawn with Cairo (report/canvas.h): a top-down (XZ) view of the
+// cameras' points, a histogram of residuals, and curves (polylines) on metric or plain axes.
+// Each returns an image of a fixed size.
 #pragma once
 
 #include <string>

@@ -7,6 +7,7 @@
 #include "core/format.h"
 #include "core/geometry.h"
 #include "io/png.h"
+#include "report/html.h"
 #include "report/palette.h"
 #include "report/plots.h"
 #include "rig/diagnostics.h"
@@ -64,7 +65,8 @@ void CheckReportDirectory(const std::string& dir, const std::string& what) {
 
 std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
                                            const RefineResult& result, const PoseMap& after,
-                                           const RefineOptions& options, int num_threads) {
+                                           const RefineOptions& options, int num_threads,
+                                           const std::string& summary) {
   CheckReportDirectory(dir, "report:");
   std::error_code ec;
   fs::create_directory(dir, ec);
@@ -80,14 +82,18 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
   const std::vector<TopDownCamera> after_view = TopDownCameras(rig, after);
   const GroundWindow window = FitGroundWindow({&before_view, &after_view});
   std::vector<std::string> files;
-  const auto write = [&](const char* name, const Image& image) {
+  std::vector<ReportPicture> pictures;
+  const auto write = [&](const char* name, const Image& image, const std::string& caption) {
     files.push_back((fs::path(dir) / name).string());
     WritePng(files.back(), image);
+    pictures.push_back({name, caption, image.width, image.height});
   };
-  write(kTopDownBeforeFile,
-        DrawTopDown(before_view, window, voxel_m, "Before registration (leveled poses)", subtitle));
-  write(kTopDownAfterFile,
-        DrawTopDown(after_view, window, voxel_m, "After registration", subtitle));
+  const std::string before_title = "Before registration (leveled poses)";
+  write(kTopDownBeforeFile, DrawTopDown(before_view, window, voxel_m, before_title, subtitle),
+        before_title + ": " + subtitle);
+  const std::string after_title = "After registration";
+  write(kTopDownAfterFile, DrawTopDown(after_view, window, voxel_m, after_title, subtitle),
+        after_title + ": " + subtitle);
 
   const double half_range_mm = options.icp.max_correspondence_distance_factor * voxel_m * 1e3;
   const std::vector<HistogramSeries> series = {
@@ -95,11 +101,13 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
                 Rgb{150, 150, 150}),
       Residuals(Diagnose(rig, after, options.icp, num_threads), "after registration",
                 CameraColor(0))};
+  const std::string residuals_title =
+      "Correspondence residuals, all " + std::to_string(rig.pairs.size()) + " camera pairs";
   write(kResidualsFile,
-        DrawHistogram(
-            series, half_range_mm, 2.0 * half_range_mm / kResidualBins,
-            "Correspondence residuals, all " + std::to_string(rig.pairs.size()) + " camera pairs",
-            "point-to-plane residual at the finest scale (mm)", "correspondences"));
+        DrawHistogram(series, half_range_mm, 2.0 * half_range_mm / kResidualBins, residuals_title,
+                      "point-to-plane residual at the finest scale (mm)", "correspondences"),
+        residuals_title + ", before and after registration");
+  files.push_back(WriteReportIndex(dir, "rigfit refine report", summary, pictures));
   return files;
 }
 

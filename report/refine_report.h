@@ -26,11 +26,14 @@ void CheckReportDirectory(const std::string& dir, const std::string& what);
 ///   finest voxel (rig/diagnostics.h), seen from above, coloured per camera
 ///   (report/palette.h), at the leveled poses (before registration) and at `after`;
 /// - kResidualsFile: the histogram of the point-to-plane residuals of the finest-scale
-///   correspondences of every candidate pair, at the leveled poses and at `after`.
+///   correspondences of every candidate pair, at the leveled poses and at `after`;
+/// - kReportIndexFile (report/html.h): one page showing `summary` (the text the command
+///   printed; may be empty) and the three pictures.
 /// `after` holds the poses written as the result (every camera of the capture). Returns
-/// the paths written. Throws InputError when a file cannot be written.
+/// the paths written, the page last. Throws InputError when a file cannot be written.
 std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
                                            const RefineResult& result, const PoseMap& after,
-                                           const RefineOptions& options, int num_threads);
+                                           const RefineOptions& options, int num_threads,
+                                           const std::string& summary = "");
 
 }  // namespace rigfit

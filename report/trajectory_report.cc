@@ -6,6 +6,7 @@
 #include "core/errors.h"
 #include "core/format.h"
 #include "io/png.h"
+#include "report/html.h"
 #include "report/palette.h"
 #include "report/refine_report.h"
 
@@ -60,15 +61,17 @@ std::vector<PlotCurve> TrajectoryPlanCurves(const Trajectory& est, const Traject
 
 std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Trajectory& est,
                                                const Trajectory& gt, const TrajectoryErrors& errors,
-                                               double max_dt) {
+                                               double max_dt, const std::string& summary) {
   CheckReportDirectory(dir, "report:");
   std::error_code ec;
   fs::create_directory(dir, ec);
   if (ec) throw InputError("report: cannot create directory " + dir + ": " + ec.message());
   std::vector<std::string> files;
-  const auto write = [&](const char* name, const Image& image) {
+  std::vector<ReportPicture> pictures;
+  const auto write = [&](const char* name, const Image& image, const std::string& caption) {
     files.push_back((fs::path(dir) / name).string());
     WritePng(files.back(), image);
+    pictures.push_back({name, caption, image.width, image.height});
   };
 
   std::vector<Vec3> gt_positions;
@@ -81,7 +84,8 @@ std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Tra
         DrawCurves(plan, FitPlotFrame(plan, kPlanViewWidth, kPlanViewHeight, true, false),
                    "Trajectories from above",
                    ate + "; seen along the ground truth's axis of least spread", "axis 1 (m)",
-                   "axis 2 (m)"));
+                   "axis 2 (m)"),
+        "The aligned estimate and the ground truth seen from above; " + ate);
 
   const std::vector<std::pair<int, int>> pairs =
       AssociateByTimestamp(est.timestamps, gt.timestamps, max_dt);
@@ -92,7 +96,9 @@ std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Tra
   }
   write(kTrajectoryAteFile,
         DrawCurves({error}, FitPlotFrame({error}, kTimePlotWidth, kTimePlotHeight, false, true),
-                   "Absolute trajectory error over time", ate, "time (s)", "ATE (mm)"));
+                   "Absolute trajectory error over time", ate, "time (s)", "ATE (mm)"),
+        "Absolute trajectory error of each matched pose over time");
+  files.push_back(WriteReportIndex(dir, "rigfit evaluate-trajectory report", summary, pictures));
   return files;
 }
 

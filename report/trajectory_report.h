@@ -42,10 +42,12 @@ std::vector<PlotCurve> TrajectoryPlanCurves(const Trajectory& est, const Traject
 /// plan view of TrajectoryPlanCurves at equal scale on both axes, kPlanViewWidth x
 /// kPlanViewHeight) and kTrajectoryAteFile (errors.ate_m in mm against the ground-truth
 /// timestamp of each pair, seconds from the first pair's, kTimePlotWidth x kTimePlotHeight).
-/// The pairs are those of EvaluateTrajectory (AssociateByTimestamp with max_dt). Returns the
-/// paths written. Throws InputError when dir or a file cannot be written.
+/// The pairs are those of EvaluateTrajectory (AssociateByTimestamp with max_dt). Also
+/// kReportIndexFile (report/html.h): one page showing `summary` (the text the command
+/// printed; may be empty) and the two pictures. Returns the paths written, the page last.
+/// Throws InputError when dir or a file cannot be written.
 std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Trajectory& est,
                                                const Trajectory& gt, const TrajectoryErrors& errors,
-                                               double max_dt);
+                                               double max_dt, const std::string& summary = "");
 
 }  // namespace rigfit

@@ -10,7 +10,8 @@ packages=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libnanoflann-dev libflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  libpng-dev libstb-dev clang-format ccache
+  libpng-dev libcairo2-dev fonts-dejavu-core clang-format ccache
+  chromium  # headless, for the test that opens a report's index.html
 )
 
 missing=()

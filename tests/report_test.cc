@@ -1,13 +1,18 @@
-// report/: PNG round trip, the drawing primitives, and the refine report on a small
-// simulated rig: its files exist, decode to the documented size and show every camera.
+// report/: PNG round trip, the Cairo canvas, the page's HTML escaping, and the refine report
+// on a small simulated rig: its files exist, decode to the documented size and show every
+// camera, and its page shows them.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "core/errors.h"
 #include "io/png.h"
+#include "report/canvas.h"
+#include "report/html.h"
 #include "report/image.h"
 #include "report/palette.h"
 #include "report/plots.h"
@@ -19,9 +24,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-/// More pixels than a legend swatch holds (a square of one text line, report/plots.cc), so
-/// that a count above it includes the plot.
-const int kMoreThanASwatch = (TextHeight(2) + 2) * (TextHeight(2) + 2) + 200;
+/// More pixels than a legend swatch holds (a square of 22 pixels: one text line of 20 and 2,
+/// report/plots.cc), so that a count above it includes the plot.
+const int kMoreThanASwatch = 22 * 22 + 200;
 
 int CountPixels(const Image& image, const Rgb& color) {
   int n = 0;
@@ -74,23 +79,92 @@ TEST_F(ReportTest, ReadingANonPngNamesTheFile) {
   EXPECT_THROW(WritePng((dir_ / "missing" / "a.png").string(), Image(2, 2, kWhite)), InputError);
 }
 
-TEST_F(ReportTest, PrimitivesDrawWhereAsked) {
-  Image image(100, 60, kWhite);
-  FillRect(&image, 10, 10, 20, 15, kBlack);
-  EXPECT_EQ(CountPixels(image, kBlack), 50);
-  FillRect(&image, 95, 55, 200, 200, kBlack);  // clipped to 5 x 5
-  EXPECT_EQ(CountPixels(image, kBlack), 75);
+TEST_F(ReportTest, CanvasDrawsWhereAsked) {
+  Canvas rects(100, 60, kWhite);
+  rects.FillRect(10, 10, 20, 15, kBlack);
+  EXPECT_EQ(CountPixels(rects.ToImage(), kBlack), 50);
+  rects.FillRect(95, 55, 200, 200, kBlack);  // clipped to 5 x 5
+  EXPECT_EQ(CountPixels(rects.ToImage(), kBlack), 75);
 
-  Image line(50, 50, kWhite);
-  DrawLine(&line, 0, 0, 49, 49, kBlack);
-  EXPECT_EQ(CountPixels(line, kBlack), 50);
-  for (int i = 0; i < 50; ++i) EXPECT_EQ(line.At(i, i), kBlack);
+  // A 1-pixel line at integer coordinates fills exactly its pixels (pixel centres are at
+  // integer coordinates), ends included.
+  Canvas lines(50, 50, kWhite);
+  lines.Line(5, 20, 44, 20, kBlack);
+  Image image = lines.ToImage();
+  EXPECT_EQ(CountPixels(image, kBlack), 40);
+  for (int x = 5; x <= 44; ++x) EXPECT_EQ(image.At(x, 20), kBlack) << x;
 
-  Image text(200, 40, kWhite);
-  DrawText(&text, 5, 5, "x (m) 0.5", kBlack, 2);
-  EXPECT_GT(CountPixels(text, kBlack), 50);
-  EXPECT_GT(TextWidth("x (m) 0.5", 2), TextWidth("x", 2));
-  EXPECT_EQ(TextWidth("ab", 3), 3 * TextWidth("ab", 1));
+  // An anti-aliased diagonal 3 pixels wide: full colour on it, untouched 4 pixels to a side
+  // (2.8 pixels from it).
+  Canvas diagonal(50, 50, kWhite);
+  diagonal.Line(0, 0, 49, 49, kBlack, 3);
+  image = diagonal.ToImage();
+  for (int i = 0; i < 50; ++i) {
+    EXPECT_EQ(image.At(i, i), kBlack) << i;
+    if (i + 4 < 50) {
+      EXPECT_EQ(image.At(i + 4, i), kWhite) << i;
+      EXPECT_EQ(image.At(i, i + 4), kWhite) << i;
+    }
+  }
+  // Grey levels at the edges: the line is anti-aliased.
+  int grey = 0;
+  for (int y = 0; y < 50; ++y) {
+    for (int x = 0; x < 50; ++x) grey += image.At(x, y) != kBlack && image.At(x, y) != kWhite;
+  }
+  EXPECT_GT(grey, 50);
+
+  // A disc covers its centre, not beyond its radius.
+  Canvas disc(40, 40, kWhite);
+  disc.Disc(20, 20, 7.0, kBlack);
+  image = disc.ToImage();
+  EXPECT_EQ(image.At(20, 20), kBlack);
+  EXPECT_EQ(image.At(20 + 5, 20), kBlack);
+  EXPECT_EQ(image.At(20 + 9, 20), kWhite);
+  EXPECT_NEAR(CountPixels(image, kBlack), M_PI * 7 * 7, 0.25 * M_PI * 7 * 7);
+
+  // Text: ink where it is written, widths that grow with the text and its size.
+  Canvas text(300, 40, kWhite);
+  text.Text(5, 10, "x (m) 0.5", kBlack, 18);
+  image = text.ToImage();
+  int ink = 0, ink_outside = 0;
+  for (int y = 0; y < image.height; ++y) {
+    for (int x = 0; x < image.width; ++x) {
+      const bool inked = image.At(x, y) != kWhite;
+      ink += inked;
+      ink_outside += inked && (x < 4 || x > 5 + text.TextWidth("x (m) 0.5", 18) + 1 || y < 8);
+    }
+  }
+  EXPECT_GT(ink, 100);
+  EXPECT_EQ(ink_outside, 0);
+  EXPECT_GT(text.TextWidth("x (m) 0.5", 18), text.TextWidth("x", 18));
+  EXPECT_NEAR(text.TextWidth("camera", 36), 2.0 * text.TextWidth("camera", 18),
+              0.1 * text.TextWidth("camera", 36));
+
+  // Text Cairo would refuse (invalid UTF-8) is drawn with '?' in place of the bad bytes.
+  EXPECT_NO_THROW(text.Text(5, 10, std::string("bad \xff\xfe utf-8"), kBlack, 18));
+}
+
+TEST(DrawableTextTest, ReplacesInvalidUtf8AndControlCharacters) {
+  EXPECT_EQ(DrawableText("plain 0.5 m"), "plain 0.5 m");
+  EXPECT_EQ(DrawableText("caf\xc3\xa9 \xe2\x86\x92"), "caf\xc3\xa9 \xe2\x86\x92");  // é →
+  EXPECT_EQ(DrawableText("a\tb\nc\x7f"), "a?b?c?");
+  EXPECT_EQ(DrawableText("\xff\xc3"), "??");       // not a lead byte; truncated
+  EXPECT_EQ(DrawableText("\xc0\xaf"), "??");       // overlong '/'
+  EXPECT_EQ(DrawableText("\xed\xa0\x80"), "???");  // a surrogate
+  EXPECT_EQ(DrawableText("\xe2\x86x"), "??x");     // continuation missing
+}
+
+TEST(HtmlTest, EscapesTextAndAttributes) {
+  EXPECT_EQ(HtmlEscape("a<b>&\"c\"'d'"), "a&lt;b&gt;&amp;&quot;c&quot;&#39;d&#39;");
+  const std::string page =
+      ReportIndexHtml("t<1>", "camera  <tab> & co\n", {{"a\".png", "cap & <x>", 10, 20}});
+  EXPECT_NE(page.find("<title>t&lt;1&gt;</title>"), std::string::npos) << page;
+  EXPECT_NE(page.find("<pre>camera  &lt;tab&gt; &amp; co\n</pre>"), std::string::npos) << page;
+  EXPECT_NE(page.find("<img src=\"a&quot;.png\" width=\"10\" height=\"20\""), std::string::npos)
+      << page;
+  EXPECT_EQ(page.find("<script"), std::string::npos);
+  EXPECT_EQ(page.find("http"), std::string::npos);  // nothing fetched from anywhere
+  EXPECT_EQ(ReportIndexHtml("t", "", {}).find("<pre>"), std::string::npos);
 }
 
 TEST(PaletteTest, FirstTwentyCamerasHaveDistinctColours) {
@@ -110,9 +184,16 @@ TEST_F(ReportTest, RefineReportShowsEveryCamera) {
   const SimulatedRig rig = SimulateRig(sim);
   const RefineResult leveling = Refine(rig.capture, rig.init, RefineOptions{}, false, 2, {});
   const fs::path report = dir_ / "report";  // created by the report
-  const std::vector<std::string> files =
-      WriteRefineReport(report.string(), rig.capture, leveling, rig.gt, RefineOptions{}, 2);
-  ASSERT_EQ(files.size(), 3u);
+  const std::vector<std::string> files = WriteRefineReport(
+      report.string(), rig.capture, leveling, rig.gt, RefineOptions{}, 2, "camera 0 & <1>\n");
+  ASSERT_EQ(files.size(), 4u);
+  EXPECT_EQ(files.back(), (report / kReportIndexFile).string());
+  std::ifstream in(files.back());
+  const std::string page((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(page.find("camera 0 &amp; &lt;1&gt;"), std::string::npos) << page;
+  for (const char* name : {kTopDownBeforeFile, kTopDownAfterFile, kResidualsFile}) {
+    EXPECT_NE(page.find("<img src=\"" + std::string(name) + "\""), std::string::npos) << name;
+  }
   for (const char* name : {kTopDownBeforeFile, kTopDownAfterFile}) {
     SCOPED_TRACE(name);
     const Image image = ReadPng((report / name).string());
@@ -125,7 +206,8 @@ TEST_F(ReportTest, RefineReportShowsEveryCamera) {
   const Image histogram = ReadPng((report / kResidualsFile).string());
   EXPECT_EQ(histogram.width, kHistogramWidth);
   EXPECT_EQ(histogram.height, kHistogramHeight);
-  // The "after" series is drawn in the first camera's colour as a 3-pixel outline.
+  // The "after" series is drawn in the first camera's colour as a 3-pixel outline (its
+  // middle pixel in full colour).
   EXPECT_GT(CountPixels(histogram, CameraColor(0)), kMoreThanASwatch);
 }
 

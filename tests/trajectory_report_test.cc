@@ -15,6 +15,7 @@
 #include "core/pose.h"
 #include "io/png.h"
 #include "io/trajectory_tum.h"
+#include "report/html.h"
 #include "report/palette.h"
 
 namespace rigfit {
@@ -89,9 +90,10 @@ TEST_F(TrajectoryReport, IdenticalTrajectoriesCoincide) {
   ASSERT_LT(errors.ate_max_m, 1e-9);
   const std::vector<std::string> files =
       WriteTrajectoryReport((dir_ / "report").string(), est, gt, errors, kMaxDt);
-  ASSERT_EQ(files.size(), 2u);
+  ASSERT_EQ(files.size(), 3u);
   EXPECT_EQ(files[0], (dir_ / "report" / kTrajectoryPlanFile).string());
   EXPECT_EQ(files[1], (dir_ / "report" / kTrajectoryAteFile).string());
+  EXPECT_EQ(files[2], (dir_ / "report" / kReportIndexFile).string());
 
   const Image plan = ReadPng(files[0]);
   ASSERT_EQ(plan.width, kPlanViewWidth);
@@ -167,6 +169,10 @@ TEST_F(TrajectoryReport, CliWritesTheReportAndRefusesAMissingParent) {
             std::string::npos)
       << r.out;
   EXPECT_TRUE(fs::exists(dir_ / "out" / kTrajectoryAteFile));
+  // The page shows what the command printed.
+  const std::string page = cli_test::ReadText(dir_ / "out" / kReportIndexFile);
+  const std::string ate_line = r.out.substr(r.out.find("ATE (absolute"));
+  EXPECT_NE(page.find(ate_line.substr(0, ate_line.find('\n'))), std::string::npos) << page;
   const cli_test::RunResult bad =
       cli_test::RunRigfit({"evaluate-trajectory", gt.string(), gt.string(), "--report",
                            (dir_ / "no" / "such").string()},
