@@ -62,6 +62,7 @@ struct ClusterTerm {
   int camera;
   int plane;
   PlaneCluster cluster;
+  std::vector<int> pixels;  ///< indices into the camera's points
 };
 
 /// The segmentation's input at the given poses, and which camera point each entry is.
@@ -91,11 +92,28 @@ MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   return cloud;
 }
 
-/// The clusters of every (camera, plane) with points.
+/// Sums each term's pixels into its cluster.
+void FillClusters(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                  std::vector<ClusterTerm>* terms) {
+  for (ClusterTerm& t : *terms) {
+    t.cluster = PlaneCluster{};
+    const SurfaceCamera& camera = cameras[t.camera];
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      if (camera.ray_model) {
+        t.cluster.AddRay(p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
+                         InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
+      } else {
+        t.cluster.AddPoint(p, options.min_noise_m);
+      }
+    }
+  }
+}
+
+/// The pixels of every (camera, plane) with points (clusters not yet summed).
 std::vector<ClusterTerm> Clusters(const std::vector<SurfaceCamera>& cameras,
                                   const MergedCloud& cloud,
-                                  const std::vector<SegmentedPlane>& planes,
-                                  const IcpOptions& options) {
+                                  const std::vector<SegmentedPlane>& planes) {
   std::vector<ClusterTerm> terms;
   for (size_t j = 0; j < planes.size(); ++j) {
     std::vector<int> term_of(cameras.size(), -1);
@@ -103,20 +121,67 @@ std::vector<ClusterTerm> Clusters(const std::vector<SurfaceCamera>& cameras,
       const auto [c, i] = cloud.source[s];
       if (term_of[c] < 0) {
         term_of[c] = static_cast<int>(terms.size());
-        terms.push_back({c, static_cast<int>(j), PlaneCluster{}});
+        terms.push_back({c, static_cast<int>(j), PlaneCluster{}, {}});
       }
-      const SurfaceCamera& camera = cameras[c];
-      const Vec3& p = camera.points[i];
-      PlaneCluster& cluster = terms[term_of[c]].cluster;
-      if (camera.ray_model) {
-        cluster.AddRay(p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
-                       InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
-      } else {
-        cluster.AddPoint(p, options.min_noise_m);
-      }
+      terms[term_of[c]].pixels.push_back(i);
     }
   }
   return terms;
+}
+
+/// The band's edges select pixels by their measured height, which moves with their depth
+/// noise: where a face leaves the band (at its top, and at the floor margin of the
+/// segmentation) only the pixels whose noise moved them inward remain, and the face's plane
+/// tilts (on the default simulated rig, most wall and furniture planes by 10-20 degrees at
+/// 3-4 m). A pixel whose predicted point (where its ray meets the plane, which its own noise
+/// does not move) lies this many of its vertical noise sigmas inside every edge was kept
+/// whatever its noise, so the pixels so chosen are free of that selection.
+constexpr double kWindowSigmas = 3.5;
+
+/// Keeps the pixels of each non-floor term whose predicted point lies within kWindowSigmas of
+/// the band's top (inside the points' own, wider, top: SurfaceCamera::points_top) and of the
+/// segmentation's floor margin; a term left with too few pixels goes.
+void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
+                           const std::vector<Pose>& poses, const std::vector<PlaneBlock>& planes,
+                           const PlaneSegmentationOptions& segmentation,
+                           std::vector<ClusterTerm>* terms) {
+  const double model = segmentation.model_sigma_voxels * segmentation.voxel_size;
+  const double base = model * model + segmentation.min_noise_m * segmentation.min_noise_m;
+  std::vector<ClusterTerm> kept;
+  for (ClusterTerm& t : *terms) {
+    const SurfaceCamera& camera = cameras[t.camera];
+    if (planes[t.plane].floor || !camera.ray_model) {
+      kept.push_back(std::move(t));
+      continue;
+    }
+    const Pose& T = poses[t.camera];
+    const Vec3 n = planes[t.plane].Normal();
+    const double d = planes[t.plane].x(3);
+    std::vector<int> inside;
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      const Vec3 ray = T.linear() * (p / p.z());
+      const double denominator = n.dot(ray);
+      if (std::abs(denominator) < 1e-9) continue;
+      const double z = -(n.dot(T.translation()) + d) / denominator;  // predicted depth
+      if (z <= 0.0) continue;
+      const double y = T.translation().y() + z * ray.y();
+      // The segmentation's vertical sigma of the pixel (PlaneSegmentationOptions).
+      const double along = camera.depth_noise * z * z * ray.y();
+      const double sigma_v = std::sqrt(along * along + base);
+      double bottom = camera.band_bottom;
+      if (segmentation.leveled_floor) {
+        bottom = std::max(bottom, std::min(segmentation.floor_margin_m,
+                                           segmentation.floor_margin_sigmas * sigma_v));
+      }
+      const double top = std::min(camera.band_top, camera.points_top - kWindowSigmas * sigma_v);
+      if (y >= bottom + kWindowSigmas * sigma_v && y <= top) inside.push_back(i);
+    }
+    if (static_cast<int>(inside.size()) < segmentation.min_points_per_camera) continue;
+    t.pixels = std::move(inside);
+    kept.push_back(std::move(t));
+  }
+  *terms = std::move(kept);
 }
 
 /// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
@@ -195,32 +260,10 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
   std::vector<ClusterTerm> terms;
   std::vector<PlaneBlock> planes;
   const int rounds = std::max(1, options.surface_rounds);
-  for (int round = 0; round < rounds; ++round) {
-    const MergedCloud cloud = Merge(cameras, poses);
-    PlaneSegmentationOptions segmentation;
-    segmentation.voxel_size = options.voxel_size;
-    segmentation.min_noise_m = options.min_noise_m;
-    segmentation.leveled_floor =
-        std::any_of(cameras.begin(), cameras.end(),
-                    [](const SurfaceCamera& camera) { return camera.floor_leveled; });
-    segmentation.model_sigma_voxels =
-        kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
-    const std::vector<SegmentedPlane> segmented =
-        SegmentPlanes(cloud.points, static_cast<int>(n), segmentation);
-    if (segmented.empty()) {
-      result.message = "surface bundle: no plane is seen by two cameras";
-      break;
-    }
-    planes.clear();
-    for (const SegmentedPlane& s : segmented) {
-      planes.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
-    }
-    terms = Clusters(cameras, cloud, segmented, options);
-    if (round == 0) {
-      result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
-    }
-    const std::vector<bool> fixed = PlanesFixPose(terms, planes, n);
 
+  // Solves poses and planes over the terms; false when Ceres fails (summary says why).
+  ceres::Solver::Summary summary;
+  const auto solve = [&](const std::vector<bool>& fixed) {
     problem = NewProblem();
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (size_t c = 0; c < n; ++c) {
@@ -255,9 +298,39 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
     solver_options.max_num_iterations = kIterationsPerRound;
     solver_options.num_threads = num_threads;
     solver_options.logging_type = ceres::SILENT;
-    ceres::Solver::Summary summary;
+    summary = ceres::Solver::Summary{};
     ceres::Solve(solver_options, problem.get(), &summary);
-    if (!summary.IsSolutionUsable()) {
+    return summary.IsSolutionUsable();
+  };
+
+  for (int round = 0; round < rounds; ++round) {
+    const MergedCloud cloud = Merge(cameras, poses);
+    PlaneSegmentationOptions segmentation;
+    segmentation.voxel_size = options.voxel_size;
+    segmentation.min_noise_m = options.min_noise_m;
+    segmentation.leveled_floor =
+        std::any_of(cameras.begin(), cameras.end(),
+                    [](const SurfaceCamera& camera) { return camera.floor_leveled; });
+    segmentation.model_sigma_voxels =
+        kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
+    const std::vector<SegmentedPlane> segmented =
+        SegmentPlanes(cloud.points, static_cast<int>(n), segmentation);
+    if (segmented.empty()) {
+      result.message = "surface bundle: no plane is seen by two cameras";
+      break;
+    }
+    planes.clear();
+    for (const SegmentedPlane& s : segmented) {
+      planes.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
+    }
+    terms = Clusters(cameras, cloud, segmented);
+    PredictedHeightWindow(cameras, poses, planes, segmentation, &terms);
+    FillClusters(cameras, options, &terms);
+    if (round == 0) {
+      result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
+    }
+    const bool ok = solve(PlanesFixPose(terms, planes, n));
+    if (!ok) {
       // The previous round's poses stand (the start's in the first round).
       result.message = "surface bundle: " + summary.message;
       result.poses = poses;

@@ -10,6 +10,7 @@
 // (fewer than three planes, or normals that do not span space) keeps its start pose.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,13 @@ struct SurfaceCamera {
   bool ray_model = true;                    ///< a depth camera; false: a points camera
   bool floor_leveled = false;  ///< its floor was leveled to y = 0 (the floor is then known)
   bool free = false;           ///< estimated (connected, not the reference)
+  /// The near-floor band (world heights at the leveled pose, region.band_below and
+  /// region.band_height; infinite: no band), and the top up to which `points` were taken
+  /// (above band_top, so that the pixels whose plane puts them inside the band are there
+  /// whatever their noise: rig/surface_bundle.cc, PredictedHeightWindow).
+  double band_bottom = -std::numeric_limits<double>::infinity();
+  double band_top = std::numeric_limits<double>::infinity();
+  double points_top = std::numeric_limits<double>::infinity();
 };
 
 struct SurfaceBundleResult {
