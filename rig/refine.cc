@@ -124,6 +124,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   for (size_t i = 0; i < surfaces.size(); ++i) {
     surfaces[i].T_world_camera = joint->poses[i];
     surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
+    if (joint->covariance_ok) surfaces[i].start_covariance = joint->covariance[i];
     // A camera the joint solve could not link keeps its leveled pose, which may be far off:
     // its pixels would pull the planes.
     if (!joint->connected[i]) surfaces[i].points.clear();

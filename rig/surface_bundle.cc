@@ -1,5 +1,6 @@
 #include "rig/surface_bundle.h"
 
+#include <ceres/autodiff_cost_function.h>
 #include <ceres/covariance.h>
 #include <ceres/manifold.h>
 #include <ceres/ordered_groups.h>
@@ -48,6 +49,48 @@ double InverseDepthSigma(double k, double z, double min_noise_m) {
 /// second order, so 1/z_m - k^2 z_m is unbiased to that order; disparity noise needs none.
 double InverseDepth(double z, double k, DepthNoiseModel model) {
   return model == DepthNoiseModel::kGaussianDepth ? 1.0 / z - k * k * z : 1.0 / z;
+}
+
+/// A prior on a pose: r = W [2 vec(q q0^-1); t - t0] (the PoseManifold tangent: world
+/// rotation vector to first order, world translation), W^T W the information.
+struct PosePriorFunctor {
+  Eigen::Quaterniond q0;
+  Vec3 t0;
+  Mat6 W;
+
+  template <typename T>
+  bool operator()(const T* pose, T* residual) const {
+    const Eigen::Quaternion<T> q(pose[3], pose[0], pose[1], pose[2]);
+    const Eigen::Quaternion<T> dq = q * q0.conjugate().cast<T>();
+    const T sign = dq.w() < T(0) ? T(-1) : T(1);
+    Eigen::Matrix<T, 6, 1> e;
+    e.template head<3>() = T(2) * sign * dq.vec();
+    for (int k = 0; k < 3; ++k) e(3 + k) = pose[4 + k] - T(t0(k));
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = W.cast<T>() * e;
+    return true;
+  }
+};
+
+/// The start's prior along the directions where the planes know the pose less well than the
+/// start does: with the start's covariance S = C C^T and the planes' P, the eigenvectors u_k
+/// of C^-1 P C^-T with eigenvalues above 1 give the rows u_k^T C^-1 of W (zero rows
+/// elsewhere); an empty matrix when there are none.
+Mat6 WeakDirectionPrior(const Mat6& start, const Mat6& planes, int* directions) {
+  *directions = 0;
+  const Eigen::SelfAdjointEigenSolver<Mat6> start_eigen(start);
+  const Vec6 values = start_eigen.eigenvalues();
+  if (!(values(5) > 0.0)) return Mat6::Zero();
+  const Mat6 whiten = values.cwiseMax(1e-12 * values(5)).cwiseSqrt().cwiseInverse().asDiagonal() *
+                      start_eigen.eigenvectors().transpose();  // C^-1
+  const Eigen::SelfAdjointEigenSolver<Mat6> ratio(whiten * planes * whiten.transpose());
+  Mat6 W = Mat6::Zero();
+  for (int k = 0; k < 6; ++k) {
+    if (ratio.eigenvalues()(k) <= 1.0) continue;
+    W.row(k) = ratio.eigenvectors().col(k).transpose() * whiten;
+    ++*directions;
+  }
+  return W;
 }
 
 /// A plane parameter block [n; d] (residuals/plane_cluster.h).
@@ -263,7 +306,8 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
 
   // Solves poses and planes over the terms; false when Ceres fails (summary says why).
   ceres::Solver::Summary summary;
-  const auto solve = [&](const std::vector<bool>& fixed) {
+  std::vector<bool> fixed;
+  const auto solve = [&](const std::vector<Mat6>& priors) {
     problem = NewProblem();
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (size_t c = 0; c < n; ++c) {
@@ -291,6 +335,14 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
             GravityPriorCost::Create(cameras[c].T_world_leveled.linear(), options.gravity_weight),
             nullptr, blocks[c].data());
       }
+    }
+    for (size_t c = 0; c < n; ++c) {
+      if (priors.empty() || priors[c].isZero() || !cameras[c].free || result.fallback[c]) continue;
+      const Pose& T0 = cameras[c].T_world_camera;
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
+              new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
+          nullptr, blocks[c].data());
     }
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::DENSE_SCHUR;
@@ -329,7 +381,8 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
     if (round == 0) {
       result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
     }
-    const bool ok = solve(PlanesFixPose(terms, planes, n));
+    fixed = PlanesFixPose(terms, planes, n);
+    const bool ok = solve({});
     if (!ok) {
       // The previous round's poses stand (the start's in the first round).
       result.message = "surface bundle: " + summary.message;
@@ -351,37 +404,58 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
   if (!result.usable) return result;
   result.poses = poses;
 
-  const std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
-  result.thickness_after = Thickness(terms, costs, n);
-  int parameters = 0;
-  for (size_t c = 0; c < n; ++c) {
-    if (cameras[c].free && !result.fallback[c]) parameters += 6;
-  }
-  for (const PlaneBlock& plane : planes) parameters += plane.floor ? 1 : 3;
-  double total = 0.0;
-  for (const double cost : costs) total += cost;
-  const int dof = result.pixels - parameters;
-  result.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
-
-  // The poses' covariance from the same problem, the planes marginalised.
-  std::vector<const double*> covariance_blocks;
-  for (size_t c = 0; c < n; ++c) {
-    if (cameras[c].free && !result.fallback[c]) covariance_blocks.push_back(blocks[c].data());
-  }
-  ceres::Covariance::Options covariance_options;
-  covariance_options.num_threads = num_threads;
-  ceres::Covariance covariance(covariance_options);
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (const double* b : covariance_blocks) pairs.emplace_back(b, b);
-  if (!pairs.empty() && covariance.Compute(pairs, problem.get())) {
-    result.covariance_ok = true;
+  // The noise scale, the thickness and the poses' covariance (planes marginalised) at the
+  // blocks.
+  const auto statistics = [&] {
+    const std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
+    result.thickness_after = Thickness(terms, costs, n);
+    int parameters = 0;
     for (size_t c = 0; c < n; ++c) {
+      if (cameras[c].free && !result.fallback[c]) parameters += 6;
+    }
+    for (const PlaneBlock& plane : planes) parameters += plane.floor ? 1 : 3;
+    double total = 0.0;
+    for (const double cost : costs) total += cost;
+    const int dof = result.pixels - parameters;
+    result.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
+    std::vector<std::pair<const double*, const double*>> pairs;
+    for (size_t c = 0; c < n; ++c) {
+      if (cameras[c].free && !result.fallback[c])
+        pairs.emplace_back(blocks[c].data(), blocks[c].data());
+    }
+    ceres::Covariance::Options covariance_options;
+    covariance_options.num_threads = num_threads;
+    ceres::Covariance covariance(covariance_options);
+    result.covariance_ok = !pairs.empty() && covariance.Compute(pairs, problem.get());
+    for (size_t c = 0; c < n && result.covariance_ok; ++c) {
       if (!cameras[c].free || result.fallback[c]) continue;
       Eigen::Matrix<double, 6, 6, Eigen::RowMajor> block;
       covariance.GetCovarianceBlockInTangentSpace(blocks[c].data(), blocks[c].data(), block.data());
       result.covariance[c] = block * (result.noise_scale * result.noise_scale);
     }
+  };
+  statistics();
+
+  // Planes do not see their own boundaries, which the joint point-to-plane solve (the start)
+  // does: along the directions where the planes know a camera's pose less well than the start
+  // does, the start enters as a prior with its covariance, and the last round is solved again.
+  if (!result.covariance_ok) return result;
+  std::vector<Mat6> priors(n, Mat6::Zero());
+  int held = 0;
+  for (size_t c = 0; c < n; ++c) {
+    if (!cameras[c].free || result.fallback[c] || cameras[c].start_covariance.isZero()) continue;
+    int directions = 0;
+    priors[c] = WeakDirectionPrior(cameras[c].start_covariance, result.covariance[c], &directions);
+    held += directions;
   }
+  if (held == 0) return result;
+  log.Debug("surface bundle: the start holds " + std::to_string(held) + " weak directions");
+  if (!solve(priors)) {
+    result.message = "surface bundle: " + summary.message;
+    return result;
+  }
+  for (size_t c = 0; c < n; ++c) result.poses[c] = PoseFromParameters(blocks[c].data());
+  statistics();
   return result;
 }
 

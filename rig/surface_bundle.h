@@ -6,8 +6,11 @@
 // world cloud into planes (rig/plane_segmentation.h) at the current poses, with a model
 // error that shrinks from round to round, and solves poses and planes together, the planes
 // eliminated by the Schur complement. The floor is one plane with its normal held at +Y; the
-// gravity prior stays for every camera. A camera whose planes do not fix all six directions
-// (fewer than three planes, or normals that do not span space) keeps its start pose.
+// gravity prior stays for every camera, and so does the start (the joint solve) as a prior
+// with its covariance: it holds what planes alone cannot see (their boundaries: a rig whose
+// planes leave a direction weak slid 4-10 cm along it on a simulated seed). A camera whose planes
+// do not fix all six directions (fewer than three planes, or normals that do not span space) keeps
+// its start pose.
 #pragma once
 
 #include <limits>
@@ -35,6 +38,9 @@ struct SurfaceCamera {
   double band_bottom = -std::numeric_limits<double>::infinity();
   double band_top = std::numeric_limits<double>::infinity();
   double points_top = std::numeric_limits<double>::infinity();
+  /// The start's covariance (PoseManifold tangent; zero: none): the start enters as a prior
+  /// with it (RegisterSurfaceBundle).
+  Mat6 start_covariance = Mat6::Zero();
 };
 
 struct SurfaceBundleResult {
