@@ -5,12 +5,13 @@
 // point-to-plane solve (within about a centimetre), then for a few rounds: segments the merged
 // world cloud into planes (rig/plane_segmentation.h) at the current poses, with a model
 // error that shrinks from round to round, and solves poses and planes together, the planes
-// eliminated by the Schur complement. The floor is one plane with its normal held at +Y; the
-// gravity prior stays for every camera, and so does the start (the joint solve) as a prior
-// with its covariance: it holds what planes alone cannot see (their boundaries: a rig whose
-// planes leave a direction weak slid 4-10 cm along it on a simulated seed). A camera whose planes
-// do not fix all six directions (fewer than three planes, or normals that do not span space) keeps
-// its start pose.
+// eliminated by the Schur complement. Each non-floor plane keeps the pixels that its plane
+// puts inside the band (not those whose measured height is inside: the noise would tilt the
+// plane). The floor is one plane with its normal held at +Y; the gravity prior stays for
+// every camera. Along the directions where the planes know a camera's pose less well than
+// the start does (planes do not see their boundaries), the start holds it as a prior with its
+// covariance. A camera whose planes do not fix all six directions (fewer than three planes,
+// or normals that do not span space) keeps its start pose.
 #pragma once
 
 #include <limits>
