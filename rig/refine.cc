@@ -25,6 +25,11 @@
 namespace rigfit {
 namespace {
 
+/// How far above the band the surface bundle takes its pixels: several sigmas of the vertical
+/// depth noise at the band's range (k z^2 |ray_y|: about 2 cm at 4 m for k = 0.0025); with more
+/// noise the surface bundle's window simply keeps fewer pixels at the band's top.
+constexpr double kSurfaceBandExtensionM = 0.1;
+
 /// A warning of the result, also logged (the CLI prints it on stderr).
 void Warn(RefineResult* result, const Log& log, std::string message) {
   log.Warning(message);
@@ -119,6 +124,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   for (size_t i = 0; i < surfaces.size(); ++i) {
     surfaces[i].T_world_camera = joint->poses[i];
     surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
+    if (joint->covariance_ok) surfaces[i].start_covariance = joint->covariance[i];
     // A camera the joint solve could not link keeps its leveled pose, which may be far off:
     // its pixels would pull the planes.
     if (!joint->connected[i]) surfaces[i].points.clear();
@@ -426,16 +432,25 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
     surfaces.resize(n);
     RegionOptions every_pixel = options.region;
     every_pixel.pixel_stride = 1;
+    // Up to kSurfaceBandExtensionM over the band: the surface bundle keeps the pixels that
+    // its planes put inside the band, whatever their noise (SurfaceCamera::points_top).
+    RegionOptions band = options.region;
+    if (band.band_height > 0.0) band.band_height += kSurfaceBandExtensionM;
     ParallelFor(
         static_cast<int>(n), num_threads,
         [&](int i) {
           const CameraCapture& camera = capture.cameras[i];
           surfaces[i].points =
-              NearFloorBand(RegistrationPoints(camera, every_pixel), leveled[i], options.region);
+              NearFloorBand(RegistrationPoints(camera, every_pixel), leveled[i], band);
           surfaces[i].T_world_leveled = leveled[i];
           surfaces[i].depth_noise = depth_noise[i];
           surfaces[i].ray_model = camera.HasDepth();
           surfaces[i].floor_leveled = floor_leveled[i];
+          if (band.band_height > 0.0) {
+            surfaces[i].band_bottom = -band.band_below;
+            surfaces[i].band_top = options.region.band_height;
+            surfaces[i].points_top = band.band_height;
+          }
         },
         /*min_per_thread=*/1);
   }

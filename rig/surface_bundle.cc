@@ -1,5 +1,6 @@
 #include "rig/surface_bundle.h"
 
+#include <ceres/autodiff_cost_function.h>
 #include <ceres/covariance.h>
 #include <ceres/manifold.h>
 #include <ceres/ordered_groups.h>
@@ -50,6 +51,48 @@ double InverseDepth(double z, double k, DepthNoiseModel model) {
   return model == DepthNoiseModel::kGaussianDepth ? 1.0 / z - k * k * z : 1.0 / z;
 }
 
+/// A prior on a pose: r = W [2 vec(q q0^-1); t - t0] (the PoseManifold tangent: world
+/// rotation vector to first order, world translation), W^T W the information.
+struct PosePriorFunctor {
+  Eigen::Quaterniond q0;
+  Vec3 t0;
+  Mat6 W;
+
+  template <typename T>
+  bool operator()(const T* pose, T* residual) const {
+    const Eigen::Quaternion<T> q(pose[3], pose[0], pose[1], pose[2]);
+    const Eigen::Quaternion<T> dq = q * q0.conjugate().cast<T>();
+    const T sign = dq.w() < T(0) ? T(-1) : T(1);
+    Eigen::Matrix<T, 6, 1> e;
+    e.template head<3>() = T(2) * sign * dq.vec();
+    for (int k = 0; k < 3; ++k) e(3 + k) = pose[4 + k] - T(t0(k));
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = W.cast<T>() * e;
+    return true;
+  }
+};
+
+/// The start's prior along the directions where the planes know the pose less well than the
+/// start does: with the start's covariance S = C C^T and the planes' P, the eigenvectors u_k
+/// of C^-1 P C^-T with eigenvalues above 1 give the rows u_k^T C^-1 of W (zero rows
+/// elsewhere); an empty matrix when there are none.
+Mat6 WeakDirectionPrior(const Mat6& start, const Mat6& planes, int* directions) {
+  *directions = 0;
+  const Eigen::SelfAdjointEigenSolver<Mat6> start_eigen(start);
+  const Vec6 values = start_eigen.eigenvalues();
+  if (!(values(5) > 0.0)) return Mat6::Zero();
+  const Mat6 whiten = values.cwiseMax(1e-12 * values(5)).cwiseSqrt().cwiseInverse().asDiagonal() *
+                      start_eigen.eigenvectors().transpose();  // C^-1
+  const Eigen::SelfAdjointEigenSolver<Mat6> ratio(whiten * planes * whiten.transpose());
+  Mat6 W = Mat6::Zero();
+  for (int k = 0; k < 6; ++k) {
+    if (ratio.eigenvalues()(k) <= 1.0) continue;
+    W.row(k) = ratio.eigenvectors().col(k).transpose() * whiten;
+    ++*directions;
+  }
+  return W;
+}
+
 /// A plane parameter block [n; d] (residuals/plane_cluster.h).
 struct PlaneBlock {
   Vec4 x;
@@ -62,6 +105,7 @@ struct ClusterTerm {
   int camera;
   int plane;
   PlaneCluster cluster;
+  std::vector<int> pixels;  ///< indices into the camera's points
 };
 
 /// The segmentation's input at the given poses, and which camera point each entry is.
@@ -91,11 +135,28 @@ MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   return cloud;
 }
 
-/// The clusters of every (camera, plane) with points.
+/// Sums each term's pixels into its cluster.
+void FillClusters(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                  std::vector<ClusterTerm>* terms) {
+  for (ClusterTerm& t : *terms) {
+    t.cluster = PlaneCluster{};
+    const SurfaceCamera& camera = cameras[t.camera];
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      if (camera.ray_model) {
+        t.cluster.AddRay(p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
+                         InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
+      } else {
+        t.cluster.AddPoint(p, options.min_noise_m);
+      }
+    }
+  }
+}
+
+/// The pixels of every (camera, plane) with points (clusters not yet summed).
 std::vector<ClusterTerm> Clusters(const std::vector<SurfaceCamera>& cameras,
                                   const MergedCloud& cloud,
-                                  const std::vector<SegmentedPlane>& planes,
-                                  const IcpOptions& options) {
+                                  const std::vector<SegmentedPlane>& planes) {
   std::vector<ClusterTerm> terms;
   for (size_t j = 0; j < planes.size(); ++j) {
     std::vector<int> term_of(cameras.size(), -1);
@@ -103,20 +164,67 @@ std::vector<ClusterTerm> Clusters(const std::vector<SurfaceCamera>& cameras,
       const auto [c, i] = cloud.source[s];
       if (term_of[c] < 0) {
         term_of[c] = static_cast<int>(terms.size());
-        terms.push_back({c, static_cast<int>(j), PlaneCluster{}});
+        terms.push_back({c, static_cast<int>(j), PlaneCluster{}, {}});
       }
-      const SurfaceCamera& camera = cameras[c];
-      const Vec3& p = camera.points[i];
-      PlaneCluster& cluster = terms[term_of[c]].cluster;
-      if (camera.ray_model) {
-        cluster.AddRay(p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
-                       InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
-      } else {
-        cluster.AddPoint(p, options.min_noise_m);
-      }
+      terms[term_of[c]].pixels.push_back(i);
     }
   }
   return terms;
+}
+
+/// The band's edges select pixels by their measured height, which moves with their depth
+/// noise: where a face leaves the band (at its top, and at the floor margin of the
+/// segmentation) only the pixels whose noise moved them inward remain, and the face's plane
+/// tilts (on the default simulated rig, most wall and furniture planes by 10-20 degrees at
+/// 3-4 m). A pixel whose predicted point (where its ray meets the plane, which its own noise
+/// does not move) lies this many of its vertical noise sigmas inside every edge was kept
+/// whatever its noise, so the pixels so chosen are free of that selection.
+constexpr double kWindowSigmas = 3.5;
+
+/// Keeps the pixels of each non-floor term whose predicted point lies within kWindowSigmas of
+/// the band's top (inside the points' own, wider, top: SurfaceCamera::points_top) and of the
+/// segmentation's floor margin; a term left with too few pixels goes.
+void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
+                           const std::vector<Pose>& poses, const std::vector<PlaneBlock>& planes,
+                           const PlaneSegmentationOptions& segmentation,
+                           std::vector<ClusterTerm>* terms) {
+  const double model = segmentation.model_sigma_voxels * segmentation.voxel_size;
+  const double base = model * model + segmentation.min_noise_m * segmentation.min_noise_m;
+  std::vector<ClusterTerm> kept;
+  for (ClusterTerm& t : *terms) {
+    const SurfaceCamera& camera = cameras[t.camera];
+    if (planes[t.plane].floor || !camera.ray_model) {
+      kept.push_back(std::move(t));
+      continue;
+    }
+    const Pose& T = poses[t.camera];
+    const Vec3 n = planes[t.plane].Normal();
+    const double d = planes[t.plane].x(3);
+    std::vector<int> inside;
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      const Vec3 ray = T.linear() * (p / p.z());
+      const double denominator = n.dot(ray);
+      if (std::abs(denominator) < 1e-9) continue;
+      const double z = -(n.dot(T.translation()) + d) / denominator;  // predicted depth
+      if (z <= 0.0) continue;
+      const double y = T.translation().y() + z * ray.y();
+      // The segmentation's vertical sigma of the pixel (PlaneSegmentationOptions).
+      const double along = camera.depth_noise * z * z * ray.y();
+      const double sigma_v = std::sqrt(along * along + base);
+      double bottom = camera.band_bottom;
+      if (segmentation.leveled_floor) {
+        bottom = std::max(bottom, std::min(segmentation.floor_margin_m,
+                                           segmentation.floor_margin_sigmas * sigma_v));
+      }
+      const double top = std::min(camera.band_top, camera.points_top - kWindowSigmas * sigma_v);
+      if (y >= bottom + kWindowSigmas * sigma_v && y <= top) inside.push_back(i);
+    }
+    if (static_cast<int>(inside.size()) < segmentation.min_points_per_camera) continue;
+    t.pixels = std::move(inside);
+    kept.push_back(std::move(t));
+  }
+  *terms = std::move(kept);
 }
 
 /// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
@@ -195,32 +303,11 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
   std::vector<ClusterTerm> terms;
   std::vector<PlaneBlock> planes;
   const int rounds = std::max(1, options.surface_rounds);
-  for (int round = 0; round < rounds; ++round) {
-    const MergedCloud cloud = Merge(cameras, poses);
-    PlaneSegmentationOptions segmentation;
-    segmentation.voxel_size = options.voxel_size;
-    segmentation.min_noise_m = options.min_noise_m;
-    segmentation.leveled_floor =
-        std::any_of(cameras.begin(), cameras.end(),
-                    [](const SurfaceCamera& camera) { return camera.floor_leveled; });
-    segmentation.model_sigma_voxels =
-        kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
-    const std::vector<SegmentedPlane> segmented =
-        SegmentPlanes(cloud.points, static_cast<int>(n), segmentation);
-    if (segmented.empty()) {
-      result.message = "surface bundle: no plane is seen by two cameras";
-      break;
-    }
-    planes.clear();
-    for (const SegmentedPlane& s : segmented) {
-      planes.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
-    }
-    terms = Clusters(cameras, cloud, segmented, options);
-    if (round == 0) {
-      result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
-    }
-    const std::vector<bool> fixed = PlanesFixPose(terms, planes, n);
 
+  // Solves poses and planes over the terms; false when Ceres fails (summary says why).
+  ceres::Solver::Summary summary;
+  std::vector<bool> fixed;
+  const auto solve = [&](const std::vector<Mat6>& priors) {
     problem = NewProblem();
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (size_t c = 0; c < n; ++c) {
@@ -249,15 +336,54 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
             nullptr, blocks[c].data());
       }
     }
+    for (size_t c = 0; c < n; ++c) {
+      if (priors.empty() || priors[c].isZero() || !cameras[c].free || result.fallback[c]) continue;
+      const Pose& T0 = cameras[c].T_world_camera;
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
+              new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
+          nullptr, blocks[c].data());
+    }
     ceres::Solver::Options solver_options;
     solver_options.linear_solver_type = ceres::DENSE_SCHUR;
     solver_options.linear_solver_ordering = ordering;
     solver_options.max_num_iterations = kIterationsPerRound;
     solver_options.num_threads = num_threads;
     solver_options.logging_type = ceres::SILENT;
-    ceres::Solver::Summary summary;
+    summary = ceres::Solver::Summary{};
     ceres::Solve(solver_options, problem.get(), &summary);
-    if (!summary.IsSolutionUsable()) {
+    return summary.IsSolutionUsable();
+  };
+
+  for (int round = 0; round < rounds; ++round) {
+    const MergedCloud cloud = Merge(cameras, poses);
+    PlaneSegmentationOptions segmentation;
+    segmentation.voxel_size = options.voxel_size;
+    segmentation.min_noise_m = options.min_noise_m;
+    segmentation.leveled_floor =
+        std::any_of(cameras.begin(), cameras.end(),
+                    [](const SurfaceCamera& camera) { return camera.floor_leveled; });
+    segmentation.model_sigma_voxels =
+        kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
+    const std::vector<SegmentedPlane> segmented =
+        SegmentPlanes(cloud.points, static_cast<int>(n), segmentation);
+    if (segmented.empty()) {
+      result.message = "surface bundle: no plane is seen by two cameras";
+      break;
+    }
+    planes.clear();
+    for (const SegmentedPlane& s : segmented) {
+      planes.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
+    }
+    terms = Clusters(cameras, cloud, segmented);
+    PredictedHeightWindow(cameras, poses, planes, segmentation, &terms);
+    FillClusters(cameras, options, &terms);
+    if (round == 0) {
+      result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
+    }
+    fixed = PlanesFixPose(terms, planes, n);
+    const bool ok = solve({});
+    if (!ok) {
       // The previous round's poses stand (the start's in the first round).
       result.message = "surface bundle: " + summary.message;
       result.poses = poses;
@@ -278,37 +404,58 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
   if (!result.usable) return result;
   result.poses = poses;
 
-  const std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
-  result.thickness_after = Thickness(terms, costs, n);
-  int parameters = 0;
-  for (size_t c = 0; c < n; ++c) {
-    if (cameras[c].free && !result.fallback[c]) parameters += 6;
-  }
-  for (const PlaneBlock& plane : planes) parameters += plane.floor ? 1 : 3;
-  double total = 0.0;
-  for (const double cost : costs) total += cost;
-  const int dof = result.pixels - parameters;
-  result.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
-
-  // The poses' covariance from the same problem, the planes marginalised.
-  std::vector<const double*> covariance_blocks;
-  for (size_t c = 0; c < n; ++c) {
-    if (cameras[c].free && !result.fallback[c]) covariance_blocks.push_back(blocks[c].data());
-  }
-  ceres::Covariance::Options covariance_options;
-  covariance_options.num_threads = num_threads;
-  ceres::Covariance covariance(covariance_options);
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (const double* b : covariance_blocks) pairs.emplace_back(b, b);
-  if (!pairs.empty() && covariance.Compute(pairs, problem.get())) {
-    result.covariance_ok = true;
+  // The noise scale, the thickness and the poses' covariance (planes marginalised) at the
+  // blocks.
+  const auto statistics = [&] {
+    const std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
+    result.thickness_after = Thickness(terms, costs, n);
+    int parameters = 0;
     for (size_t c = 0; c < n; ++c) {
+      if (cameras[c].free && !result.fallback[c]) parameters += 6;
+    }
+    for (const PlaneBlock& plane : planes) parameters += plane.floor ? 1 : 3;
+    double total = 0.0;
+    for (const double cost : costs) total += cost;
+    const int dof = result.pixels - parameters;
+    result.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
+    std::vector<std::pair<const double*, const double*>> pairs;
+    for (size_t c = 0; c < n; ++c) {
+      if (cameras[c].free && !result.fallback[c])
+        pairs.emplace_back(blocks[c].data(), blocks[c].data());
+    }
+    ceres::Covariance::Options covariance_options;
+    covariance_options.num_threads = num_threads;
+    ceres::Covariance covariance(covariance_options);
+    result.covariance_ok = !pairs.empty() && covariance.Compute(pairs, problem.get());
+    for (size_t c = 0; c < n && result.covariance_ok; ++c) {
       if (!cameras[c].free || result.fallback[c]) continue;
       Eigen::Matrix<double, 6, 6, Eigen::RowMajor> block;
       covariance.GetCovarianceBlockInTangentSpace(blocks[c].data(), blocks[c].data(), block.data());
       result.covariance[c] = block * (result.noise_scale * result.noise_scale);
     }
+  };
+  statistics();
+
+  // Planes do not see their own boundaries, which the joint point-to-plane solve (the start)
+  // does: along the directions where the planes know a camera's pose less well than the start
+  // does, the start enters as a prior with its covariance, and the last round is solved again.
+  if (!result.covariance_ok) return result;
+  std::vector<Mat6> priors(n, Mat6::Zero());
+  int held = 0;
+  for (size_t c = 0; c < n; ++c) {
+    if (!cameras[c].free || result.fallback[c] || cameras[c].start_covariance.isZero()) continue;
+    int directions = 0;
+    priors[c] = WeakDirectionPrior(cameras[c].start_covariance, result.covariance[c], &directions);
+    held += directions;
   }
+  if (held == 0) return result;
+  log.Debug("surface bundle: the start holds " + std::to_string(held) + " weak directions");
+  if (!solve(priors)) {
+    result.message = "surface bundle: " + summary.message;
+    return result;
+  }
+  for (size_t c = 0; c < n; ++c) result.poses[c] = PoseFromParameters(blocks[c].data());
+  statistics();
   return result;
 }
 

@@ -5,11 +5,16 @@
 // point-to-plane solve (within about a centimetre), then for a few rounds: segments the merged
 // world cloud into planes (rig/plane_segmentation.h) at the current poses, with a model
 // error that shrinks from round to round, and solves poses and planes together, the planes
-// eliminated by the Schur complement. The floor is one plane with its normal held at +Y; the
-// gravity prior stays for every camera. A camera whose planes do not fix all six directions
-// (fewer than three planes, or normals that do not span space) keeps its start pose.
+// eliminated by the Schur complement. Each non-floor plane keeps the pixels that its plane
+// puts inside the band (not those whose measured height is inside: the noise would tilt the
+// plane). The floor is one plane with its normal held at +Y; the gravity prior stays for
+// every camera. Along the directions where the planes know a camera's pose less well than
+// the start does (planes do not see their boundaries), the start holds it as a prior with its
+// covariance. A camera whose planes do not fix all six directions (fewer than three planes,
+// or normals that do not span space) keeps its start pose.
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -27,6 +32,16 @@ struct SurfaceCamera {
   bool ray_model = true;                    ///< a depth camera; false: a points camera
   bool floor_leveled = false;  ///< its floor was leveled to y = 0 (the floor is then known)
   bool free = false;           ///< estimated (connected, not the reference)
+  /// The near-floor band (world heights at the leveled pose, region.band_below and
+  /// region.band_height; infinite: no band), and the top up to which `points` were taken
+  /// (above band_top, so that the pixels whose plane puts them inside the band are there
+  /// whatever their noise: rig/surface_bundle.cc, PredictedHeightWindow).
+  double band_bottom = -std::numeric_limits<double>::infinity();
+  double band_top = std::numeric_limits<double>::infinity();
+  double points_top = std::numeric_limits<double>::infinity();
+  /// The start's covariance (PoseManifold tangent; zero: none): the start enters as a prior
+  /// with it (RegisterSurfaceBundle).
+  Mat6 start_covariance = Mat6::Zero();
 };
 
 struct SurfaceBundleResult {
