@@ -25,6 +25,7 @@ struct TrackArgs {
   std::string prior = "constant-velocity";
   std::vector<int> iterations = {10, 5, 4};
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
+  double min_step_m = IcpOptions{}.converged_translation_m;
   bool evaluate = false;
   bool quiet = false;
 };
@@ -44,6 +45,9 @@ int RunTrack(TrackArgs a) {
     if (n < 0 || n > 100) throw InputError("track: --iterations: each count in [0, 100]");
   }
   a.odometry.icp.iterations = a.iterations;
+  if (!(a.min_step_m > 0.0)) throw InputError("track: --min-step must be > 0");
+  a.odometry.icp.converged_translation_m = a.min_step_m;
+  a.odometry.icp.converged_rotation_rad = a.min_step_m;
   a.odometry.frame.levels = static_cast<int>(a.iterations.size());
   const FrameOptions& f = a.odometry.frame;
   if (!(f.min_depth_m >= 0.0 && f.max_depth_m > f.min_depth_m)) {
@@ -169,6 +173,10 @@ Command AddTrackCommand(CLI::App& app) {
                 "Weigh pairs by the inverse variance of depth noise growing as z^2 (default)");
   sub->add_option("--huber", args->odometry.icp.weighting.huber_delta_m,
                   "Huber threshold on the point-to-plane distance, metres (0 = off)")
+      ->capture_default_str();
+  sub->add_option("--min-step", args->min_step_m,
+                  "A pyramid level ends when a step moves the camera less than this (metres) and "
+                  "turns it less than this many radians")
       ->capture_default_str();
   sub->add_option("--threads", args->odometry.threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", args->evaluate,

@@ -26,7 +26,9 @@ class Associator {
         min_cos_(std::cos(options.max_normal_angle_deg * kDegToRad)) {}
 
   // On kMatched: *moved = R p + t, *target_index the target pixel.
-  AssociationOutcome operator()(int i, Vec3* moved, int* target_index) const {
+  // Inlined into the per-pixel loops (GCC and Clang leave a call otherwise: 20% of the time).
+  [[gnu::always_inline]] inline AssociationOutcome operator()(int i, Vec3* moved,
+                                                              int* target_index) const {
     if (!source_.Valid(i)) return AssociationOutcome::kNoSourcePoint;
     const Vec3 p = R_ * source_.vertices[i].cast<double>() + t_;
     if (!(p.z() > 0.0)) return AssociationOutcome::kBehindCamera;
@@ -155,9 +157,11 @@ NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
   const int chunks = std::max(1, threads);
   std::vector<Accumulator> parts(chunks);
   ParallelForChunks(static_cast<int>(pairs.size()), chunks, [&](int c, int begin, int end) {
+    Accumulator sum;  // on this thread's stack: threads never write to one cache line
     for (int k = begin; k < end; ++k) {
-      parts[c].Add(T_target_source * pairs[k].p, pairs[k].p.z(), pairs[k].q, pairs[k].n, weighting);
+      sum.Add(T_target_source * pairs[k].p, pairs[k].p.z(), pairs[k].q, pairs[k].n, weighting);
     }
+    parts[c] = sum;
   });
   return Sum(parts);
 }
@@ -170,14 +174,16 @@ NormalEquations AccumulateProjective(const FrameLevel& source, const FrameLevel&
   std::vector<Accumulator> parts(chunks);
   const std::vector<int>& pixels = source.valid_pixels;
   ParallelForChunks(static_cast<int>(pixels.size()), chunks, [&](int c, int begin, int end) {
+    Accumulator sum;  // on this thread's stack: threads never write to one cache line
     Vec3 moved;
     int j = 0;
     for (int k = begin; k < end; ++k) {
       if (associate(pixels[k], &moved, &j) == AssociationOutcome::kMatched) {
-        parts[c].Add(moved, source.vertices[pixels[k]].z(), target.vertices[j].cast<double>(),
-                     target.normals[j].cast<double>(), weighting);
+        sum.Add(moved, source.vertices[pixels[k]].z(), target.vertices[j].cast<double>(),
+                target.normals[j].cast<double>(), weighting);
       }
     }
+    parts[c] = sum;
   });
   return Sum(parts);
 }

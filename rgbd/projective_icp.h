@@ -124,8 +124,8 @@ struct IcpOptions {
   /// Gauss-Newton iterations per pyramid level, finest first (KinectFusion: 10, 5, 4).
   std::vector<int> iterations = {10, 5, 4};
   /// Converged when the step's rotation and translation are both below these.
-  double converged_rotation_rad = 1e-5;
-  double converged_translation_m = 1e-5;
+  double converged_rotation_rad = 1e-4;
+  double converged_translation_m = 1e-4;
   /// Weak directions: eigenvalue below this ratio of the largest (scaled by the mean depth).
   double weak_direction_ratio = 1e-4;
   /// Tracking fails when fewer than this share of the finest level's valid source pixels
