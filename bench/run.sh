@@ -3,7 +3,7 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | speed | real | micro (default: all four, in that order)
+#   SECTION  accuracy | speed | real | micro | rgbd (default: all five, in that order)
 #   --quick  a few seconds to minutes: 1 seed, small images, 1 run per case; checks the script
 #            and the programs, its numbers are not for the docs
 #   --build  Release build directory (default: <repo>/build) with rigfit, rig_accuracy, tum_rig,
@@ -27,6 +27,11 @@
 #   micro     the Google Benchmark programs io_bench, knn_bench and residuals_bench (capture
 #             I/O, nearest-neighbour backends and preprocessing, residuals analytic vs
 #             autodiff), median of 5 repetitions. Not niced.
+#   rgbd      dense RGB-D tracking: rigfit track --evaluate on the 400 7-Scenes frames (default,
+#             without keyframes, and the variants of docs/benchmarks.md), on the TUM fr1/xyz
+#             subset, on rigfit simulate-sequence sequences (noise-free and Kinect noise), and
+#             bench/rgbd_bench (pyramid, normal equations, both solve paths, tracking at 640x480
+#             and 320x240), median of 5 repetitions. Not niced.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -39,13 +44,13 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | speed | real | micro) sections+=("$1") ;;
-    -h | --help) sed -n '2,29p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    accuracy | speed | real | micro | rgbd) sections+=("$1") ;;
+    -h | --help) sed -n '2,34p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy speed real micro)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy speed real micro rgbd)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
@@ -364,6 +369,74 @@ run_real() {
     echo
     echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
   } >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# rgbd
+
+# One markdown row of `rigfit track --evaluate` on SEQUENCE with FLAGS (label first).
+track_row() {
+  local label="$1" sequence="$2"
+  shift 2
+  local raw
+  raw="$out/raw/track-$(echo "$label" | tr -c 'a-zA-Z0-9' '_').txt"
+  "$rigfit" track "$sequence" --out "$raw.traj" --evaluate --quiet "$@" >"$raw" 2>&1
+  python3 - "$raw" "$label" "$*" <<'PY'
+import re, sys
+text = open(sys.argv[1]).read()
+def num(pattern):
+    m = re.search(pattern, text)
+    return m.group(1) if m else "-"
+print("| %s | `%s` | %s | %s | %s / %s | %s | %s | %s |" % (
+    sys.argv[2], sys.argv[3] or "(defaults)", num(r"tracked (\d+) frames"),
+    num(r"ATE RMSE ([0-9.]+) mm"), num(r"RPE per frame ([0-9.]+) mm"),
+    num(r"mm / ([0-9.]+) deg"), num(r"\(([0-9.]+) mm per metre\)"),
+    num(r"mean matched share ([0-9.]+)"), num(r"\(([0-9.]+) frames/s without loading\)")))
+PY
+}
+
+run_rgbd() {
+  local file data="$root/../shared/data" sim="$out/raw/sequences"
+  file="$(header rgbd)"
+  [ -x "$build/bench/rgbd_bench" ] || { echo "bench/run.sh: build rgbd_bench" >&2; exit 2; }
+  local frames=300
+  [ $quick = 1 ] && frames=30
+  mkdir -p "$sim"
+  "$rigfit" simulate-sequence --out "$sim/clean" --frames "$frames" --noise none --no-color \
+    --force >"$out/raw/simulate-clean.txt" 2>&1
+  "$rigfit" simulate-sequence --out "$sim/kinect" --frames "$frames" --no-color \
+    --force >"$out/raw/simulate-kinect.txt" 2>&1
+  {
+    echo "#### \`rigfit track SEQUENCE --evaluate [flags]\`"
+    echo
+    echo "| sequence | flags | frames | ATE RMSE mm | RPE per frame mm / deg | end-point drift mm/m | matched share | frames/s (no loading) |"
+    echo "|---|---|---|---|---|---|---|---|"
+    local kitchen="$data/sevenscenes_kitchen"
+    local max=()
+    [ $quick = 1 ] && max=(--max-frames 40)
+    track_row "7-Scenes kitchen" "$kitchen" "${max[@]}"
+    track_row "7-Scenes kitchen" "$kitchen" --no-keyframes "${max[@]}"
+    if [ $quick = 0 ]; then
+      track_row "7-Scenes kitchen" "$kitchen" --no-keyframes --no-bilateral --no-depth-weights
+      track_row "7-Scenes kitchen" "$kitchen" --no-bilateral
+      track_row "7-Scenes kitchen" "$kitchen" --no-depth-weights
+      track_row "7-Scenes kitchen" "$kitchen" --huber 0.02
+    fi
+    track_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset"
+    track_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset" --no-keyframes
+    track_row "simulated, noise-free" "$sim/clean"
+    track_row "simulated, noise-free" "$sim/clean" --no-keyframes
+    track_row "simulated, Kinect noise" "$sim/kinect"
+    track_row "simulated, Kinect noise" "$sim/kinect" --no-keyframes
+    echo
+    echo "bench/rgbd_bench: 7-Scenes frames 300 -> 301 (320x240: their level 1); tracking from"
+    echo "the identity, pyramids built beforehand."
+    echo
+  } >>"$file"
+  local reps=5
+  [ $quick = 1 ] && reps=2
+  micro_table rgbd_bench "$file" --benchmark_repetitions=$reps
+  echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end." >>"$file"
 }
 
 for section in "${sections[@]}"; do
