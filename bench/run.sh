@@ -379,7 +379,7 @@ track_row() {
   local label="$1" sequence="$2"
   shift 2
   local raw
-  raw="$out/raw/track-$(echo "$label" | tr -c 'a-zA-Z0-9' '_').txt"
+  raw="$out/raw/track-$(echo "$label $*" | tr -c 'a-zA-Z0-9' '_').txt"
   "$rigfit" track "$sequence" --out "$raw.traj" --evaluate --quiet "$@" >"$raw" 2>&1
   python3 - "$raw" "$label" "$*" <<'PY'
 import re, sys
