@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "io/atomic_file.h"
+#include "io/png.h"
 
 namespace rigfit {
 
@@ -75,6 +76,18 @@ std::string WriteReportIndex(const std::string& dir, const std::string& title,
   const std::string path = (std::filesystem::path(dir) / kReportIndexFile).string();
   WriteTextFileAtomically(path, ReportIndexHtml(title, summary, pictures));
   return path;
+}
+
+void ReportDirectory::AddPicture(const char* name, const Image& image, const std::string& caption) {
+  files_.push_back((std::filesystem::path(dir_) / name).string());
+  WritePng(files_.back(), image);
+  pictures_.push_back({name, caption, image.width, image.height});
+}
+
+std::vector<std::string> ReportDirectory::Finish(const std::string& title,
+                                                 const std::string& summary) {
+  files_.push_back(WriteReportIndex(dir_, title, summary, pictures_));
+  return files_;
 }
 
 }  // namespace rigfit

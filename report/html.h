@@ -3,7 +3,10 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
+
+#include "report/image.h"
 
 namespace rigfit {
 
@@ -33,5 +36,21 @@ std::string ReportIndexHtml(const std::string& title, const std::string& summary
 std::string WriteReportIndex(const std::string& dir, const std::string& title,
                              const std::string& summary,
                              const std::vector<ReportPicture>& pictures);
+
+/// A report directory being written: each picture as a PNG (atomically) and on the page, then
+/// the page itself.
+class ReportDirectory {
+ public:
+  explicit ReportDirectory(std::string dir) : dir_(std::move(dir)) {}
+  /// Writes dir/name and adds it to the page with its caption.
+  void AddPicture(const char* name, const Image& image, const std::string& caption);
+  /// Writes index.html; returns every file written, the page last.
+  std::vector<std::string> Finish(const std::string& title, const std::string& summary);
+
+ private:
+  std::string dir_;
+  std::vector<std::string> files_;
+  std::vector<ReportPicture> pictures_;
+};
 
 }  // namespace rigfit

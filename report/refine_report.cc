@@ -81,19 +81,15 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
   const std::vector<TopDownCamera> before_view = TopDownCameras(rig, result.leveled);
   const std::vector<TopDownCamera> after_view = TopDownCameras(rig, after);
   const GroundWindow window = FitGroundWindow({&before_view, &after_view});
-  std::vector<std::string> files;
-  std::vector<ReportPicture> pictures;
-  const auto write = [&](const char* name, const Image& image, const std::string& caption) {
-    files.push_back((fs::path(dir) / name).string());
-    WritePng(files.back(), image);
-    pictures.push_back({name, caption, image.width, image.height});
-  };
+  ReportDirectory report(dir);
   const std::string before_title = "Before registration (leveled poses)";
-  write(kTopDownBeforeFile, DrawTopDown(before_view, window, voxel_m, before_title, subtitle),
-        before_title + ": " + subtitle);
+  report.AddPicture(kTopDownBeforeFile,
+                    DrawTopDown(before_view, window, voxel_m, before_title, subtitle),
+                    before_title + ": " + subtitle);
   const std::string after_title = "After registration";
-  write(kTopDownAfterFile, DrawTopDown(after_view, window, voxel_m, after_title, subtitle),
-        after_title + ": " + subtitle);
+  report.AddPicture(kTopDownAfterFile,
+                    DrawTopDown(after_view, window, voxel_m, after_title, subtitle),
+                    after_title + ": " + subtitle);
 
   const double half_range_mm = options.icp.max_correspondence_distance_factor * voxel_m * 1e3;
   const std::vector<HistogramSeries> series = {
@@ -103,12 +99,12 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
                 CameraColor(0))};
   const std::string residuals_title =
       "Correspondence residuals, all " + std::to_string(rig.pairs.size()) + " camera pairs";
-  write(kResidualsFile,
-        DrawHistogram(series, half_range_mm, 2.0 * half_range_mm / kResidualBins, residuals_title,
-                      "point-to-plane residual at the finest scale (mm)", "correspondences"),
-        residuals_title + ", before and after registration");
-  files.push_back(WriteReportIndex(dir, "rigfit refine report", summary, pictures));
-  return files;
+  report.AddPicture(
+      kResidualsFile,
+      DrawHistogram(series, half_range_mm, 2.0 * half_range_mm / kResidualBins, residuals_title,
+                    "point-to-plane residual at the finest scale (mm)", "correspondences"),
+      residuals_title + ", before and after registration");
+  return report.Finish("rigfit refine report", summary);
 }
 
 }  // namespace rigfit

@@ -66,13 +66,7 @@ std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Tra
   std::error_code ec;
   fs::create_directory(dir, ec);
   if (ec) throw InputError("report: cannot create directory " + dir + ": " + ec.message());
-  std::vector<std::string> files;
-  std::vector<ReportPicture> pictures;
-  const auto write = [&](const char* name, const Image& image, const std::string& caption) {
-    files.push_back((fs::path(dir) / name).string());
-    WritePng(files.back(), image);
-    pictures.push_back({name, caption, image.width, image.height});
-  };
+  ReportDirectory report(dir);
 
   std::vector<Vec3> gt_positions;
   for (const Pose& T : gt.poses) gt_positions.push_back(T.translation());
@@ -80,12 +74,13 @@ std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Tra
   const std::vector<PlotCurve> plan = TrajectoryPlanCurves(est, gt, errors, plane);
   const std::string ate = "ATE RMSE " + Fixed(errors.ate_rmse_m * 1e3, 2) + " mm over " +
                           std::to_string(errors.pairs) + " matched poses";
-  write(kTrajectoryPlanFile,
-        DrawCurves(plan, FitPlotFrame(plan, kPlanViewWidth, kPlanViewHeight, true, false),
-                   "Trajectories from above",
-                   ate + "; seen along the ground truth's axis of least spread", "axis 1 (m)",
-                   "axis 2 (m)"),
-        "The aligned estimate and the ground truth seen from above; " + ate);
+  report.AddPicture(
+      kTrajectoryPlanFile,
+      DrawCurves(plan, FitPlotFrame(plan, kPlanViewWidth, kPlanViewHeight, true, false),
+                 "Trajectories from above",
+                 ate + "; seen along the ground truth's axis of least spread", "axis 1 (m)",
+                 "axis 2 (m)"),
+      "The aligned estimate and the ground truth seen from above; " + ate);
 
   const std::vector<std::pair<int, int>> pairs =
       AssociateByTimestamp(est.timestamps, gt.timestamps, max_dt);
@@ -94,12 +89,12 @@ std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Tra
     error.x.push_back(gt.timestamps[pairs[k].second] - gt.timestamps[pairs.front().second]);
     error.y.push_back(errors.ate_m[k] * 1e3);
   }
-  write(kTrajectoryAteFile,
-        DrawCurves({error}, FitPlotFrame({error}, kTimePlotWidth, kTimePlotHeight, false, true),
-                   "Absolute trajectory error over time", ate, "time (s)", "ATE (mm)"),
-        "Absolute trajectory error of each matched pose over time");
-  files.push_back(WriteReportIndex(dir, "rigfit evaluate-trajectory report", summary, pictures));
-  return files;
+  report.AddPicture(
+      kTrajectoryAteFile,
+      DrawCurves({error}, FitPlotFrame({error}, kTimePlotWidth, kTimePlotHeight, false, true),
+                 "Absolute trajectory error over time", ate, "time (s)", "ATE (mm)"),
+      "Absolute trajectory error of each matched pose over time");
+  return report.Finish("rigfit evaluate-trajectory report", summary);
 }
 
 }  // namespace rigfit

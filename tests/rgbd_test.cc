@@ -265,6 +265,14 @@ class RgbdTracking : public ::testing::Test {
   }
   static void TearDownTestSuite() { delete scene_; }
   static Pose TrueMotion() { return T_world_target_.inverse() * T_world_source_; }
+  /// The full-resolution level of the camera at T_world_camera (depth noise k z^2 when k > 0).
+  static FrameLevel FineLevel(const Pose& T_world_camera, int width, int height, double noise = 0.0,
+                              std::uint64_t seed = 0) {
+    FrameOptions options;
+    options.levels = 1;
+    return BuildFramePyramid(Render(*scene_, T_world_camera, width, height, noise, seed), options)
+        .levels[0];
+  }
 
   static Scene* scene_;
   static Pose T_world_target_;
@@ -275,12 +283,8 @@ Pose RgbdTracking::T_world_target_;
 Pose RgbdTracking::T_world_source_;
 
 TEST_F(RgbdTracking, ListAndFusedNormalEquationsAreTheSame) {
-  FrameOptions frame_options;
-  frame_options.levels = 1;
-  const FrameLevel target =
-      BuildFramePyramid(Render(*scene_, T_world_target_, 160, 120), frame_options).levels[0];
-  const FrameLevel source =
-      BuildFramePyramid(Render(*scene_, T_world_source_, 160, 120), frame_options).levels[0];
+  const FrameLevel target = FineLevel(T_world_target_, 160, 120);
+  const FrameLevel source = FineLevel(T_world_source_, 160, 120);
   const AssociationOptions options;
   const std::vector<Correspondence> pairs =
       FindCorrespondences(source, target, Pose::Identity(), options);
@@ -299,12 +303,8 @@ TEST_F(RgbdTracking, ListAndFusedNormalEquationsAreTheSame) {
 TEST_F(RgbdTracking, OneGaussNewtonStepRecoversASmallMotion) {
   // With the true pairs (each source pixel's own surface point), one linearised step from
   // the identity leaves only the second-order error of the small-angle model.
-  FrameOptions frame_options;
-  frame_options.levels = 1;
-  const FrameLevel source =
-      BuildFramePyramid(Render(*scene_, T_world_source_, 160, 120), frame_options).levels[0];
-  const FrameLevel target =
-      BuildFramePyramid(Render(*scene_, T_world_target_, 160, 120), frame_options).levels[0];
+  const FrameLevel source = FineLevel(T_world_source_, 160, 120);
+  const FrameLevel target = FineLevel(T_world_target_, 160, 120);
   std::vector<Correspondence> pairs;
   const Pose motion = TrueMotion();
   for (int i = 0; i < source.width * source.height; ++i) {
@@ -329,14 +329,8 @@ TEST_F(RgbdTracking, OneGaussNewtonStepRecoversASmallMotion) {
 }
 
 TEST_F(RgbdTracking, ClosedFormAndCeresAgreeOnTheSamePairs) {
-  FrameOptions frame_options;
-  frame_options.levels = 1;
-  const FrameLevel source =
-      BuildFramePyramid(Render(*scene_, T_world_source_, 80, 60, 0.0025, 1), frame_options)
-          .levels[0];
-  const FrameLevel target =
-      BuildFramePyramid(Render(*scene_, T_world_target_, 80, 60, 0.0025, 2), frame_options)
-          .levels[0];
+  const FrameLevel source = FineLevel(T_world_source_, 80, 60, 0.0025, 1);
+  const FrameLevel target = FineLevel(T_world_target_, 80, 60, 0.0025, 2);
   const std::vector<Correspondence> pairs =
       FindCorrespondences(source, target, Pose::Identity(), AssociationOptions{});
   ASSERT_GT(pairs.size(), 1000u);
