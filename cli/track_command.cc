@@ -87,10 +87,17 @@ int RunTrack(TrackArgs a) {
 
   const int frames = static_cast<int>(result.frames.size());
   int keyframes = 0;
+  int weak = 0;
   double matched = 0.0;
   for (const OdometryFrame& frame : result.frames) {
     keyframes += frame.keyframe ? 1 : 0;
+    weak += frame.track.weak_directions > 0 ? 1 : 0;
     matched += frame.track.matched_ratio;
+  }
+  if (weak > 0) {
+    log.Warning(std::to_string(weak) +
+                " frame(s) saw too little structure to fix every direction of the motion (a flat "
+                "wall, a floor): those directions kept their predicted value");
   }
   const double tracked_s = result.preprocess_s + result.track_s;
   std::printf("tracked %d frames (%d failed, %d keyframes) -> %s\n", frames, result.failures,

@@ -455,6 +455,26 @@ TEST(RgbdOdometry, NoiseFreeWalkDriftsLessThanAMillimetrePerMetre) {
   EXPECT_LT(drift / travelled, 1e-3) << "drift " << drift << " m over " << travelled << " m";
 }
 
+TEST(RgbdOdometry, FramesFacingAFlatWallReportTheirWeakDirections) {
+  Scene wall;
+  wall.size_x_m = wall.size_z_m = wall.wall_height_m = 20.0;
+  OrientedBox box;
+  box.center = Vec3(0, 0, -3.0);
+  box.half_extents = Vec3(10, 10, 0.1);
+  wall.boxes.push_back(box);
+  std::vector<Pose> poses;
+  for (int i = 0; i < 3; ++i) poses.push_back(LookAt(Vec3(0, 0, -1.5 + 0.01 * i), Vec3(0, 0, -3)));
+  const RenderedSequence sequence(wall, poses, 160, 120, 0.0);
+  const OdometryResult result = RunOdometry(sequence, OdometryOptions{});
+  ASSERT_EQ(result.frames.size(), 3u);
+  EXPECT_EQ(result.failures, 0);
+  EXPECT_EQ(result.frames[1].track.weak_directions, 3);
+  EXPECT_EQ(result.frames[2].track.weak_directions, 3);
+  // The motion across the wall is found; nothing moves along it.
+  EXPECT_NEAR(result.trajectory.poses[2].translation().z(), poses[2].translation().z(), 1e-4);
+  EXPECT_NEAR(result.trajectory.poses[2].translation().x(), 0.0, 1e-6);
+}
+
 TEST(RgbdOdometry, KeyframesAndStrideAndFailuresAreReported) {
   const Scene scene = TestRoom();
   std::vector<Pose> poses = Walk(12);
