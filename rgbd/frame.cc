@@ -176,6 +176,9 @@ void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int
 
 FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& options, int threads) {
   if (options.levels < 1) throw InputError("frame options: levels must be at least 1");
+  if (options.bilateral && !(options.bilateral_sigma_px > 0.0 && options.bilateral_sigma_m > 0.0)) {
+    throw InputError("frame options: the bilateral filter's sigmas must be > 0");
+  }
   const std::size_t n = static_cast<std::size_t>(frame.width) * frame.height;
   if (frame.width <= 0 || frame.height <= 0 || frame.depth_m.size() != n) {
     throw InputError(frame.source + ": depth holds " + std::to_string(frame.depth_m.size()) +

@@ -10,6 +10,10 @@ namespace rigfit {
 OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& options,
                            const Log& log, const std::function<void(int, int)>& progress) {
   if (options.stride < 1) throw InputError("odometry: stride must be at least 1");
+  if (options.max_frames < 0) throw InputError("odometry: max frames must be >= 0 (0: all)");
+  if (options.restart_after_failures < 1) {
+    throw InputError("odometry: restart after failures must be at least 1");
+  }
   if (options.first_frame < 0 || options.first_frame >= sequence.size()) {
     throw InputError("odometry: first frame " + std::to_string(options.first_frame) +
                      " is not in the sequence (" + std::to_string(sequence.size()) + " frames)");
@@ -25,6 +29,7 @@ OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& 
   Pose T_world_reference = Pose::Identity();
   Pose T_world_previous = Pose::Identity();
   Pose velocity = Pose::Identity();  // T_previous_current of the last step
+  int failures_in_a_row = 0;
   for (std::size_t k = 0; k < indices.size(); ++k) {
     auto start = std::chrono::steady_clock::now();
     const RgbdFrame frame = sequence.Frame(indices[k]);
@@ -50,22 +55,37 @@ OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& 
       result.track_s += SecondsSince(start);
       if (tracked.track.success) {
         T_world_current = Reorthonormalized(T_world_reference * tracked.track.T_target_source);
+        failures_in_a_row = 0;
       } else {
-        T_world_current = predicted;
+        T_world_current = Reorthonormalized(predicted);
         ++result.failures;
+        ++failures_in_a_row;
         log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
                     "): tracking failed: " + tracked.track.message + "; kept the prediction");
       }
       const Pose from_reference = T_world_reference.inverse() * T_world_current;
-      // A failed frame is nobody's reference: the next frame tries the last good one.
+      // A failed frame is nobody's reference: the next frame tries the last good one, unless
+      // restart_after_failures frames in a row have failed against it (the track is lost, or
+      // the reference had nothing to track against): then tracking restarts from this frame.
+      // A frame with no valid pixel cannot be a reference either.
+      const bool restart = failures_in_a_row >= options.restart_after_failures &&
+                           !pyramid.levels[0].valid_pixels.empty();
+      if (restart) {
+        log.Warning("lost track for " + std::to_string(failures_in_a_row) +
+                    " frames: restarted from frame " + std::to_string(indices[k]) +
+                    " at its predicted pose");
+        ++result.restarts;
+        failures_in_a_row = 0;
+      }
       tracked.keyframe =
-          tracked.track.success &&
-          (!options.keyframes ||
-           from_reference.translation().norm() > options.keyframe_translation_m ||
-           LogSO3(from_reference.linear()).norm() > options.keyframe_rotation_deg * kDegToRad ||
-           tracked.track.matched_ratio < options.keyframe_min_matched_ratio);
+          restart ||
+          (tracked.track.success &&
+           (!options.keyframes ||
+            from_reference.translation().norm() > options.keyframe_translation_m ||
+            LogSO3(from_reference.linear()).norm() > options.keyframe_rotation_deg * kDegToRad ||
+            tracked.track.matched_ratio < options.keyframe_min_matched_ratio));
     }
-    velocity = T_world_previous.inverse() * T_world_current;
+    velocity = Reorthonormalized(T_world_previous.inverse() * T_world_current);
     if (k == 0) velocity = Pose::Identity();
     T_world_previous = T_world_current;
     if (tracked.keyframe) {

@@ -32,6 +32,9 @@ struct OdometryOptions {
   double keyframe_translation_m = 0.1;
   double keyframe_rotation_deg = 5.0;
   double keyframe_min_matched_ratio = 0.5;
+  /// After this many failed frames in a row the track is lost: the next reference is the
+  /// current frame at its predicted pose (counted in OdometryResult::restarts).
+  int restart_after_failures = 5;
   /// Frames [first_frame, first_frame + max_frames) with the given stride; max_frames 0 = all.
   int first_frame = 0;
   int max_frames = 0;
@@ -50,6 +53,7 @@ struct OdometryResult {
   Trajectory trajectory;  ///< T_world_camera of every tracked frame
   std::vector<OdometryFrame> frames;
   int failures = 0;  ///< frames whose tracking failed (their pose is the prediction)
+  int restarts = 0;  ///< times the track was lost and restarted (restart_after_failures)
   double load_s = 0.0;
   double preprocess_s = 0.0;
   double track_s = 0.0;
@@ -58,7 +62,8 @@ struct OdometryResult {
 /// Tracks the sequence. The first frame's pose is its ground truth when the sequence has one
 /// (so that the trajectory lives in the dataset's world frame), the identity otherwise.
 /// A frame whose tracking fails keeps the predicted pose, is counted and logged as a warning,
-/// and is not used as a reference (the next frame is tracked against the last good one).
+/// and is not used as a reference (the next frame is tracked against the last good one) until
+/// restart_after_failures frames in a row have failed.
 /// `progress(done, total)` is called after every frame.
 OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& options,
                            const Log& log = {}, const std::function<void(int, int)>& progress = {});

@@ -242,12 +242,14 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
 
   Pose T = T_init;
   NormalEquations last;
+  int last_level = -1;  // the level `last` was accumulated at
   for (int level = levels - 1; level >= 0; --level) {
     const int iterations =
         options.iterations[std::min<std::size_t>(level, options.iterations.size() - 1)];
     for (int it = 0; it < iterations; ++it) {
       last = AccumulateProjective(source.levels[level], target.levels[level], T,
                                   options.association, options.weighting, threads);
+      last_level = level;
       const StepSolution step = SolveStep(last, length_m, options.weak_direction_ratio);
       if (last.count < 6) break;
       T = ApplyLeftUpdate(step.x, T);
@@ -256,8 +258,8 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
       if (Converged(step.x, options)) break;
     }
   }
-  if (last.count == 0 || levels > 1) {
-    // The statistics of the final estimate at the finest level.
+  if (last_level != 0) {
+    // No system at the finest level (its iterations set to 0): its pairs at the estimate.
     last = AccumulateProjective(source.levels[0], target.levels[0], T, options.association,
                                 options.weighting, threads);
   }

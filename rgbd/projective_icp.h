@@ -137,8 +137,11 @@ struct TrackResult {
   Pose T_target_source = Pose::Identity();
   bool success = false;
   std::string message;
-  int iterations = 0;       ///< Gauss-Newton steps over all levels
-  int correspondences = 0;  ///< at the finest level, at the end
+  int iterations = 0;  ///< Gauss-Newton steps over all levels
+  /// correspondences, matched_ratio and rmse_m: the pairs of the last Gauss-Newton system at
+  /// the finest level (one step before the estimate, a step below the convergence threshold
+  /// or that level's last).
+  int correspondences = 0;
   double matched_ratio = 0.0;
   double rmse_m = 0.0;      ///< RMS point-to-plane distance of the final pairs
   int weak_directions = 0;  ///< held at the finest level's last step

@@ -60,6 +60,8 @@ TEST_F(CliTrack, TracksASyntheticSequenceToTheMillimetre) {
   ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
   EXPECT_NE(r.out.find("tracked 24 frames (0 failed"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("ATE RMSE"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("end-point drift"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("mm per metre"), std::string::npos) << r.out;
   EXPECT_NE(r.err.find("24/24 frames"), std::string::npos) << r.err;  // progress
   const Trajectory estimate = ReadTumTrajectory(out.string());
   const Trajectory truth = ReadTumTrajectory((*dir_ / "seq" / "groundtruth.txt").string());
@@ -73,6 +75,17 @@ TEST_F(CliTrack, TracksASyntheticSequenceToTheMillimetre) {
   EXPECT_LT(e.rpe_translation_rmse_m, 2e-3);
 }
 
+TEST_F(CliTrack, EvaluateOnASequenceTooShortToCompareWarns) {
+  const fs::path out = *dir_ / "short.txt";
+  const cli_test::RunResult r =
+      cli_test::RunRigfit({"track", (*dir_ / "seq").string(), "--out", out.string(), "--intrinsics",
+                           Intrinsics(), "--max-frames", "2", "--evaluate"},
+                          *dir_);
+  EXPECT_EQ(r.exit_code, 0) << cli_test::Describe(r);
+  EXPECT_NE(r.err.find("warning: --evaluate:"), std::string::npos) << r.err;
+  EXPECT_EQ(ReadTumTrajectory(out.string()).poses.size(), 2u);  // the trajectory is written
+}
+
 TEST_F(CliTrack, RefusesBadInputNamingIt) {
   const fs::path out = *dir_ / "bad.txt";
   const std::string seq = (*dir_ / "seq").string();
@@ -83,6 +96,8 @@ TEST_F(CliTrack, RefusesBadInputNamingIt) {
       {{"track", seq, "--out", out.string(), "--max-depth", "0.1"}, "--max-depth"},
       {{"track", seq, "--out", out.string(), "--intrinsics", "500,500"}, "--intrinsics"},
       {{"track", seq, "--out", out.string(), "--first", "99"}, "first frame 99"},
+      {{"track", seq, "--out", out.string(), "--max-frames", "-5"}, "--max-frames"},
+      {{"track", seq, "--out", out.string(), "--threads", "1000"}, "--threads"},
   };
   for (const auto& [args, expected] : cases) {
     const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);

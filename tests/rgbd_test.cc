@@ -254,6 +254,43 @@ TEST(RgbdAssociation, EachConditionIsTested) {
             AssociationOutcome::kMatched);
 }
 
+TEST(RgbdAssociation, RoundsToTheNearestPixelUpToTheImageEdge) {
+  // A target whose every pixel is valid at 2 m, f = 10 px, c = 2: a source point at
+  // x = (u - 2) z / f lands on column u.
+  FrameLevel target = SinglePixelLevel(2.0f);
+  for (int i = 0; i < 25; ++i) {
+    const float u = static_cast<float>(i % 5), v = static_cast<float>(i / 5);
+    target.depth_m[i] = 2.0f;
+    target.vertices[i] = Vec3f((u - 2) * 0.2f, (v - 2) * 0.2f, 2.0f);
+    target.normals[i] = Vec3f(0, 0, -1);
+  }
+  FrameLevel source = SinglePixelLevel(2.0f);
+  const AssociationOptions options{1.0, 30.0};
+  const auto at_column = [&](double u, int* j) {
+    Pose T = Pose::Identity();
+    T.translation() = Vec3((u - 2.0) * 0.2, 0, 0);  // moves the centre point to column u
+    return AssociatePixel(source, 12, target, T, options, j);
+  };
+  int j = -1;
+  EXPECT_EQ(at_column(-0.5, &j), AssociationOutcome::kMatched);
+  EXPECT_EQ(j, 10);  // row 2, column 0
+  EXPECT_EQ(at_column(-0.5001, &j), AssociationOutcome::kOutsideImage);
+  EXPECT_EQ(at_column(4.4999, &j), AssociationOutcome::kMatched);
+  EXPECT_EQ(j, 14);
+  EXPECT_EQ(at_column(4.5, &j), AssociationOutcome::kOutsideImage);
+  EXPECT_EQ(at_column(1.49, &j), AssociationOutcome::kMatched);
+  EXPECT_EQ(j, 11);
+  EXPECT_EQ(at_column(1.51, &j), AssociationOutcome::kMatched);
+  EXPECT_EQ(j, 12);
+}
+
+TEST(RgbdWeights, DepthNoiseWeightIsTheInverseVarianceOfZSquaredNoise) {
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(1.0, 1.0), 1.0);
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(2.0, 2.0), 1.0 / 16.0);  // sigma ~ z^2: variance ~ z^4
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(1.0, 2.0), 2.0 / 17.0);
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(2.0, 1.0), DepthNoiseWeight(1.0, 2.0));
+}
+
 class RgbdTracking : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -455,6 +492,27 @@ TEST(RgbdOdometry, NoiseFreeWalkDriftsLessThanAMillimetrePerMetre) {
   EXPECT_LT(drift / travelled, 1e-3) << "drift " << drift << " m over " << travelled << " m";
 }
 
+TEST(RgbdOdometry, ALongLossRestartsTheTrackAndKeepsRotations) {
+  // 40 frames of sky (nothing to track) between good ones: the chain of predictions stays a
+  // rotation, the track restarts after 5 failures in a row, and tracks again afterwards.
+  const Scene scene = TestRoom();
+  std::vector<Pose> poses = Walk(50);
+  for (int i = 3; i < 43; ++i) {
+    poses[i] = LookAt(poses[i].translation(), poses[i].translation() + Vec3(0, 10, 0.01));
+  }
+  const RenderedSequence sequence(scene, poses, 80, 60, 0.0);
+  const OdometryResult result = RunOdometry(sequence, OdometryOptions{});
+  // The sky frames fail and are no reference (nothing to track against); frame 43 tracks
+  // against frame 2 from 41 frames of constant-velocity prediction, or fails and restarts.
+  EXPECT_GE(result.failures, 40);
+  EXPECT_LE(result.failures, 41);
+  EXPECT_EQ(result.restarts, result.failures - 40);
+  for (const Pose& T : result.trajectory.poses) {
+    EXPECT_LT((T.linear().transpose() * T.linear() - Mat3::Identity()).norm(), 1e-12);
+  }
+  for (int i = 44; i < 50; ++i) EXPECT_TRUE(result.frames[i].track.success) << i;
+}
+
 TEST(RgbdOdometry, FramesFacingAFlatWallReportTheirWeakDirections) {
   Scene wall;
   wall.size_x_m = wall.size_z_m = wall.wall_height_m = 20.0;
@@ -489,7 +547,15 @@ TEST(RgbdOdometry, KeyframesAndStrideAndFailuresAreReported) {
   EXPECT_EQ(result.frames[3].index, 6);
   EXPECT_FALSE(result.frames[3].track.success);
   EXPECT_EQ(result.failures, 1);
-  EXPECT_TRUE(result.frames[0].keyframe);
+  EXPECT_EQ(result.restarts, 0);
+  // The failed frame is no reference; its pose is the constant-velocity prediction.
+  EXPECT_FALSE(result.frames[3].keyframe);
+  const Trajectory& t = result.trajectory;
+  const Pose predicted = t.poses[2] * (t.poses[1].inverse() * t.poses[2]);
+  EXPECT_TRUE(t.poses[3].isApprox(predicted, 1e-9));
+  // Frame 8 tracks against the last good reference and is back on the truth.
+  EXPECT_TRUE(result.frames[4].track.success);
+  EXPECT_LT(TranslationError(t.poses[4], poses[8]), 1e-3);
   EXPECT_THROW(
       {
         OdometryOptions bad;
