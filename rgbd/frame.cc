@@ -77,23 +77,27 @@ std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width,
   const float last_step = static_cast<float>(range.size() - 1);
   // One pass along x (dx = 1) or y (dx = width): the 2D filter as two 1D ones, the range
   // weight taken against the pass's centre pixel.
-  const auto pass = [&](const std::vector<float>& in, bool along_x) {
+  range.back() = 0.0f;  // every step at or beyond 4 sigma lands here
+  // Invalid samples become a depth so far that their range weight is 0: the inner loop needs
+  // no branch per neighbour.
+  constexpr float kFar = 1e30f;
+  const auto pass = [&](const std::vector<float>& depth, bool along_x) {
+    std::vector<float> in(depth.size());
+    for (std::size_t i = 0; i < depth.size(); ++i) in[i] = std::isnan(depth[i]) ? kFar : depth[i];
     std::vector<float> out(in.size(), kNaN);
     ForEachRow(height, threads, [&](int v) {
+      const int n = along_x ? width : height;
+      const std::ptrdiff_t stride = along_x ? 1 : width;
       for (int u = 0; u < width; ++u) {
         const std::size_t i = static_cast<std::size_t>(v) * width + u;
         const float z = in[i];
-        if (std::isnan(z)) continue;
+        if (z == kFar) continue;
         const int c = along_x ? u : v;
-        const int n = along_x ? width : height;
-        const std::ptrdiff_t stride = along_x ? 1 : width;
         float sum = 0.0f;
         float weight = 0.0f;
         for (int d = std::max(-radius, -c); d <= std::min(radius, n - 1 - c); ++d) {
           const float zn = in[i + d * stride];
-          if (std::isnan(zn)) continue;
-          const float step = std::abs(zn - z) * steps_per_m;
-          if (step >= last_step) continue;
+          const float step = std::min(std::abs(zn - z) * steps_per_m, last_step);
           const float w = spatial[d + radius] * range[static_cast<int>(step + 0.5f)];
           sum += w * zn;
           weight += w;
