@@ -2,18 +2,11 @@
 // on the same capture and initial extrinsics, and prints them side by side: each camera's
 // change and (with --gt) its error, each pair's fit before and after (rig/diagnostics.h),
 // the joint mode's 1-sigma, wall time and peak memory, and a verdict from these numbers.
-// Each mode runs in a forked child process, so that its peak memory is its own
-// (docs/usage.md, `rigfit compare`).
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cerrno>
+// Both modes run in this process, one after the other; each one's peak memory is the
+// process's high-water mark reset before it (docs/usage.md, `rigfit compare`).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -26,6 +19,7 @@
 #include "core/errors.h"
 #include "core/evaluate.h"
 #include "core/format.h"
+#include "core/peak_memory.h"
 #include "core/stopwatch.h"
 #include "io/atomic_file.h"
 #include "io/capture_h5.h"
@@ -54,15 +48,6 @@ struct CompareArgs {
   bool quiet = false;
 };
 
-/// One camera's outcome in one mode, as the child process reports it.
-struct CameraOutcome {
-  bool reference = false;
-  bool accepted = false;
-  std::string message;
-  bool has_covariance = false;
-  Mat6 covariance = Mat6::Zero();
-};
-
 /// One mode's run.
 struct ModeRun {
   std::string name;  ///< "pairwise" or "joint"
@@ -70,10 +55,11 @@ struct ModeRun {
   std::string message;
   std::vector<std::string> warnings;
   PoseMap output;  ///< what `rigfit refine` would write: refined, or leveled when not applied
-  std::vector<CameraOutcome> cameras;  ///< capture order
-  double wall_s = 0.0;                 ///< the Refine call, in the child
-  double peak_rss_mb = 0.0;            ///< the child's ru_maxrss
-  std::vector<PairDiagnostics> fit;    ///< at `output`
+  std::vector<CameraReport> cameras;  ///< capture order
+  double wall_s = 0.0;                ///< the Refine call
+  double peak_rss_mb = 0.0;           ///< VmHWM after the Refine call (PeakMemory)
+  bool peak_per_mode = false;         ///< false: the mark could not be reset (process-wide)
+  std::vector<PairDiagnostics> fit;   ///< at `output`
 };
 
 std::string ModeName(RefineMode mode) {
@@ -82,146 +68,32 @@ std::string ModeName(RefineMode mode) {
   return ConfigToJson(options)["icp"]["mode"];
 }
 
-/// Resident set size of this process now (VmRSS of /proc/self/status), MB; 0 if unknown.
-double CurrentRssMb() {
-  std::ifstream status("/proc/self/status");
-  std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  }
-  return 0.0;
-}
-
-// --- The child's report, as JSON through a pipe. Matrices go as row-major arrays of 16 or
-// 36 numbers (nlohmann writes doubles with enough digits to read back exactly), a non-finite
-// number as null.
-
-Json MatrixJson(const Eigen::MatrixXd& m) {
-  Json values = Json::array();
-  for (int r = 0; r < m.rows(); ++r) {
-    for (int c = 0; c < m.cols(); ++c) {
-      values.push_back(std::isfinite(m(r, c)) ? Json(m(r, c)) : Json());
-    }
-  }
-  return values;
-}
-
-template <int Rows, int Cols>
-Eigen::Matrix<double, Rows, Cols> MatrixFromJson(const Json& values) {
-  Eigen::Matrix<double, Rows, Cols> m;
-  for (int r = 0; r < Rows; ++r) {
-    for (int c = 0; c < Cols; ++c) {
-      const Json& v = values.at(r * Cols + c);
-      m(r, c) = v.is_null() ? NAN : v.get<double>();
-    }
-  }
-  return m;
-}
-
-Json RunReportJson(const RefineResult& result, double wall_s) {
-  const PoseMap& output = result.success ? result.refined : result.leveled;
-  Json poses = Json::object();
-  for (const auto& [serial, T] : output) poses[serial] = MatrixJson(T.matrix());
-  Json cameras = Json::array();
-  for (const CameraReport& c : result.cameras) {
-    cameras.push_back({{"reference", c.reference},
-                       {"accepted", c.accepted},
-                       {"message", c.message},
-                       {"has_covariance", c.has_covariance},
-                       {"covariance", MatrixJson(c.covariance)}});
-  }
-  return {{"success", result.success}, {"message", result.message}, {"warnings", result.warnings},
-          {"output", poses},           {"cameras", cameras},        {"wall_s", wall_s}};
-}
-
-void ReadRunReport(const Json& j, ModeRun* run) {
-  run->success = j.at("success");
-  run->message = j.at("message");
-  run->warnings = j.at("warnings").get<std::vector<std::string>>();
-  for (const auto& [serial, matrix] : j.at("output").items()) {
-    run->output[serial] = Pose(MatrixFromJson<4, 4>(matrix));
-  }
-  for (const Json& c : j.at("cameras")) {
-    run->cameras.push_back({c.at("reference"), c.at("accepted"), c.at("message"),
-                            c.at("has_covariance"), MatrixFromJson<6, 6>(c.at("covariance"))});
-  }
-  run->wall_s = j.at("wall_s");
-}
-
-/// Writes all of text to fd; false on error.
-bool WriteAll(int fd, const std::string& text) {
-  size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;
-    done += static_cast<size_t>(n);
-  }
-  return true;
-}
-
-/// Runs Refine in one mode in a forked child process: the child writes its report to a pipe
-/// and exits; the parent reads it and the child's peak resident memory (wait4's
-/// ru_maxrss: the high-water mark of a process that starts as a copy of this one, so it
-/// includes the capture already loaded here).
+/// Runs Refine in one mode in this process. Its peak resident memory is the process's
+/// high-water mark, reset before the run (core/peak_memory.h): the capture already loaded
+/// here counts in it, memory the previous mode freed does not.
 ModeRun RunMode(RefineMode mode, const RigCapture& capture, const PoseMap& initial,
                 RefineOptions options, const CompareArgs& a) {
   ModeRun run;
   run.name = ModeName(mode);
   options.icp.mode = mode;
-  int fds[2];
-  if (::pipe(fds) != 0) throw std::runtime_error("compare: pipe: " + std::string(strerror(errno)));
-  std::fflush(stdout);
-  std::fflush(stderr);
-  const pid_t pid = ::fork();
-  if (pid < 0) throw std::runtime_error("compare: fork: " + std::string(strerror(errno)));
-  if (pid == 0) {
-    ::close(fds[0]);
-    int code = 0;
-    Json report;
-    try {
-      const auto start = std::chrono::steady_clock::now();
-      const RefineResult result =
-          Refine(capture, initial, options, true, a.threads,
-                 StderrLog("compare: " + run.name + ": ",
-                           a.quiet ? Verbosity::kQuiet : Verbosity::kNormal));
-      report = RunReportJson(result, SecondsSince(start));
-    } catch (const std::exception& e) {
-      report = {{"error", e.what()}};
-      code = 1;
-    }
-    std::fflush(stderr);
-    ::_exit(WriteAll(fds[1], report.dump()) ? code : 1);
+  const PeakMemory memory;
+  const auto start = std::chrono::steady_clock::now();
+  RefineResult result;
+  try {
+    result = Refine(
+        capture, initial, options, true, a.threads,
+        StderrLog("compare: " + run.name + ": ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal));
+  } catch (const std::exception& e) {
+    throw std::runtime_error("compare: " + run.name + ": " + e.what());
   }
-  ::close(fds[1]);
-  std::string text;
-  char buffer[1 << 16];
-  for (;;) {
-    const ssize_t n = ::read(fds[0], buffer, sizeof(buffer));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    text.append(buffer, static_cast<size_t>(n));
-  }
-  ::close(fds[0]);
-  int status = 0;
-  struct rusage usage {};
-  while (::wait4(pid, &status, 0, &usage) < 0 && errno == EINTR) {
-  }
-  if (!WIFEXITED(status)) {
-    throw std::runtime_error("compare: the " + run.name + " run ended abnormally" +
-                             (WIFSIGNALED(status)
-                                  ? " (signal " + std::to_string(WTERMSIG(status)) + ")"
-                                  : std::string()));
-  }
-  const Json report = Json::parse(text, nullptr, false);
-  if (report.is_discarded()) {
-    throw std::runtime_error("compare: the " + run.name + " run sent no report");
-  }
-  if (report.contains("error")) {
-    throw std::runtime_error("compare: " + run.name + ": " + report["error"].get<std::string>());
-  }
-  ReadRunReport(report, &run);
-  run.peak_rss_mb = usage.ru_maxrss / 1024.0;  // Linux: kilobytes
+  run.wall_s = SecondsSince(start);
+  run.peak_rss_mb = memory.PeakMb();
+  run.peak_per_mode = memory.reset();
+  run.success = result.success;
+  run.message = result.message;
+  run.warnings = result.warnings;
+  run.output = result.success ? result.refined : result.leveled;
+  run.cameras = result.cameras;
   return run;
 }
 
@@ -293,7 +165,7 @@ CameraError CameraErrorOf(const RigErrors& e, const std::string& serial,
 std::string Result(const ModeRun& run, size_t cameras) {
   if (!run.success) return "not applied: " + run.message;
   int refined = 0;
-  for (const CameraOutcome& c : run.cameras) refined += !c.reference && c.accepted ? 1 : 0;
+  for (const CameraReport& c : run.cameras) refined += !c.reference && c.accepted ? 1 : 0;
   return "refined " + std::to_string(refined) + " of " + std::to_string(cameras - 1) +
          " non-reference cameras";
 }
@@ -425,7 +297,7 @@ void PrintTables(const Comparison& c) {
                     Fixed(e.tilt_deg, 3).c_str());
       }
     }
-    const CameraOutcome& joint = runs[1].cameras[i];
+    const CameraReport& joint = runs[1].cameras[i];
     const PoseSigma s = SigmaOf(joint.covariance);
     const bool shown = joint.has_covariance;
     std::printf(" | %7s %8s %6s %6s %6s%s\n", Cell(shown, s.yaw_deg, 3).c_str(),
@@ -489,10 +361,19 @@ void PrintTables(const Comparison& c) {
     std::printf("%-10s %8s %12s  %s\n", run.name.c_str(), Fixed(run.wall_s, 2).c_str(),
                 Fixed(run.peak_rss_mb, 0).c_str(), Result(run, c.capture->cameras.size()).c_str());
   }
-  std::printf(
-      "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of a "
-      "process holding the loaded capture, %s MB before the runs, running that mode alone)\n",
-      Fixed(c.baseline_rss_mb, 0).c_str());
+  if (c.runs[0].peak_per_mode && c.runs[1].peak_per_mode) {
+    std::printf(
+        "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
+        "this process, which holds the loaded capture (%s MB before the runs), during that "
+        "mode)\n",
+        Fixed(c.baseline_rss_mb, 0).c_str());
+  } else {
+    std::printf(
+        "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
+        "this process since it started, loading included (%s MB before the runs): the mark "
+        "could not be reset per mode through /proc/self/clear_refs)\n",
+        Fixed(c.baseline_rss_mb, 0).c_str());
+  }
   std::printf("\nverdict: %s\n", c.verdict.c_str());
 }
 
@@ -524,7 +405,7 @@ Json ComparisonJson(const Comparison& c) {
     Json cameras = Json::object();
     for (size_t i = 0; i < c.capture->cameras.size(); ++i) {
       const std::string& serial = c.capture->cameras[i].serial;
-      const CameraOutcome& outcome = run.cameras[i];
+      const CameraReport& outcome = run.cameras[i];
       const Change change = ChangeOf(c.leveled, run.output, serial);
       Json camera = {{"reference", outcome.reference},
                      {"accepted", outcome.accepted},
@@ -554,6 +435,7 @@ Json ComparisonJson(const Comparison& c) {
                        {"warnings", run.warnings},
                        {"wall_s", run.wall_s},
                        {"peak_rss_mb", run.peak_rss_mb},
+                       {"peak_rss_per_mode", run.peak_per_mode},
                        {"cameras", cameras},
                        {"fit", FitJson(run.fit, *c.rig)},
                        {"errors", c.has_gt ? RigErrorsSummaryJson(c.errors[m]) : Json()}};
