@@ -30,10 +30,16 @@ class SummaryFormatter : public CLI::Formatter {
 
 void RegisterCommands(CLI::App& app) {
   app.formatter(std::make_shared<SummaryFormatter>());
-  Registry() = {
-      AddSimulateCommand(app),           AddRefineCommand(app),           AddEvaluateCommand(app),
-      AddImportPlyCommand(app),          AddCompareCommand(app),          AddExportPlyCommand(app),
-      AddEvaluateTrajectoryCommand(app), AddSimulateSequenceCommand(app), AddTrackCommand(app)};
+  Registry() = {AddSimulateCommand(app),
+                AddRefineCommand(app),
+                AddEvaluateCommand(app),
+                AddImportPlyCommand(app),
+                AddCompareCommand(app),
+                AddExportPlyCommand(app),
+                AddEvaluateTrajectoryCommand(app),
+                AddSimulateSequenceCommand(app),
+                AddTrackCommand(app),
+                AddFuseCommand(app)};
 }
 
 int RunSelected(const CLI::App& app) {

@@ -40,6 +40,9 @@ Command AddCompareCommand(CLI::App& app);
 /// `rigfit export-ply`: every camera's points in the world, coloured per camera (PLY).
 Command AddExportPlyCommand(CLI::App& app);
 
+/// `rigfit fuse`: every depth camera of a capture fused into one surfel map (PLY).
+Command AddFuseCommand(CLI::App& app);
+
 /// Adds every subcommand to app.
 void RegisterCommands(CLI::App& app);
 /// Runs the subcommand that was parsed; returns its exit code.

@@ -4,7 +4,6 @@
 // the file holds them (../shared/docs/formats.md, points layout; docs/usage.md).
 #include <algorithm>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <set>
 #include <string>
@@ -19,8 +18,6 @@
 
 namespace rigfit::cli {
 namespace {
-
-namespace fs = std::filesystem;
 
 struct ImportPlyArgs {
   std::vector<std::string> cameras;  ///< SERIAL=cloud.ply
@@ -69,20 +66,7 @@ std::vector<PlySource> ParseSources(const std::vector<std::string>& arguments) {
 void CheckOutputPath(const ImportPlyArgs& a, const std::vector<PlySource>& sources) {
   std::vector<std::string> inputs;
   for (const PlySource& source : sources) inputs.push_back(source.path);
-  RefuseToOverwriteInputs(a.out_path, inputs, "import-ply: --out");
-  std::error_code ec;
-  if (fs::is_directory(a.out_path, ec)) {
-    throw InputError("import-ply: --out " + a.out_path + " is a directory, expected a file name");
-  }
-  if (!a.force && fs::exists(a.out_path, ec)) {
-    throw InputError("import-ply: --out " + a.out_path + " exists (use --force to replace it)");
-  }
-  const fs::path out(a.out_path);
-  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
-  if (!fs::is_directory(dir, ec)) {
-    throw InputError("import-ply: --out " + a.out_path + ": directory " + dir.string() +
-                     " does not exist");
-  }
+  CheckOutputFile(a.out_path, inputs, a.force, "import-ply: --out");
 }
 
 int RunImportPly(const ImportPlyArgs& a) {

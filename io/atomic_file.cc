@@ -98,6 +98,23 @@ void RefuseToOverwriteInputs(const std::string& path, const std::vector<std::str
   }
 }
 
+void CheckOutputFile(const std::string& path, const std::vector<std::string>& inputs, bool force,
+                     const std::string& what) {
+  RefuseToOverwriteInputs(path, inputs, what);
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    throw InputError(what + " " + path + " is a directory, expected a file name");
+  }
+  if (!force && fs::exists(path, ec)) {
+    throw InputError(what + " " + path + " exists (use --force to replace it)");
+  }
+  const fs::path out(path);
+  const fs::path dir = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  if (!fs::is_directory(dir, ec)) {
+    throw InputError(what + " " + path + ": directory " + dir.string() + " does not exist");
+  }
+}
+
 void WriteTextFileAtomically(const std::string& path, const std::string& text) {
   WriteFileAtomically(path, [&](const std::string& tmp_path) {
     std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);

@@ -24,4 +24,10 @@ void WriteTextFileAtomically(const std::string& path, const std::string& text);
 void RefuseToOverwriteInputs(const std::string& path, const std::vector<std::string>& inputs,
                              const std::string& what);
 
+/// The checks of an output file before any work: RefuseToOverwriteInputs, then InputError
+/// ("<what> <path> ...") when path is a directory, exists and `force` is false ("use --force
+/// to replace it"), or its directory does not exist.
+void CheckOutputFile(const std::string& path, const std::vector<std::string>& inputs, bool force,
+                     const std::string& what);
+
 }  // namespace rigfit

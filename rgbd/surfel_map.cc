@@ -1,0 +1,141 @@
+#include "rgbd/surfel_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace rigfit {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+/// The smallest |n_z| of the radius (cos 75 degrees).
+constexpr float kMinRadiusCosine = 0.26f;
+
+}  // namespace
+
+float SurfelRadius(float z, float n_z, double focal_px) {
+  return static_cast<float>(z / focal_px) / std::max(std::abs(n_z), kMinRadiusCosine);
+}
+
+double SurfelMap::CompressionRatio() const {
+  return positions_.empty() ? 0.0 : static_cast<double>(input_points_) / positions_.size();
+}
+
+FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_camera,
+                                 int frame_index, const FusionOptions& options,
+                                 const std::vector<std::uint8_t>& color) {
+  const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
+  if (frame.width <= 0 || frame.height <= 0 || frame.vertices.size() != pixels ||
+      frame.normals.size() != pixels) {
+    throw std::invalid_argument("SurfelMap::FuseFrame: vertex and normal maps must hold " +
+                                std::to_string(pixels) + " pixels");
+  }
+  const bool with_color = !color.empty();
+  if (with_color && color.size() != 3 * pixels) {
+    throw std::invalid_argument("SurfelMap::FuseFrame: colour must be [height, width, 3] (" +
+                                std::to_string(3 * pixels) + " bytes), got " +
+                                std::to_string(color.size()));
+  }
+  if (frames_ == 0) {
+    has_color_ = with_color;
+  } else if (with_color != has_color_) {
+    throw std::invalid_argument(has_color_
+                                    ? "SurfelMap::FuseFrame: the map has colours, the frame none"
+                                    : "SurfelMap::FuseFrame: the map has no colours");
+  }
+  ++frames_;
+
+  // 1. Association through projection: per pixel the candidate closest to the camera.
+  const Eigen::Matrix3f R = T_world_camera.linear().cast<float>();
+  const Vec3f t = T_world_camera.translation().cast<float>();
+  const Eigen::Matrix3f R_cw = R.transpose();
+  const PinholeIntrinsics& K = frame.intrinsics;
+  const float max_distance_sq = static_cast<float>(options.max_distance_m * options.max_distance_m);
+  const float min_cosine = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
+  std::vector<int> match(pixels, -1);
+  std::vector<float> match_z(pixels, std::numeric_limits<float>::infinity());
+  const int map_size = size();
+  for (int i = 0; i < map_size; ++i) {
+    const Vec3f p_c = R_cw * (positions_[i] - t);
+    if (!(p_c.z() > 0.0f)) continue;
+    const int u = static_cast<int>(std::lround(K.fx * p_c.x() / p_c.z() + K.cx));
+    const int v = static_cast<int>(std::lround(K.fy * p_c.y() / p_c.z() + K.cy));
+    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
+    const int j = v * frame.width + u;
+    if (!frame.Valid(j) || p_c.z() >= match_z[j]) continue;
+    if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
+    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
+    match[j] = i;
+    match_z[j] = p_c.z();
+  }
+
+  // 2. Merge, 3. add.
+  FusionStats stats;
+  stats.input_points = static_cast<int>(frame.valid_pixels.size());
+  input_points_ += stats.input_points;
+  const double focal_px = 0.5 * (K.fx + K.fy);
+  for (const int j : frame.valid_pixels) {
+    const Vec3f& q = frame.vertices[j];
+    const Vec3f& n_q = frame.normals[j];
+    const Vec3f q_world = R * q + t;
+    const Vec3f n_world = R * n_q;
+    const float radius = SurfelRadius(q.z(), n_q.z(), focal_px);
+    Vec3f c_q = Vec3f::Zero();
+    if (with_color) {
+      c_q = Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]);
+    }
+    const int i = match[j];
+    if (i >= 0) {
+      const float w = weights_[i];
+      positions_[i] = (w * positions_[i] + q_world) / (w + 1.0f);
+      normals_[i] = (w * normals_[i] + n_world).normalized();
+      if (with_color) colors_[i] = (w * colors_[i] + c_q) / (w + 1.0f);
+      weights_[i] = w + 1.0f;
+      radii_[i] = std::min(radii_[i], radius);
+      last_seen_[i] = frame_index;
+      ++stats.merged;
+    } else {
+      positions_.push_back(q_world);
+      normals_.push_back(n_world);
+      if (with_color) colors_.push_back(c_q);
+      weights_.push_back(1.0f);
+      radii_.push_back(radius);
+      last_seen_.push_back(frame_index);
+      ++stats.added;
+    }
+  }
+
+  // 4. Remove dormant unstable points.
+  if (options.dormant_frames > 0) RemoveDormant(frame_index, options, &stats);
+  return stats;
+}
+
+void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
+  int kept = 0;
+  for (int i = 0; i < size(); ++i) {
+    const bool dormant = frame_index - last_seen_[i] > options.dormant_frames &&
+                         weights_[i] < options.min_stable_weight;
+    if (dormant) continue;
+    if (kept != i) {
+      positions_[kept] = positions_[i];
+      normals_[kept] = normals_[i];
+      if (has_color_) colors_[kept] = colors_[i];
+      weights_[kept] = weights_[i];
+      radii_[kept] = radii_[i];
+      last_seen_[kept] = last_seen_[i];
+    }
+    ++kept;
+  }
+  stats->removed = size() - kept;
+  positions_.resize(kept);
+  normals_.resize(kept);
+  if (has_color_) colors_.resize(kept);
+  weights_.resize(kept);
+  radii_.resize(kept);
+  last_seen_.resize(kept);
+}
+
+}  // namespace rigfit

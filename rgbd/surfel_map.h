@@ -1,0 +1,104 @@
+// Point-based fusion (Keller et al., 3DV 2013, section 4; the reference design
+// ../shared/seeds/dense_slam_point_fusion.txt, section 3; formulas and measurements in
+// docs/rgbd.md, "Fusion"): a map of surfels (position, normal, colour, confidence weight,
+// radius, frame last seen) into which depth frames at known poses are merged.
+//
+// Fusing a frame at T_world_camera = [R | t]:
+//   1. association, searched through projection (no k-d tree): every map point p is moved
+//      into the camera, p_c = R^T (p - t), and projected to its nearest pixel; it is a
+//      candidate of that pixel when p_c is in front of the camera and inside the image, the
+//      pixel has a vertex q and normal n_q, |p_c - q| < max_distance_m and the angle between
+//      R^T n_p and n_q is below max_normal_angle_deg (seed 3.1). A pixel keeps at most one
+//      candidate: the closest to the camera along the ray (what an index map would render),
+//      so that a pixel never merges into two points and fusing the same frame twice does not
+//      grow the map.
+//   2. merge (seed 3.2), a map point of weight w and its pixel (weight 1):
+//        p <- (w p + R q + t) / (w + 1)
+//        n <- normalise(w n_p + R n_q)
+//        c <- (w c + c_q) / (w + 1)
+//        w <- w + 1,  radius <- min(radius, r_q),  last seen <- this frame.
+//   3. add (seed 3.3): every valid pixel that merged into no map point becomes a new point of
+//      weight 1.
+//   4. remove (the seed's bonus): points not seen for more than dormant_frames frames whose
+//      weight is below min_stable_weight (seen too rarely to be trusted: outliers, moving
+//      things, a pose that was off).
+//
+// The radius of a pixel's point is its footprint on the surface: r = z / f / max(|n_z|, 0.26),
+// with f = (fx + fy) / 2 and n_z the cosine between the normal and the viewing axis (camera
+// frame); the floor 0.26 (~75 degrees) keeps grazing views from giving huge surfels.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/pose.h"
+#include "rgbd/frame.h"
+
+namespace rigfit {
+
+struct FusionOptions {
+  /// Distance gate: |p_c - q| must be below this (metres).
+  double max_distance_m = 0.05;
+  /// Normal-angle gate: the angle between the map normal (in the camera) and the pixel's
+  /// normal must be below this (degrees).
+  double max_normal_angle_deg = 30.0;
+  /// Dormant-point removal: a point not seen for more than this many frames (frame_index -
+  /// last_seen > dormant_frames) with weight below min_stable_weight is removed. 0: never
+  /// remove (a rig's cameras, all at one instant, each see parts the others do not).
+  int dormant_frames = 20;
+  double min_stable_weight = 3.0;
+};
+
+/// What one FuseFrame did.
+struct FusionStats {
+  int input_points = 0;  ///< the frame's valid pixels
+  int merged = 0;        ///< pixels merged into a map point
+  int added = 0;         ///< pixels added as new points
+  int removed = 0;       ///< dormant points removed
+};
+
+/// The surfel map, stored as a structure of arrays (one array per property, index = point).
+class SurfelMap {
+ public:
+  /// Fuses the valid pixels of `frame` (vertices and normals in the camera frame) seen at
+  /// T_world_camera as frame `frame_index` (the clock of dormancy; increasing). `color`:
+  /// empty, or [height, width, 3] RGB of the frame's pixels. A map holds colours when its
+  /// first fused frame had them; every later frame must then have them too, and a map
+  /// without colours takes no frame with colour. Throws std::invalid_argument on a colour
+  /// of the wrong size or presence, or maps of inconsistent sizes.
+  FusionStats FuseFrame(const FrameLevel& frame, const Pose& T_world_camera, int frame_index,
+                        const FusionOptions& options, const std::vector<std::uint8_t>& color = {});
+
+  int size() const { return static_cast<int>(positions_.size()); }
+  bool has_color() const { return has_color_; }
+  /// Valid pixels of every frame fused so far (the size of the naively concatenated input).
+  std::int64_t input_points() const { return input_points_; }
+  /// input_points() / size() (seed 3.4); 0 for an empty map.
+  double CompressionRatio() const;
+
+  const std::vector<Vec3f>& positions() const { return positions_; }  ///< world, metres
+  const std::vector<Vec3f>& normals() const { return normals_; }      ///< world, unit
+  /// RGB in [0, 255] (averages, hence float); empty unless has_color().
+  const std::vector<Vec3f>& colors() const { return colors_; }
+  const std::vector<float>& weights() const { return weights_; }
+  const std::vector<float>& radii() const { return radii_; }  ///< metres
+  const std::vector<int>& last_seen() const { return last_seen_; }
+
+ private:
+  void RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats);
+
+  std::vector<Vec3f> positions_;
+  std::vector<Vec3f> normals_;
+  std::vector<Vec3f> colors_;
+  std::vector<float> weights_;
+  std::vector<float> radii_;
+  std::vector<int> last_seen_;
+  bool has_color_ = false;
+  int frames_ = 0;  ///< frames fused
+  std::int64_t input_points_ = 0;
+};
+
+/// The radius of a pixel's surfel (header comment): z / f / max(|n_z|, 0.26).
+float SurfelRadius(float z, float n_z, double focal_px);
+
+}  // namespace rigfit

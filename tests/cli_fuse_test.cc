@@ -1,0 +1,126 @@
+// End-to-end tests of `rigfit fuse`: the built executable (RIGFIT_CLI_PATH) on a small
+// noise-free rig written by `rigfit simulate`; the map it writes is read back and checked
+// against the simulated room.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "cli_test_util.h"
+#include "io/extrinsics_json.h"
+#include "io/ply.h"
+#include "sim/simulate_rig.h"
+
+namespace rigfit {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace cli_test;  // NOLINT: RunRigfit and friends
+
+constexpr int kSeed = 5;
+
+class CliFuseTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    root_ = fs::temp_directory_path() / ("rigfit_cli_fuse_test_" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    const RunResult sim =
+        RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras", "3", "--width",
+                   "160", "--height", "90", "--noise", "0", "--seed", std::to_string(kSeed)},
+                  root_);
+    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  void SetUp() override { ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed"; }
+
+  static std::string Rig(const std::string& name) { return (root_ / "rig" / name).string(); }
+  static std::string Scratch(const std::string& name) { return (root_ / name).string(); }
+
+  static RunResult Fuse(const std::string& extrinsics, const std::string& map,
+                        std::vector<std::string> extra = {}) {
+    std::vector<std::string> args = {"fuse",         "--capture",     Rig("capture.h5"),
+                                     "--extrinsics", Rig(extrinsics), "--map",
+                                     Scratch(map)};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return RunRigfit(args, root_);
+  }
+
+  /// The summary's "<N> points in -> <M> map points".
+  static void ParseSummary(const std::string& out, long long* in, long long* map) {
+    const size_t at = out.find("cameras, ");
+    ASSERT_NE(at, std::string::npos) << out;
+    ASSERT_EQ(std::sscanf(out.c_str() + at, "cameras, %lld points in -> %lld map points", in, map),
+              2)
+        << out;
+  }
+
+  static fs::path root_;
+  static std::string simulate_error_;
+};
+
+fs::path CliFuseTest::root_;
+std::string CliFuseTest::simulate_error_;
+
+TEST_F(CliFuseTest, TrueExtrinsicsGiveOneSurfaceWithNormalsAndColours) {
+  const RunResult r = Fuse("gt.json", "gt.ply");
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  long long in = 0;
+  long long map = 0;
+  ParseSummary(r.out, &in, &map);
+  EXPECT_LT(map, in);
+  const PlyCloud cloud = ReadPly(Scratch("gt.ply"));
+  ASSERT_EQ(static_cast<long long>(cloud.points.size()), map);
+  ASSERT_EQ(cloud.normals.size(), cloud.points.size());
+  EXPECT_EQ(cloud.colors.size(), cloud.points.size());
+  const Scene scene = SimulateRoom(kSeed, false);
+  int far = 0;
+  for (size_t i = 0; i < cloud.points.size(); ++i) {
+    ASSERT_NEAR(cloud.normals[i].norm(), 1.0, 1e-5) << i;
+    if (scene.DistanceToSurface(cloud.points[i]) > 1e-3) ++far;
+  }
+  // Noise-free depth: off the surfaces only where a crease's normal let faces merge.
+  EXPECT_LT(far, static_cast<int>(cloud.points.size()) / 100) << far;
+}
+
+TEST_F(CliFuseTest, PerturbedExtrinsicsDoubleTheSurfaces) {
+  const RunResult gt = Fuse("gt.json", "gt2.ply");
+  const RunResult init = Fuse("init.json", "init.ply");
+  ASSERT_EQ(gt.exit_code, 0) << Describe(gt);
+  ASSERT_EQ(init.exit_code, 0) << Describe(init);
+  long long in_gt = 0, map_gt = 0, in_init = 0, map_init = 0;
+  ParseSummary(gt.out, &in_gt, &map_gt);
+  ParseSummary(init.out, &in_init, &map_init);
+  EXPECT_EQ(in_gt, in_init);
+  EXPECT_GT(map_init, map_gt);
+}
+
+TEST_F(CliFuseTest, BadInputExitsTwoAndWritesNothing) {
+  // A camera without a pose.
+  ExtrinsicsDocument gt = ReadExtrinsics(Rig("gt.json"));
+  gt.poses.erase(gt.poses.begin());
+  WriteExtrinsics(Scratch("two.json"), gt.poses);
+  RunResult r = Fuse("../two.json", "missing.ply");
+  EXPECT_EQ(r.exit_code, 2) << Describe(r);
+  EXPECT_NE(r.err.find("has no pose for camera"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(Scratch("missing.ply")));
+  r = Fuse("gt.json", "depth.ply", {"--min-depth", "3", "--max-depth", "2"});
+  EXPECT_EQ(r.exit_code, 2) << Describe(r);
+  EXPECT_FALSE(fs::exists(Scratch("depth.ply")));
+  // An existing map only with --force; an input never.
+  ASSERT_EQ(Fuse("gt.json", "once.ply").exit_code, 0);
+  r = Fuse("gt.json", "once.ply");
+  EXPECT_EQ(r.exit_code, 2) << Describe(r);
+  EXPECT_NE(r.err.find("use --force"), std::string::npos) << r.err;
+  EXPECT_EQ(Fuse("gt.json", "once.ply", {"--force"}).exit_code, 0);
+  const std::string before = ReadText(Rig("gt.json"));
+  r = Fuse("gt.json", "rig/gt.json", {"--force"});
+  EXPECT_EQ(r.exit_code, 2) << Describe(r);
+  EXPECT_EQ(ReadText(Rig("gt.json")), before);
+}
+
+}  // namespace
+}  // namespace rigfit
