@@ -39,7 +39,8 @@ void RegisterCommands(CLI::App& app) {
                 AddEvaluateTrajectoryCommand(app),
                 AddSimulateSequenceCommand(app),
                 AddTrackCommand(app),
-                AddFuseCommand(app)};
+                AddFuseCommand(app),
+                AddSlamCommand(app)};
 }
 
 int RunSelected(const CLI::App& app) {

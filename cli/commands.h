@@ -42,6 +42,8 @@ Command AddExportPlyCommand(CLI::App& app);
 
 /// `rigfit fuse`: every depth camera of a capture fused into one surfel map (PLY).
 Command AddFuseCommand(CLI::App& app);
+/// `rigfit slam`: frame-to-model dense RGB-D SLAM over a sequence (docs/rgbd.md).
+Command AddSlamCommand(CLI::App& app);
 
 /// Adds every subcommand to app.
 void RegisterCommands(CLI::App& app);

@@ -2,14 +2,13 @@
 // (rgbd/surfel_map.h) at the given extrinsics, written as a PLY with normals (and colours when
 // every camera has them). Well-aligned cameras merge their overlap into one surface; a
 // misaligned rig shows doubled surfaces (and a larger map).
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/map_ply.h"
 #include "core/errors.h"
 #include "io/atomic_file.h"
 #include "io/capture_h5.h"
@@ -30,25 +29,6 @@ struct FuseArgs {
   FrameOptions frame;
   FusionOptions fusion;
 };
-
-std::uint8_t ToByte(float value) {
-  return static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0f, 255.0f)));
-}
-
-PlyCloud MapToPly(const SurfelMap& map) {
-  PlyCloud cloud;
-  cloud.points.reserve(map.size());
-  cloud.normals.reserve(map.size());
-  for (int i = 0; i < map.size(); ++i) {
-    cloud.points.push_back(map.positions()[i].cast<double>());
-    cloud.normals.push_back(map.normals()[i].cast<double>());
-    if (map.has_color()) {
-      const Vec3f& c = map.colors()[i];
-      cloud.colors.push_back({ToByte(c.x()), ToByte(c.y()), ToByte(c.z())});
-    }
-  }
-  return cloud;
-}
 
 int RunFuse(FuseArgs a) {
   CheckOutputFile(a.map_path, {a.capture_path, a.extrinsics_path}, a.force, "fuse: --map");
@@ -98,7 +78,7 @@ int RunFuse(FuseArgs a) {
     std::printf("%-16s %10d %10d %10d\n", camera.serial.c_str(), stats.input_points, stats.merged,
                 stats.added);
   }
-  WritePly(a.map_path, MapToPly(map));
+  WritePly(a.map_path, SurfelMapToPly(map));
   std::printf("%zu cameras, %lld points in -> %d map points (compression %.2f%s) -> %s\n",
               capture.cameras.size(), static_cast<long long>(map.input_points()), map.size(),
               map.CompressionRatio(), map.has_color() ? ", with colours" : "", a.map_path.c_str());

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cli/commands.h"
+#include "cli/rgbd_common.h"
 #include "cli/stderr_log.h"
 #include "core/errors.h"
 #include "core/trajectory.h"
@@ -69,11 +70,7 @@ int RunTrack(TrackArgs a) {
   }
   if (a.odometry.max_frames < 0) throw InputError("track: --max-frames must be >= 0 (0: all)");
 
-  if (!a.intrinsics.empty()) {
-    if (a.intrinsics.size() != 4) throw InputError("track: --intrinsics takes fx,fy,cx,cy");
-    a.sequence.intrinsics =
-        PinholeIntrinsics{a.intrinsics[0], a.intrinsics[1], a.intrinsics[2], a.intrinsics[3]};
-  }
+  ApplyIntrinsicsOption(a.intrinsics, "track", &a.sequence);
 
   const Log log = StderrLog("track: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
   std::vector<std::string> warnings;
@@ -113,33 +110,7 @@ int RunTrack(TrackArgs a) {
       "(%.1f frames/s without loading)\n",
       frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s, result.track_s,
       tracked_s > 0.0 ? frames / tracked_s : 0.0);
-  if (a.evaluate) {
-    const Trajectory gt = sequence->GroundTruth();
-    if (gt.poses.empty()) {
-      log.Warning("--evaluate: the sequence has no ground truth");
-    } else {
-      try {
-        const TrajectoryErrors e = EvaluateTrajectory(result.trajectory, gt, 0.02, 1);
-        std::printf(
-            "against the sequence's ground truth (%d poses): ATE RMSE %.2f mm, RPE per "
-            "frame %.2f mm / %.3f deg\n",
-            e.pairs, e.ate_rmse_m * 1e3, e.rpe_translation_rmse_m * 1e3,
-            e.rpe_rotation_rmse_rad * kRadToDeg);
-        const EndPointDrift drift = MeasureEndPointDrift(result.trajectory, gt, 0.02);
-        if (drift.anchored && drift.path_m > 0.0) {
-          std::printf("end-point drift %.2f mm over %.2f m travelled (%.2f mm per metre)\n",
-                      drift.drift_m * 1e3, drift.path_m, drift.drift_m * 1e3 / drift.path_m);
-        } else {
-          std::printf(
-              "end-point drift: not measured (the first frame has no ground-truth pose "
-              "within 0.02 s, or the camera did not move)\n");
-        }
-      } catch (const std::invalid_argument& error) {
-        // The trajectory is written; only the comparison is impossible.
-        log.Warning(std::string("--evaluate: ") + error.what());
-      }
-    }
-  }
+  if (a.evaluate) PrintTrajectoryEvaluation(*sequence, result.trajectory, log);
   return kExitOk;
 }
 

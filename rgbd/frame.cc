@@ -206,23 +206,30 @@ FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& optio
     filtered = BilateralFilter(base.depth_m, base.width, base.height, options.bilateral_sigma_px,
                                options.bilateral_sigma_m, threads);
   }
-  for (int l = 1; l < options.levels; ++l) {
-    const FrameLevel& fine = pyramid.levels[l - 1];
-    FrameLevel& coarse = pyramid.levels[l];
+  ComputeVertexNormalMaps(&base, options.max_depth_jump_ratio, threads,
+                          options.bilateral ? &filtered : nullptr);
+  BuildCoarserLevels(&pyramid, options.levels, options.max_depth_jump_ratio, threads);
+  return pyramid;
+}
+
+void BuildCoarserLevels(FramePyramid* pyramid, int levels, double max_depth_jump_ratio,
+                        int threads) {
+  if (levels < 1 || pyramid->levels.empty()) {
+    throw InputError("pyramid: need level 0 and at least 1 level");
+  }
+  pyramid->levels.resize(levels);
+  for (int l = 1; l < levels; ++l) {
+    const FrameLevel& fine = pyramid->levels[l - 1];
+    FrameLevel& coarse = pyramid->levels[l];
     coarse.width = fine.width / 2;
     coarse.height = fine.height / 2;
     coarse.intrinsics.fx = fine.intrinsics.fx / 2.0;
     coarse.intrinsics.fy = fine.intrinsics.fy / 2.0;
     coarse.intrinsics.cx = (fine.intrinsics.cx + 0.5) / 2.0 - 0.5;
     coarse.intrinsics.cy = (fine.intrinsics.cy + 0.5) / 2.0 - 0.5;
-    coarse.depth_m =
-        Downsample(fine.depth_m, fine.width, fine.height, options.max_depth_jump_ratio);
+    coarse.depth_m = Downsample(fine.depth_m, fine.width, fine.height, max_depth_jump_ratio);
+    ComputeVertexNormalMaps(&coarse, max_depth_jump_ratio, threads);
   }
-  for (int l = 0; l < options.levels; ++l) {
-    ComputeVertexNormalMaps(&pyramid.levels[l], options.max_depth_jump_ratio, threads,
-                            l == 0 && options.bilateral ? &filtered : nullptr);
-  }
-  return pyramid;
 }
 
 }  // namespace rigfit

@@ -64,6 +64,14 @@ struct FramePyramid {
 FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& options,
                                int threads = 2);
 
+/// Resizes the pyramid to `levels` levels and builds levels 1.. from levels[0]'s depth_m, as
+/// BuildFramePyramid does (the 2x2 downsampling and the scaled intrinsics above, then the
+/// vertex and normal maps of each coarser level); levels[0] is left as it is. What
+/// BuildFramePyramid uses after level 0, and what builds the pyramid of a rendered model
+/// (rgbd/slam.h) whose level 0 did not come from a depth image.
+void BuildCoarserLevels(FramePyramid* pyramid, int levels, double max_depth_jump_ratio,
+                        int threads = 2);
+
 /// The vertex and normal maps of a depth image (NaN for invalid depth). The normal of pixel
 /// (u, v) is (V(u+1, v) - V(u-1, v)) x (V(u, v+1) - V(u, v-1)), normalised and turned to face
 /// the camera; invalid at the image border, next to an invalid pixel, or across a depth jump.

@@ -10,6 +10,7 @@
 
 #include "cli_test_util.h"
 #include "core/trajectory.h"
+#include "io/ply.h"
 #include "io/trajectory_tum.h"
 #include "sim/simulate_sequence.h"
 
@@ -98,6 +99,50 @@ TEST_F(CliTrack, RefusesBadInputNamingIt) {
       {{"track", seq, "--out", out.string(), "--first", "99"}, "first frame 99"},
       {{"track", seq, "--out", out.string(), "--max-frames", "-5"}, "--max-frames"},
       {{"track", seq, "--out", out.string(), "--threads", "1000"}, "--threads"},
+  };
+  for (const auto& [args, expected] : cases) {
+    const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);
+    EXPECT_EQ(r.exit_code, 2) << args[3] << "\n" << cli_test::Describe(r);
+    EXPECT_NE(r.err.find(expected), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+}
+
+// `rigfit slam` (frame-to-model) on the same sequence: the trajectory to the millimetre, the
+// map written as a PLY with normals and not overwritten without --force.
+TEST_F(CliTrack, SlamTracksAndWritesTheMap) {
+  const fs::path out = *dir_ / "slam.txt";
+  const fs::path map = *dir_ / "map.ply";
+  const std::vector<std::string> args = {
+      "slam",       (*dir_ / "seq").string(), "--out",      out.string(), "--map",
+      map.string(), "--intrinsics",           Intrinsics(), "--evaluate"};
+  const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);
+  ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
+  EXPECT_NE(r.out.find("tracked and fused 24 frames (0 failed"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("24/24 frames, map"), std::string::npos) << r.err;  // progress
+  const Trajectory estimate = ReadTumTrajectory(out.string());
+  const Trajectory truth = ReadTumTrajectory((*dir_ / "seq" / "groundtruth.txt").string());
+  const TrajectoryErrors e = EvaluateTrajectory(estimate, truth, 0.02, 1);
+  EXPECT_EQ(e.pairs, kFrames);
+  EXPECT_LT(e.ate_rmse_m, 2e-3);
+  const PlyCloud cloud = ReadPly(map.string());
+  EXPECT_GT(cloud.points.size(), 1000u);
+  EXPECT_EQ(cloud.normals.size(), cloud.points.size());
+  // Again without --force: refused, exit 2.
+  const cli_test::RunResult again = cli_test::RunRigfit(args, *dir_);
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_NE(again.err.find("--force"), std::string::npos) << again.err;
+}
+
+TEST_F(CliTrack, SlamRefusesBadInput) {
+  const fs::path out = *dir_ / "slam_bad.txt";
+  const std::string seq = (*dir_ / "seq").string();
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"slam", (*dir_ / "missing").string(), "--out", out.string()}, "missing"},
+      {{"slam", seq, "--out", out.string(), "--intrinsics", "500,500"}, "--intrinsics"},
+      {{"slam", seq, "--out", out.string(), "--model-weight", "0.5"}, "--model-weight"},
+      {{"slam", seq, "--out", out.string(), "--dormant-frames", "-1"}, "--dormant-frames"},
+      {{"slam", seq, "--out", out.string(), "--fuse-angle", "0"}, "--fuse-angle"},
   };
   for (const auto& [args, expected] : cases) {
     const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);

@@ -346,46 +346,6 @@ TEST_F(RgbdTracking, AFlatWallHoldsWhatItCannotFix) {
   EXPECT_NEAR(result.T_target_source.translation().y(), 0.0, 1e-6);
 }
 
-// An in-memory sequence of rendered frames.
-class RenderedSequence final : public RgbdSequence {
- public:
-  RenderedSequence(const Scene& scene, std::vector<Pose> poses, int width, int height, double noise)
-      : scene_(scene), poses_(std::move(poses)), width_(width), height_(height), noise_(noise) {}
-  int size() const override { return static_cast<int>(poses_.size()); }
-  RgbdFrame Frame(int index) const override {
-    RgbdFrame frame = Render(scene_, poses_[index], width_, height_, noise_, index);
-    frame.index = index;
-    frame.timestamp = index / 30.0;
-    return frame;
-  }
-  Trajectory GroundTruth() const override {
-    Trajectory gt;
-    for (int i = 0; i < size(); ++i) {
-      gt.timestamps.push_back(i / 30.0);
-      gt.poses.push_back(poses_[i]);
-    }
-    return gt;
-  }
-  std::string Describe() const override { return "rendered"; }
-
- private:
-  const Scene& scene_;
-  std::vector<Pose> poses_;
-  int width_, height_;
-  double noise_;
-};
-
-std::vector<Pose> Walk(int frames) {
-  std::vector<Pose> poses;
-  for (int i = 0; i < frames; ++i) {
-    const double s = i / 30.0;  // seconds
-    const Vec3 eye(0.6 * std::sin(0.8 * s), 1.4 + 0.05 * std::sin(2.0 * s), 1.5 - 0.2 * s);
-    const Vec3 target(0.3 * std::sin(0.5 * s), 0.6, -1.8);
-    poses.push_back(LookAt(eye, target));
-  }
-  return poses;
-}
-
 TEST(RgbdOdometry, NoiseFreeWalkDriftsLessThanAMillimetrePerMetre) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(30), 320, 240, 0.0);

@@ -1,0 +1,198 @@
+// `rigfit slam SEQUENCE --out traj.txt [--map map.ply]`: frame-to-model dense RGB-D SLAM
+// (rgbd/slam.h): each frame tracked against the surfel map rendered at its predicted pose,
+// then fused into it; the trajectory in the TUM format, the map as a PLY with normals (and
+// colours when the sequence has registered colour).
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "cli/commands.h"
+#include "cli/map_ply.h"
+#include "cli/rgbd_common.h"
+#include "cli/stderr_log.h"
+#include "core/errors.h"
+#include "io/atomic_file.h"
+#include "io/rgbd_sequence.h"
+#include "io/trajectory_tum.h"
+#include "rgbd/slam.h"
+
+namespace rigfit::cli {
+namespace {
+
+constexpr int kMaxThreads = 64;
+
+struct SlamArgs {
+  std::string sequence_path;
+  std::string out_path;
+  std::string map_path;
+  bool force = false;
+  SequenceOptions sequence;
+  SlamOptions slam;
+  std::string prior = "constant-velocity";
+  std::vector<int> iterations = {10, 5, 4};
+  std::vector<double> intrinsics;  ///< fx, fy, cx, cy
+  bool evaluate = false;
+  bool quiet = false;
+};
+
+int RunSlamCommand(SlamArgs a) {
+  if (!a.map_path.empty()) {
+    CheckOutputFile(a.map_path, {a.sequence_path, a.out_path}, a.force, "slam: --map");
+  }
+  if (a.prior == "constant-velocity") {
+    a.slam.prior = MotionPrior::kConstantVelocity;
+  } else if (a.prior == "identity") {
+    a.slam.prior = MotionPrior::kIdentity;
+  } else {
+    throw InputError("slam: --prior must be constant-velocity or identity, got " + a.prior);
+  }
+  if (a.iterations.empty() || a.iterations.size() > 6) {
+    throw InputError("slam: --iterations takes 1 to 6 counts, finest level first");
+  }
+  for (const int n : a.iterations) {
+    if (n < 0 || n > 100) throw InputError("slam: --iterations: each count in [0, 100]");
+  }
+  a.slam.icp.iterations = a.iterations;
+  a.slam.frame.levels = static_cast<int>(a.iterations.size());
+  const FrameOptions& f = a.slam.frame;
+  if (!(f.min_depth_m >= 0.0 && f.max_depth_m > f.min_depth_m)) {
+    throw InputError("slam: need 0 <= --min-depth < --max-depth");
+  }
+  const AssociationOptions& association = a.slam.icp.association;
+  if (!(association.max_distance_m > 0.0) ||
+      !(association.max_normal_angle_deg > 0.0 && association.max_normal_angle_deg <= 180.0)) {
+    throw InputError("slam: --max-distance must be > 0 and --max-angle in (0, 180]");
+  }
+  const FusionOptions& fusion = a.slam.fusion;
+  if (!(fusion.max_distance_m > 0.0) ||
+      !(fusion.max_normal_angle_deg > 0.0 && fusion.max_normal_angle_deg <= 180.0)) {
+    throw InputError("slam: --fuse-distance must be > 0 and --fuse-angle in (0, 180]");
+  }
+  if (fusion.dormant_frames < 0) throw InputError("slam: --dormant-frames must be >= 0 (0: off)");
+  if (!(a.slam.render.min_weight >= 1.0f)) throw InputError("slam: --model-weight must be >= 1");
+  if (a.slam.threads < 1 || a.slam.threads > kMaxThreads) {
+    throw InputError("slam: --threads must be in [1, " + std::to_string(kMaxThreads) + "]");
+  }
+  if (a.slam.max_frames < 0) throw InputError("slam: --max-frames must be >= 0 (0: all)");
+  ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
+
+  const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+  std::vector<std::string> warnings;
+  const std::unique_ptr<RgbdSequence> sequence =
+      OpenRgbdSequence(a.sequence_path, a.sequence, &warnings);
+  for (const std::string& warning : warnings) log.Warning(warning);
+  log.Info(sequence->Describe());
+  int last_percent = -1;
+  const auto progress = [&](int done, int total, const SlamFrame& frame) {
+    const int percent = 100 * done / total;
+    if (a.quiet || (percent / 10 == last_percent / 10 && done != total)) return;
+    last_percent = percent;
+    std::fprintf(stderr, "slam: %d/%d frames, map %d points\n", done, total, frame.map_size);
+  };
+  const SlamResult result = RunSlam(*sequence, a.slam, log, progress);
+  WriteTumTrajectory(a.out_path, result.trajectory);
+  if (!a.map_path.empty()) WritePly(a.map_path, SurfelMapToPly(result.map));
+
+  const int frames = static_cast<int>(result.frames.size());
+  int largest = 0;
+  double matched = 0.0;
+  for (const SlamFrame& frame : result.frames) {
+    largest = std::max(largest, frame.map_size);
+    matched += frame.track.matched_ratio;
+  }
+  const double work_s = result.preprocess_s + result.render_s + result.track_s + result.fuse_s;
+  std::printf("tracked and fused %d frames (%d failed, %d restarts) -> %s\n", frames,
+              result.failures, result.restarts, a.out_path.c_str());
+  std::printf("map %d points (largest %d, compression %.2f%s)%s%s\n", result.map.size(), largest,
+              result.map.CompressionRatio(), result.map.has_color() ? ", with colours" : "",
+              a.map_path.empty() ? "" : " -> ", a.map_path.c_str());
+  std::printf(
+      "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, rendering %.2f, "
+      "tracking %.2f, fusion %.2f (%.1f frames/s without loading)\n",
+      frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s,
+      result.render_s, result.track_s, result.fuse_s, work_s > 0.0 ? frames / work_s : 0.0);
+  if (a.evaluate) PrintTrajectoryEvaluation(*sequence, result.trajectory, log);
+  return kExitOk;
+}
+
+}  // namespace
+
+Command AddSlamCommand(CLI::App& app) {
+  auto args = std::make_shared<SlamArgs>();
+  SlamArgs& a = *args;
+  CLI::App* sub = app.add_subcommand(
+      "slam",
+      "Frame-to-model dense RGB-D SLAM: each depth frame of SEQUENCE (a TUM RGB-D or ICL-NUIM "
+      "folder, a 7-Scenes folder, or a rig capture's burst) is tracked by projective "
+      "point-to-plane ICP against the surfel map rendered at its predicted pose, then fused "
+      "into the map (docs/rgbd.md); the trajectory is written in the TUM format, the map as a "
+      "PLY with normals (and colours). Exit codes: 0 done (failed frames are warned and "
+      "counted); 2 bad input or usage (nothing written).");
+  sub->add_option("SEQUENCE", a.sequence_path, "Sequence folder or capture file")->required();
+  sub->add_option("--out", a.out_path, "Trajectory to write (TUM format)")->required();
+  sub->add_option("--map", a.map_path,
+                  "Surfel map to write (PLY with normals and colours); its directory must "
+                  "exist, and it must not be an input file");
+  sub->add_flag("--force", a.force, "Replace --map if it exists");
+  sub->add_option("--camera", a.sequence.serial,
+                  "Capture file: the camera's serial (default: the first)");
+  sub->add_option("--tum-camera", a.sequence.tum_camera,
+                  "TUM folder: fr1, fr2, fr3 or default (default: from the folder or depth.txt)");
+  sub->add_option("--intrinsics", a.intrinsics,
+                  "fx,fy,cx,cy of the depth image instead of the format's")
+      ->delimiter(',');
+  sub->add_option("--first", a.slam.first_frame, "First frame index")->capture_default_str();
+  sub->add_option("--max-frames", a.slam.max_frames, "Frames to track (0 = all)")
+      ->capture_default_str();
+  sub->add_option("--stride", a.slam.stride, "Track every N-th frame")->capture_default_str();
+  sub->add_option("--iterations", a.iterations,
+                  "Gauss-Newton iterations per pyramid level, finest first (the count of "
+                  "numbers is the number of levels)")
+      ->delimiter(',')
+      ->capture_default_str();
+  sub->add_option("--prior", a.prior, "Start of each frame: constant-velocity or identity")
+      ->capture_default_str();
+  sub->add_option("--min-depth", a.slam.frame.min_depth_m, "Depth used from, metres")
+      ->capture_default_str();
+  sub->add_option("--max-depth", a.slam.frame.max_depth_m, "Depth used up to, metres")
+      ->capture_default_str();
+  sub->add_option("--max-distance", a.slam.icp.association.max_distance_m,
+                  "Tracking: largest point distance, metres")
+      ->capture_default_str();
+  sub->add_option("--max-angle", a.slam.icp.association.max_normal_angle_deg,
+                  "Tracking: largest normal angle, degrees")
+      ->capture_default_str();
+  sub->add_option("--fuse-distance", a.slam.fusion.max_distance_m,
+                  "Fusion: merge a pixel into a map point only within this distance (metres)")
+      ->capture_default_str();
+  sub->add_option("--fuse-angle", a.slam.fusion.max_normal_angle_deg,
+                  "Fusion: ... and when their normals are within this angle (degrees)")
+      ->capture_default_str();
+  sub->add_option("--dormant-frames", a.slam.fusion.dormant_frames,
+                  "Remove points unseen for this many frames whose weight is below "
+                  "--min-stable-weight (0 = keep every point)")
+      ->capture_default_str();
+  sub->add_option("--min-stable-weight", a.slam.fusion.min_stable_weight,
+                  "Weight from which a point is never removed as dormant")
+      ->capture_default_str();
+  sub->add_option("--model-weight", a.slam.render.min_weight,
+                  "Render only map points of at least this weight as the model (1 = all)")
+      ->capture_default_str();
+  sub->add_option("--model-recent", a.slam.render.recent_frames,
+                  "... and also those seen in the last N frames")
+      ->capture_default_str();
+  sub->add_flag(
+      "--splat,!--no-splat", a.slam.render.splat,
+      "Render each map point over its surfel disc, or on its nearest pixel only (default)");
+  sub->add_flag("--color,!--no-color", a.slam.color,
+                "Fuse the sequence's registered colour when it has one (default)");
+  sub->add_option("--threads", a.slam.threads, "Threads")->capture_default_str();
+  sub->add_flag("--evaluate", a.evaluate,
+                "Print ATE and RPE against the sequence's own ground truth");
+  sub->add_flag("--quiet", a.quiet, "No progress on stderr (warnings still)");
+  return {sub, [args] { return RunSlamCommand(*args); }};
+}
+
+}  // namespace rigfit::cli

@@ -1,0 +1,97 @@
+// Frame-to-model dense RGB-D SLAM (Keller et al., 3DV 2013; the reference design
+// ../shared/seeds/dense_slam_point_fusion.txt, section 4; docs/rgbd.md, "Frame-to-model
+// SLAM"): the surfel map (rgbd/surfel_map.h) is rendered at the predicted pose, the incoming
+// frame is tracked against that rendering by projective ICP (rgbd/projective_icp.h; source =
+// the frame, target = the model), and then fused into the map at the tracked pose.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "core/pose.h"
+#include "core/rgbd.h"
+#include "core/trajectory.h"
+#include "registration/log.h"
+#include "rgbd/frame.h"
+#include "rgbd/odometry.h"
+#include "rgbd/projective_icp.h"
+#include "rgbd/surfel_map.h"
+
+namespace rigfit {
+
+struct RenderOptions {
+  /// Confidence filter: only map points of at least this weight are rendered (a point of
+  /// weight w was merged w - 1 times), except those seen in the last recent_frames frames
+  /// (a surface just discovered has to be tracked against before it can be stable).
+  /// 1 = every point.
+  float min_weight = 1.0f;
+  int recent_frames = 0;
+  /// Each point covers its surfel disc (radius()), not only the pixel it projects to (a
+  /// covered pixel gets the ray's intersection with the surfel's plane). Off by default:
+  /// measured worse (a simulated Kinect-noise sequence: 31 mm ATE against 0.4 mm with each
+  /// point on its nearest pixel only; docs/rgbd.md).
+  bool splat = false;
+  /// The largest half-width of a splat, pixels.
+  int max_splat_px = 2;
+};
+
+/// The map seen from T_world_camera by a camera of the given size and intrinsics: a z-buffer
+/// (index map) where each rendered map point p, moved into the camera (p_c = R^T (p - t)) and
+/// projected, fills its nearest pixel (and with options.splat the pixels of its disc) unless
+/// a point closer along the ray is already there. The level's vertices and normals are the
+/// points' (camera frame), depth_m their z; uncovered pixels are invalid (NaN), as in a
+/// frame. `frame_index`: the current frame, the clock of RenderOptions::recent_frames.
+FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
+                       const PinholeIntrinsics& intrinsics, const RenderOptions& options,
+                       int frame_index = 0);
+
+struct SlamOptions {
+  FrameOptions frame;
+  IcpOptions icp;
+  FusionOptions fusion;
+  RenderOptions render;
+  MotionPrior prior = MotionPrior::kConstantVelocity;
+  /// After this many failed frames in a row the map is dropped and restarted from the
+  /// current frame at its predicted pose (counted in SlamResult::restarts).
+  int restart_after_failures = 5;
+  /// Fuse the sequence's registered colour when its first frame has one.
+  bool color = true;
+  /// Frames [first_frame, first_frame + max_frames) with the given stride; max_frames 0 = all.
+  int first_frame = 0;
+  int max_frames = 0;
+  int stride = 1;
+  int threads = 2;
+};
+
+/// One frame of the run.
+struct SlamFrame {
+  int index = 0;         ///< frame index in the sequence
+  TrackResult track;     ///< against the rendered model (T_target_source: predicted <- frame)
+  int model_pixels = 0;  ///< valid pixels of the rendered model's level 0
+  FusionStats fusion;    ///< what FuseFrame did (zeros for a failed frame: not fused)
+  int map_size = 0;      ///< map points after this frame
+};
+
+struct SlamResult {
+  Trajectory trajectory;  ///< T_world_camera of every frame
+  std::vector<SlamFrame> frames;
+  SurfelMap map;     ///< the final map (since the last restart)
+  int failures = 0;  ///< frames whose tracking failed (their pose is the prediction)
+  int restarts = 0;
+  double load_s = 0.0;
+  double preprocess_s = 0.0;
+  double render_s = 0.0;  ///< rendering the model and its pyramid
+  double track_s = 0.0;
+  double fuse_s = 0.0;
+};
+
+/// Runs frame-to-model SLAM over the sequence. The first frame's pose is its ground truth
+/// when it has one (the identity otherwise) and it is fused as it is. Every next frame is
+/// tracked against the map rendered at the motion prior's prediction, then fused at the
+/// tracked pose. A frame whose tracking fails keeps the prediction, is counted, warned about
+/// and not fused; after restart_after_failures failures in a row the map restarts from the
+/// current frame. `progress(done, total, frame)` is called after every frame.
+SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, const Log& log = {},
+                   const std::function<void(int, int, const SlamFrame&)>& progress = {});
+
+}  // namespace rigfit

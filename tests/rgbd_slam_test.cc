@@ -1,0 +1,149 @@
+// Frame-to-model SLAM (rgbd/slam.h): the model rendering on hand-made maps, the coarser
+// levels built from a given level 0, and SLAM on rendered sequences of the test room.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/errors.h"
+#include "core/pose.h"
+#include "core/trajectory.h"
+#include "rgbd/frame.h"
+#include "rgbd/slam.h"
+#include "rgbd/surfel_map.h"
+#include "rgbd_test_util.h"
+#include "sim/scene.h"
+
+namespace rigfit {
+namespace {
+
+using namespace rgbd_test;  // NOLINT: TestRoom, Render, RenderedSequence, Walk, SinglePixelLevel
+
+RenderOptions PixelOnly() {
+  RenderOptions options;
+  options.splat = false;
+  return options;
+}
+
+TEST(RgbdRender, APointFillsThePixelItProjectsToAndTheNearestIsKept) {
+  // Two points on the ray of the centre pixel, at 2 m and 1 m (too far apart to merge).
+  SurfelMap map;
+  map.FuseFrame(SinglePixelLevel(2.0f), Pose::Identity(), 0, FusionOptions{});
+  map.FuseFrame(SinglePixelLevel(1.0f), Pose::Identity(), 1, FusionOptions{});
+  ASSERT_EQ(map.size(), 2);
+  const PinholeIntrinsics K{10.0, 10.0, 2.0, 2.0};
+  const FrameLevel same = RenderModel(map, Pose::Identity(), 5, 5, K, PixelOnly());
+  ASSERT_EQ(same.valid_pixels, std::vector<int>{12});
+  EXPECT_FLOAT_EQ(same.depth_m[12], 1.0f);  // the nearer one
+  EXPECT_LT((same.vertices[12] - Vec3f(0, 0, 1)).norm(), 1e-6f);
+  EXPECT_LT((same.normals[12] - Vec3f(0, 0, -1)).norm(), 1e-6f);
+
+  // The camera 0.2 m to the left: the point at 2 m lands at u = 10 * 0.2 / 2 + 2 = 3, the one
+  // at 1 m at u = 10 * 0.2 / 1 + 2 = 4, both in the middle row, in the camera's frame.
+  Pose left = Pose::Identity();
+  left.translation() = Vec3(-0.2, 0.0, 0.0);
+  const FrameLevel moved = RenderModel(map, left, 5, 5, K, PixelOnly());
+  ASSERT_EQ(moved.valid_pixels, (std::vector<int>{13, 14}));
+  EXPECT_LT((moved.vertices[13] - Vec3f(0.2f, 0, 2)).norm(), 1e-6f);
+  EXPECT_LT((moved.vertices[14] - Vec3f(0.2f, 0, 1)).norm(), 1e-6f);
+
+  // Seen from behind (the camera turned round, 3 m ahead): nothing.
+  Pose behind = Pose::Identity();
+  behind.linear() = ExpSO3(Vec3(0.0, M_PI, 0.0));
+  behind.translation() = Vec3(0.0, 0.0, 3.0);
+  EXPECT_TRUE(RenderModel(map, behind, 5, 5, K, PixelOnly()).valid_pixels.empty());
+}
+
+TEST(RgbdRender, ConfidenceFilterDropsUnstableOldPointsOnly) {
+  SurfelMap map;
+  map.FuseFrame(SinglePixelLevel(2.0f), Pose::Identity(), 0, FusionOptions{});  // weight 1
+  const PinholeIntrinsics K{10.0, 10.0, 2.0, 2.0};
+  RenderOptions options = PixelOnly();
+  options.min_weight = 2.0f;
+  options.recent_frames = 3;
+  EXPECT_EQ(RenderModel(map, Pose::Identity(), 5, 5, K, options, 3).valid_pixels.size(), 1u);
+  EXPECT_TRUE(RenderModel(map, Pose::Identity(), 5, 5, K, options, 4).valid_pixels.empty());
+  map.FuseFrame(SinglePixelLevel(2.0f), Pose::Identity(), 1, FusionOptions{});  // weight 2
+  EXPECT_EQ(RenderModel(map, Pose::Identity(), 5, 5, K, options, 100).valid_pixels.size(), 1u);
+}
+
+TEST(RgbdRender, ARenderedMapLiesOnTheSurfacesAndSplattingFillsItsHoles) {
+  const Scene scene = TestRoom();
+  const std::vector<Pose> poses = Walk(10);
+  SurfelMap map;
+  for (int i = 0; i < 10; i += 3) {
+    map.FuseFrame(BuildFramePyramid(Render(scene, poses[i], 160, 120), FrameOptions{}).levels[0],
+                  poses[i], i, FusionOptions{});
+  }
+  const RgbdFrame view = Render(scene, poses[5], 160, 120);
+  const FramePyramid frame = BuildFramePyramid(view, FrameOptions{});
+  const FrameLevel pixels = RenderModel(map, poses[5], 160, 120, view.intrinsics, PixelOnly());
+  RenderOptions splat;
+  splat.splat = true;
+  const FrameLevel splats = RenderModel(map, poses[5], 160, 120, view.intrinsics, splat);
+  EXPECT_GT(splats.valid_pixels.size(), pixels.valid_pixels.size());
+  EXPECT_GT(splats.valid_pixels.size(), 0.9 * frame.levels[0].valid_pixels.size());
+  // Where the frame has a depth the rendered one is within a millimetre of it (creases and
+  // silhouettes aside).
+  int close = 0;
+  int compared = 0;
+  for (const int j : splats.valid_pixels) {
+    if (std::isnan(view.depth_m[j])) continue;
+    ++compared;
+    close += std::abs(splats.depth_m[j] - view.depth_m[j]) < 1e-3f ? 1 : 0;
+  }
+  EXPECT_GT(close, 0.8 * compared);
+  // The model's pyramid: coarser levels from the rendered level 0.
+  FramePyramid model;
+  model.levels.push_back(splats);
+  BuildCoarserLevels(&model, 3, FrameOptions{}.max_depth_jump_ratio);
+  ASSERT_EQ(model.levels.size(), 3u);
+  EXPECT_EQ(model.levels[2].width, 40);
+  EXPECT_DOUBLE_EQ(model.levels[2].intrinsics.fx, frame.levels[2].intrinsics.fx);
+  EXPECT_GT(model.levels[2].valid_pixels.size(), 0.9 * frame.levels[2].valid_pixels.size());
+}
+
+TEST(RgbdSlam, NoiseFreeWalkStaysWellUnderAMillimetre) {
+  const Scene scene = TestRoom();
+  const RenderedSequence sequence(scene, Walk(30), 320, 240, 0.0);
+  SlamOptions options;
+  options.icp.converged_rotation_rad = 1e-7;
+  options.icp.converged_translation_m = 1e-7;
+  int calls = 0;
+  const SlamResult result =
+      RunSlam(sequence, options, {}, [&](int done, int total, const SlamFrame& frame) {
+        ++calls;
+        EXPECT_EQ(done, calls);
+        EXPECT_EQ(total, 30);
+        EXPECT_EQ(frame.index, done - 1);
+      });
+  EXPECT_EQ(calls, 30);
+  ASSERT_EQ(result.trajectory.poses.size(), 30u);
+  EXPECT_EQ(result.failures, 0);
+  EXPECT_EQ(result.restarts, 0);
+  const TrajectoryErrors e = EvaluateTrajectory(result.trajectory, sequence.GroundTruth(), 0.02, 1);
+  EXPECT_EQ(e.pairs, 30);
+  EXPECT_LT(e.ate_rmse_m, 3e-4);
+  // The map grows with what is newly seen, and far slower than the input.
+  EXPECT_EQ(result.frames.back().map_size, result.map.size());
+  EXPECT_GT(result.map.CompressionRatio(), 5.0);
+  for (const SlamFrame& frame : result.frames) {
+    if (frame.index > 0) {
+      EXPECT_GT(frame.model_pixels, 0);
+    }
+  }
+}
+
+TEST(RgbdSlam, RefusesBadOptions) {
+  const Scene scene = TestRoom();
+  const RenderedSequence sequence(scene, Walk(2), 80, 60, 0.0);
+  SlamOptions bad;
+  bad.stride = 0;
+  EXPECT_THROW(RunSlam(sequence, bad), InputError);
+  bad = SlamOptions{};
+  bad.first_frame = 5;
+  EXPECT_THROW(RunSlam(sequence, bad), InputError);
+}
+
+}  // namespace
+}  // namespace rigfit
