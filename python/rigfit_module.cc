@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "core/evaluate.h"
 #include "core/types.h"
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
@@ -314,6 +315,77 @@ RefineOptions OptionsOf(const std::string& config_yaml, const std::string& confi
   return options;
 }
 
+/// The per-camera reports of a run (rig/refine.h CameraReport), covariance as numpy.
+py::list CameraReports(const RefineResult& result) {
+  py::list out;
+  for (const CameraReport& c : result.cameras) {
+    py::dict d;
+    d["serial"] = c.serial;
+    d["reference"] = c.reference;
+    d["leveled"] = c.ground.accepted;
+    d["leveling_message"] = c.ground.message;
+    d["leveling_rotation_deg"] = c.ground.correction_rotation_deg;
+    d["leveling_translation_m"] = c.ground.correction_translation_m;
+    d["connected"] = c.connected;
+    d["accepted"] = c.accepted;
+    d["message"] = c.message;
+    d["delta_rotation_deg"] = c.delta_rotation_deg;
+    d["delta_translation_m"] = c.delta_translation_m;
+    d["own_rotation_deg"] = c.own_rotation_deg;
+    d["own_translation_m"] = c.own_translation_m;
+    if (c.has_covariance) {
+      py::array_t<double> cov({6, 6});
+      auto m = cov.mutable_unchecked<2>();
+      for (int r = 0; r < 6; ++r) {
+        for (int col = 0; col < 6; ++col) m(r, col) = c.covariance(r, col);
+      }
+      d["covariance"] = cov;
+      const PoseSigma sigma = SigmaOf(c.covariance);
+      py::dict s;
+      s["yaw_deg"] = sigma.yaw_deg;
+      s["tilt_deg"] = sigma.tilt_deg;
+      s["x_mm"] = sigma.x_mm;
+      s["y_mm"] = sigma.y_mm;
+      s["z_mm"] = sigma.z_mm;
+      d["sigma"] = s;
+    } else {
+      d["covariance"] = py::none();
+      d["sigma"] = py::none();
+    }
+    py::list weak;
+    for (const WeakDirection& w : c.weak_directions) {
+      py::dict wd;
+      wd["name"] = w.name;
+      wd["strength"] = w.strength;
+      wd["reason"] = w.reason;
+      weak.append(wd);
+    }
+    d["weak_directions"] = weak;
+    out.append(d);
+  }
+  return out;
+}
+
+/// The per-pair reports of a run (rig/refine.h PairReport).
+py::list PairReports(const RefineResult& result) {
+  py::list out;
+  for (const PairReport& p : result.pairs) {
+    py::dict d;
+    d["serial_a"] = p.serial_a;
+    d["serial_b"] = p.serial_b;
+    d["overlap_area_m2"] = p.overlap_area_m2;
+    d["fitness"] = p.fitness;
+    d["rmse_before_m"] = p.rmse_before_m;
+    d["rmse_after_m"] = p.rmse_after_m;
+    d["correspondences"] = p.correspondences;
+    d["iterations"] = p.iterations;
+    d["accepted"] = p.accepted;
+    d["message"] = p.message;
+    out.append(d);
+  }
+  return out;
+}
+
 py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
                    const std::string& config_yaml, const std::string& config_path,
                    const std::string& mode, const std::string& method, const std::string& reference,
@@ -351,6 +423,8 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
   out["success"] = result.success;
   out["message"] = result.message;
   out["warnings"] = warnings;
+  out["cameras"] = CameraReports(result);
+  out["pairs"] = PairReports(result);
   out["meta_json"] = meta.dump();
   return out;
 }

@@ -19,7 +19,7 @@ from . import _rigfit
 if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
-__all__ = ["RefineResult", "refine", "load_capture", "load_extrinsics", "save_extrinsics"]
+__all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "load_capture", "load_extrinsics", "save_extrinsics"]
 
 logger = logging.getLogger("rigfit")
 
@@ -27,6 +27,51 @@ logger = logging.getLogger("rigfit")
 Cameras = Mapping[str, Mapping[str, Any]]
 #: serial -> (4, 4) T_world_camera
 Extrinsics = Mapping[str, "np.ndarray"]
+
+
+@dataclass
+class CameraReport:
+    """One camera of a refine run (``_meta.icp_refined.cameras.<serial>`` as objects).
+
+    ``covariance`` is the 6x6 covariance of the refined pose in the PoseManifold tangent (world
+    rotation vector, world translation; gauge fixed by the reference), joint mode only, else
+    None; ``sigma`` its 1-sigma read-off (``yaw_deg``, ``tilt_deg``, ``x_mm``, ``y_mm``,
+    ``z_mm``). ``delta_*`` is the registration change (refined against leveled), ``own_*`` the
+    change against the rig that the safety bounds apply to.
+    """
+
+    serial: str
+    reference: bool
+    leveled: bool
+    leveling_message: str
+    leveling_rotation_deg: float
+    leveling_translation_m: float
+    connected: bool
+    accepted: bool
+    message: str
+    delta_rotation_deg: float
+    delta_translation_m: float
+    own_rotation_deg: float
+    own_translation_m: float
+    covariance: Optional["np.ndarray"]
+    sigma: Optional[Dict[str, float]]
+    weak_directions: List[Dict[str, Any]]
+
+
+@dataclass
+class PairReport:
+    """One candidate pair of a refine run: overlap, fit before and after, accepted or why not."""
+
+    serial_a: str
+    serial_b: str
+    overlap_area_m2: float
+    fitness: float
+    rmse_before_m: float
+    rmse_after_m: float
+    correspondences: int
+    iterations: int
+    accepted: bool
+    message: str
 
 
 @dataclass
@@ -39,6 +84,8 @@ class RefineResult:
         success: whether the refinement was applied.
         message: why not, when ``success`` is False.
         warnings: every warning of the run (also logged to ``"rigfit"``).
+        cameras: per-camera reports (in serial order), covariance as numpy.
+        pairs: per-pair reports.
         meta: the ``_meta`` object ``rigfit refine --no-timings`` writes:
             ``{"ground_refined": ..., "icp_refined": ...}``.
     """
@@ -47,6 +94,8 @@ class RefineResult:
     success: bool
     message: str
     warnings: List[str] = field(default_factory=list)
+    cameras: List[CameraReport] = field(default_factory=list)
+    pairs: List[PairReport] = field(default_factory=list)
     meta: Dict[str, Any] = field(default_factory=dict)
 
 
@@ -102,6 +151,8 @@ def refine(
         success=bool(raw["success"]),
         message=raw["message"],
         warnings=list(raw["warnings"]),
+        cameras=[CameraReport(**c) for c in raw["cameras"]],
+        pairs=[PairReport(**p) for p in raw["pairs"]],
         meta=json.loads(raw["meta_json"]),
     )
 

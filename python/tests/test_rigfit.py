@@ -231,3 +231,24 @@ def test_warnings_reach_logging(rig, caplog):
     with caplog.at_level(logging.INFO, logger="rigfit"):
         rigfit.refine(cameras, initial)
     assert any(r.name == "rigfit" for r in caplog.records)
+
+
+def test_camera_and_pair_reports_match_meta(rig):
+    d, _ = rig
+    result = rigfit.refine(rigfit.load_capture(d / "capture.h5"),
+                           rigfit.load_extrinsics(d / "init.json"))
+    meta = result.meta["icp_refined"]
+    assert [c.serial for c in result.cameras] == sorted(meta["cameras"])
+    for c in result.cameras:
+        m = meta["cameras"][c.serial]
+        assert (c.accepted, c.reference, c.delta_rotation_deg) == (
+            m["accepted"], m["reference"], m["delta_rotation_deg"])
+        if c.reference:
+            continue
+        # Joint mode: the 6x6 covariance, symmetric, and its 1-sigma as in _meta.
+        assert c.covariance.shape == (6, 6) and np.allclose(c.covariance, c.covariance.T)
+        assert c.sigma == m["sigma"]
+    assert len(result.pairs) == len(meta["pairs"])
+    for p, m in zip(result.pairs, meta["pairs"]):
+        assert (p.serial_a, p.serial_b, p.fitness, p.accepted) == (
+            m["serial_a"], m["serial_b"], m["fitness"], m["accepted"])
