@@ -19,7 +19,8 @@ from . import _rigfit
 if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
-__all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "load_capture", "load_extrinsics", "save_extrinsics"]
+__all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "load_capture", "save_capture", "load_extrinsics",
+           "save_extrinsics", "evaluate"]
 
 logger = logging.getLogger("rigfit")
 
@@ -165,6 +166,29 @@ def load_capture(path: Union[str, os.PathLike]) -> Dict[str, Dict[str, "np.ndarr
     ``refine`` takes. Raises ValueError naming the file and dataset on a bad file.
     """
     return dict(_rigfit.load_capture(os.fspath(path), logger))
+
+
+def save_capture(path: Union[str, os.PathLike], cameras: Cameras, *,
+                 depth_as_uint16: bool = False, depth_scale: float = 0.001) -> None:
+    """Writes a rig capture (HDF5, docs/formats.md) atomically, as ``rigfit simulate`` does.
+
+    ``cameras`` as ``refine`` takes them (``load_capture``'s layout), checked the same way.
+    ``depth_as_uint16`` stores depth as uint16 with ``depth_scale`` metres per unit instead of
+    float32 metres. Raises ValueError naming the file and camera on what cannot be written.
+    """
+    _rigfit.save_capture(os.fspath(path), dict(cameras), bool(depth_as_uint16),
+                         float(depth_scale))
+
+
+def evaluate(estimated: Extrinsics, ground_truth: Extrinsics) -> Dict[str, Any]:
+    """Gauge-free errors of estimated extrinsics against the truth, as ``rigfit evaluate --json``.
+
+    Returns ``{"pairs": [{"serial_i", "serial_j", "rotation_deg", "translation_mm"}],
+    "cameras": [{"serial", "tilt_deg"}], "summary": {"rotation_deg": {"rms", "max"},
+    "translation_mm": ..., "tilt_deg": ...}, "ignored_cameras": [...]}`` over the cameras of
+    ``ground_truth``, every one of which must be in ``estimated`` (else ValueError).
+    """
+    return _rigfit.evaluate(dict(estimated), dict(ground_truth))
 
 
 def load_extrinsics(path: Union[str, os.PathLike]) -> Dict[str, "np.ndarray"]:

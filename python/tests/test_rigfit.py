@@ -252,3 +252,40 @@ def test_camera_and_pair_reports_match_meta(rig):
     for p, m in zip(result.pairs, meta["pairs"]):
         assert (p.serial_a, p.serial_b, p.fitness, p.accepted) == (
             m["serial_a"], m["serial_b"], m["fitness"], m["accepted"])
+
+
+def test_evaluate_equals_cli(rig, tmp_path):
+    d, _ = rig
+    out = tmp_path / "errors.json"
+    subprocess.run([CLI, "evaluate", str(d / "init.json"), str(d / "gt.json"), "--json",
+                    str(out)], check=True, stdout=subprocess.DEVNULL)
+    with open(out) as f:
+        expected = json.load(f)
+    got = rigfit.evaluate(rigfit.load_extrinsics(d / "init.json"),
+                          rigfit.load_extrinsics(d / "gt.json"))
+    for key in ("pairs", "cameras", "summary", "ignored_cameras"):
+        assert got[key] == expected[key], key
+    with pytest.raises(ValueError, match="estimated has no pose for camera"):
+        rigfit.evaluate({}, rigfit.load_extrinsics(d / "gt.json"))
+
+
+def test_save_capture_round_trip(rig, tmp_path):
+    d, _ = rig
+    cameras = rigfit.load_capture(d / "capture.h5")
+    path = tmp_path / "copy.h5"
+    rigfit.save_capture(path, cameras)
+    back = rigfit.load_capture(path)
+    assert sorted(back) == sorted(cameras)
+    for serial, cam in cameras.items():
+        assert np.array_equal(back[serial]["depth"], cam["depth"], equal_nan=True)
+        assert np.array_equal(back[serial]["K"], cam["K"])
+    points = {"p": {"points": np.array([[0.0, 0.0, 1.0], [1.0, 2.0, 3.0]])}}
+    rigfit.save_capture(tmp_path / "points.h5", points)
+    assert np.allclose(rigfit.load_capture(tmp_path / "points.h5")["p"]["points"],
+                       points["p"]["points"])
+    mm = tmp_path / "mm.h5"
+    rigfit.save_capture(mm, cameras, depth_as_uint16=True, depth_scale=0.001)
+    for serial, cam in rigfit.load_capture(mm).items():
+        assert np.nanmax(np.abs(cam["depth"] - cameras[serial]["depth"])) <= 0.0005 + 1e-6
+    with pytest.raises(ValueError, match="no cameras"):
+        rigfit.save_capture(tmp_path / "none.h5", {})
