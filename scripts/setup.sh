@@ -11,6 +11,7 @@ packages=(
   libnanoflann-dev libflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libpng-dev libcairo2-dev fonts-dejavu-core clang-format ccache
+  pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module (docs/python.md)
   chromium  # headless, for the test that opens a report's index.html
 )
 

@@ -1,0 +1,291 @@
+"""Tests of the Python module (docs/python.md), run by ctest (python_tests).
+
+Skipped, not failed, when the module was not built (RIGFIT_PYTHON off) or numpy is missing.
+RIGFIT_CLI (set by ctest) is the rigfit executable of the same build.
+"""
+
+import json
+import logging
+import os
+import re
+import subprocess
+
+import pytest
+
+np = pytest.importorskip("numpy")
+rigfit = pytest.importorskip("rigfit")
+
+CLI = os.environ.get("RIGFIT_CLI", "")
+need_cli = pytest.mark.skipif(not CLI or not os.path.exists(CLI),
+                              reason="RIGFIT_CLI (the rigfit executable) not set")
+
+# A small rig keeps the suite short: 3 cameras of 160x90 (the simulator's room, seed 0).
+SIM_ARGS = ["--cameras", "3", "--width", "160", "--height", "90"]
+
+
+@pytest.fixture(scope="module")
+def rig(tmp_path_factory):
+    """A simulated rig and the CLI's refinement of it: (dir, cli output document)."""
+    if not CLI or not os.path.exists(CLI):
+        pytest.skip("RIGFIT_CLI (the rigfit executable) not set")
+    d = tmp_path_factory.mktemp("rig")
+    subprocess.run([CLI, "simulate", "--out", str(d), *SIM_ARGS], check=True,
+                   stdout=subprocess.DEVNULL)
+    out = d / "cli.json"
+    done = subprocess.run([CLI, "refine", "--capture", str(d / "capture.h5"), "--extrinsics",
+                           str(d / "init.json"), "--out", str(out), "--no-timings", "-q"],
+                          stdout=subprocess.DEVNULL)
+    assert done.returncode in (0, 3)
+    with open(out) as f:
+        return d, json.load(f)
+
+
+def cli_poses(doc):
+    return {k: np.array(v["T_world_camera"], dtype=np.float64)
+            for k, v in doc.items() if k != "_meta"}
+
+
+def test_refine_equals_cli(rig):
+    d, doc = rig
+    cameras = rigfit.load_capture(d / "capture.h5")
+    initial = rigfit.load_extrinsics(d / "init.json")
+    result = rigfit.refine(cameras, initial)
+    expected = cli_poses(doc)
+    assert sorted(result.extrinsics) == sorted(expected)
+    for serial, T in expected.items():
+        got = result.extrinsics[serial]
+        assert got.shape == (4, 4) and got.dtype == np.float64
+        # The CLI writes doubles that read back bit-exactly: identical to the last bit.
+        assert np.array_equal(got, T), serial
+    assert result.success == doc["_meta"]["icp_refined"]["success"]
+    # Exactly the CLI's _meta (the file's _meta also holds the input's, e.g. _meta.simulated).
+    for key, value in result.meta.items():
+        assert doc["_meta"][key] == value, key
+    assert set(result.meta) == {"ground_refined", "icp_refined"}
+
+
+def test_refine_from_memory_arrays(rig):
+    """Arrays made here, never read from a file: uint16 millimetres with a depth_scale give the
+    same poses as the same depths in float64 metres, and both move the start towards the truth."""
+    d, doc = rig
+    cameras = rigfit.load_capture(d / "capture.h5")
+    initial = rigfit.load_extrinsics(d / "init.json")
+    truth = rigfit.load_extrinsics(d / "gt.json")
+    as_uint16, as_metres = {}, {}
+    for serial, cam in cameras.items():
+        mm = np.round(np.nan_to_num(cam["depth"], nan=0.0) * 1000.0).astype(np.uint16)
+        K = [list(row) for row in cam["K"]]
+        as_uint16[serial] = {"depth": mm, "depth_scale": 0.001, "K": K}
+        as_metres[serial] = {"depth": mm * 0.001, "K": np.array(K)}
+    start = {k: v.copy() for k, v in initial.items()}
+    a = rigfit.refine(as_uint16, start, threads=1)
+    b = rigfit.refine(as_metres, start)
+    assert a.success, a.message
+    for serial in truth:
+        assert np.array_equal(a.extrinsics[serial], b.extrinsics[serial]), serial
+
+    def error(poses):
+        """Largest translation error of a camera relative to the first (gauge-free)."""
+        ref = sorted(truth)[0]
+        worst = 0.0
+        for serial in truth:
+            rel = np.linalg.inv(poses[ref]) @ poses[serial]
+            rel_true = np.linalg.inv(truth[ref]) @ truth[serial]
+            worst = max(worst, np.abs(rel[:3, 3] - rel_true[:3, 3]).max())
+        return worst
+
+    assert error(a.extrinsics) < 0.5 * error(initial)
+
+
+def test_points_cameras_in_memory():
+    """A rig of point clouds made here: a floor and two walls seen by two cameras."""
+    rng = np.random.default_rng(0)
+    n = 4000
+    floor = np.c_[rng.uniform(-2, 2, n), np.zeros(n), rng.uniform(-2, 2, n)]
+    wall = np.c_[rng.uniform(-2, 2, n), rng.uniform(0, 2, n), np.full(n, 2.0)]
+    side = np.c_[np.full(n, -2.0), rng.uniform(0, 2, n), rng.uniform(-2, 2, n)]
+    world = np.vstack([floor, wall, side])
+    poses = {}
+    cameras = {}
+    for serial, x in (("a", -0.3), ("b", 0.3)):
+        T = np.eye(4)
+        T[:3, 3] = [x, 1.0, 0.0]
+        poses[serial] = T
+        cameras[serial] = {"points": world - T[:3, 3]}
+    result = rigfit.refine(cameras, poses, {"region": {"band_height": 0.0}})
+    assert set(result.extrinsics) == {"a", "b"}
+    assert "icp_refined" in result.meta
+
+
+def test_dict_config_checked_as_yaml(rig):
+    d, _ = rig
+    cameras = rigfit.load_capture(d / "capture.h5")
+    initial = rigfit.load_extrinsics(d / "init.json")
+    with pytest.raises(ValueError, match=r"icp\.voxel_sizee|voxel_sizee.*unknown key|unknown key"):
+        rigfit.refine(cameras, initial, {"icp": {"voxel_sizee": 0.02}})
+    with pytest.raises(ValueError, match="unknown key"):
+        rigfit.refine(cameras, initial, {"gound": {}})
+    with pytest.raises(ValueError, match="voxel_size"):
+        rigfit.refine(cameras, initial, {"icp": {"voxel_size": -1.0}})
+    # The same config as a file gives the same options and the same result.
+    path = d / "config.yaml"
+    path.write_text("icp:\n  voxel_size: 0.03\n")
+    a = rigfit.refine(cameras, initial, {"icp": {"voxel_size": 0.03}})
+    b = rigfit.refine(cameras, initial, path)
+    assert a.meta == b.meta
+    assert a.meta["icp_refined"]["config"]["icp"]["voxel_size"] == 0.03
+
+
+def test_dict_config_message_matches_file(rig, tmp_path):
+    """A dict's unknown key gets the message a YAML file gets (with its own source name)."""
+    d, _ = rig
+    cameras = rigfit.load_capture(d / "capture.h5")
+    initial = rigfit.load_extrinsics(d / "init.json")
+    with pytest.raises(ValueError) as from_dict:
+        rigfit.refine(cameras, initial, {"icp": {"voxel_sise": 0.02}})
+    path = tmp_path / "c.yaml"
+    path.write_text("icp:\n  voxel_sise: 0.02\n")
+    with pytest.raises(ValueError) as from_file:
+        rigfit.refine(cameras, initial, path)
+    # "<source>:<line>: " differs (the dict's source is "config"); the rest is the same.
+    strip = lambda e: re.sub(r"\S+:\d+: ", "", str(e.value))
+    assert "config:" in str(from_dict.value)
+    assert "did you mean 'voxel_size'?" in str(from_dict.value)
+    assert strip(from_dict) == strip(from_file)
+
+
+def one_camera():
+    depth = np.full((20, 30), 2.0, dtype=np.float32)
+    K = np.array([[25.0, 0, 15], [0, 25.0, 10], [0, 0, 1]])
+    return {"depth": depth, "K": K}
+
+
+@pytest.mark.parametrize("cameras, extrinsics, message", [
+    ({"a": one_camera()}, {"b": np.eye(4)}, "extrinsics has no pose for camera"),
+    ({"a": one_camera()}, {"a": np.eye(4), "b": np.eye(4)}, "b"),
+    ({}, {}, "cameras: no cameras"),
+    ({"a": {"depth": np.zeros(5), "K": np.eye(3)}}, {"a": np.eye(4)}, "expected a 2-D array"),
+    ({"a": {"depth": np.ones((4, 4)), "K": np.eye(2)}}, {"a": np.eye(4)}, "K: expected shape"),
+    ({"a": {"depth": np.ones((4, 4))}}, {"a": np.eye(4)}, "needs \"K\""),
+    ({"a": {"depth": np.ones((4, 4), np.uint16), "K": np.eye(3)}}, {"a": np.eye(4)},
+     "depth_scale"),
+    ({"a": {"depth": np.ones((4, 4), np.int32), "K": np.eye(3)}}, {"a": np.eye(4)},
+     "expected float32 or float64"),
+    ({"a": {"depth": np.full((4, 4), 1500.0), "K": np.eye(3)}}, {"a": np.eye(4)},
+     "median valid depth"),
+    ({"a": {**one_camera(), "K": np.diag([25.0, 25.0, 2.0])}}, {"a": np.eye(4)},
+     "last row must be"),
+    ({"a": {**one_camera(), "points": np.zeros((3, 3))}}, {"a": np.eye(4)}, "exactly one of"),
+    ({"a": {"points": np.full((3, 3), np.nan)}}, {"a": np.eye(4)}, "not finite"),
+    ({"a": {"points": np.zeros((3, 3)), "normals": np.zeros((2, 3))}}, {"a": np.eye(4)},
+     "normals: expected shape"),
+    ({"a": {**one_camera(), "dept": 1}}, {"a": np.eye(4)}, "unknown key \"dept\""),
+    ({"a": one_camera()}, {"a": np.eye(3)}, "expected shape \\(4, 4\\)"),
+    ({"a": one_camera()}, {"a": np.diag([1.0, 1.0, 2.0, 1.0])}, "not a rotation"),
+    ({"a": one_camera()}, {"a": np.full((4, 4), np.nan)}, "finite"),
+])
+def test_input_checks_raise_value_error(cameras, extrinsics, message):
+    with pytest.raises(ValueError, match=message):
+        rigfit.refine(cameras, extrinsics)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"mode": "both"}, "mode must be joint or pairwise"),
+    ({"method": "icp"}, "point_to_plane"),
+    ({"reference": "zz"}, "reference"),
+    ({"threads": 0}, "threads must be in"),
+])
+def test_keyword_checks_raise_value_error(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        rigfit.refine({"a": one_camera()}, {"a": np.eye(4)}, **kwargs)
+
+
+def test_file_errors_raise_value_error(tmp_path):
+    with pytest.raises(ValueError, match="missing.h5"):
+        rigfit.load_capture(tmp_path / "missing.h5")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{")
+    with pytest.raises(ValueError, match="bad.json"):
+        rigfit.load_extrinsics(bad)
+
+
+def test_save_extrinsics_round_trip(tmp_path):
+    rng = np.random.default_rng(1)
+    q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+    q *= np.sign(np.linalg.det(q))
+    T = np.eye(4)
+    T[:3, :3] = q
+    T[:3, 3] = rng.normal(size=3)
+    path = tmp_path / "out.json"
+    rigfit.save_extrinsics(path, {"cam": T}, meta={"note": {"x": 1}})
+    back = rigfit.load_extrinsics(path)
+    assert np.allclose(back["cam"], T, atol=1e-12, rtol=0)
+    with open(path) as f:
+        assert json.load(f)["_meta"] == {"note": {"x": 1}}
+
+
+def test_warnings_reach_logging(rig, caplog):
+    d, _ = rig
+    cameras = rigfit.load_capture(d / "capture.h5")
+    initial = rigfit.load_extrinsics(d / "init.json")
+    with caplog.at_level(logging.INFO, logger="rigfit"):
+        rigfit.refine(cameras, initial)
+    assert any(r.name == "rigfit" for r in caplog.records)
+
+
+def test_camera_and_pair_reports_match_meta(rig):
+    d, _ = rig
+    result = rigfit.refine(rigfit.load_capture(d / "capture.h5"),
+                           rigfit.load_extrinsics(d / "init.json"))
+    meta = result.meta["icp_refined"]
+    assert [c.serial for c in result.cameras] == sorted(meta["cameras"])
+    for c in result.cameras:
+        m = meta["cameras"][c.serial]
+        assert (c.accepted, c.reference, c.delta_rotation_deg) == (
+            m["accepted"], m["reference"], m["delta_rotation_deg"])
+        if c.reference:
+            continue
+        # Joint mode: the 6x6 covariance, symmetric, and its 1-sigma as in _meta.
+        assert c.covariance.shape == (6, 6) and np.allclose(c.covariance, c.covariance.T)
+        assert c.sigma == m["sigma"]
+    assert len(result.pairs) == len(meta["pairs"])
+    for p, m in zip(result.pairs, meta["pairs"]):
+        assert (p.serial_a, p.serial_b, p.fitness, p.accepted) == (
+            m["serial_a"], m["serial_b"], m["fitness"], m["accepted"])
+
+
+def test_evaluate_equals_cli(rig, tmp_path):
+    d, _ = rig
+    out = tmp_path / "errors.json"
+    subprocess.run([CLI, "evaluate", str(d / "init.json"), str(d / "gt.json"), "--json",
+                    str(out)], check=True, stdout=subprocess.DEVNULL)
+    with open(out) as f:
+        expected = json.load(f)
+    got = rigfit.evaluate(rigfit.load_extrinsics(d / "init.json"),
+                          rigfit.load_extrinsics(d / "gt.json"))
+    for key in ("pairs", "cameras", "summary", "ignored_cameras"):
+        assert got[key] == expected[key], key
+    with pytest.raises(ValueError, match="estimated has no pose for camera"):
+        rigfit.evaluate({}, rigfit.load_extrinsics(d / "gt.json"))
+
+
+def test_save_capture_round_trip(rig, tmp_path):
+    d, _ = rig
+    cameras = rigfit.load_capture(d / "capture.h5")
+    path = tmp_path / "copy.h5"
+    rigfit.save_capture(path, cameras)
+    back = rigfit.load_capture(path)
+    assert sorted(back) == sorted(cameras)
+    for serial, cam in cameras.items():
+        assert np.array_equal(back[serial]["depth"], cam["depth"], equal_nan=True)
+        assert np.array_equal(back[serial]["K"], cam["K"])
+    points = {"p": {"points": np.array([[0.0, 0.0, 1.0], [1.0, 2.0, 3.0]])}}
+    rigfit.save_capture(tmp_path / "points.h5", points)
+    assert np.allclose(rigfit.load_capture(tmp_path / "points.h5")["p"]["points"],
+                       points["p"]["points"])
+    mm = tmp_path / "mm.h5"
+    rigfit.save_capture(mm, cameras, depth_as_uint16=True, depth_scale=0.001)
+    for serial, cam in rigfit.load_capture(mm).items():
+        assert np.nanmax(np.abs(cam["depth"] - cameras[serial]["depth"])) <= 0.0005 + 1e-6
+    with pytest.raises(ValueError, match="no cameras"):
+        rigfit.save_capture(tmp_path / "none.h5", {})
