@@ -867,6 +867,14 @@ H5Id OpenCaptureFile(const std::string& path) {
 
 }  // namespace
 
+void CheckDepthCamera(CameraCapture* camera, const Mat3& K, const std::string& source) {
+  const Context where{source, ""};
+  DropDepthGlitches(camera->depth_m, *camera, where);
+  const std::string problem = IntrinsicsProblem(K, camera->width, camera->height);
+  if (!problem.empty()) where.Fail("K", problem);
+  camera->intrinsics = {K(0, 0), K(1, 1), K(0, 2), K(1, 2)};
+}
+
 RigCapture ReadCapture(const std::string& path) {
   const H5Id file = OpenCaptureFile(path);
   return ReadOpenFile(file.get(), path);

@@ -10,6 +10,14 @@
 
 namespace rigfit {
 
+/// What ReadCapture checks and does to a depth camera once its depth is in metres (NaN where
+/// invalid), for a camera that comes from elsewhere (the Python binding's arrays): the image in
+/// another unit (median valid depth beyond 100 m) is refused, finite depths beyond 1000 m become
+/// invalid and are counted in glitch_depth_samples, and K must satisfy the data contract
+/// (docs/formats.md); camera->intrinsics is then set from K. `source` names the input in
+/// messages. Throws InputError.
+void CheckDepthCamera(CameraCapture* camera, const Mat3& K, const std::string& source);
+
 /// Reads a rig capture. Depth becomes float metres with NaN for every invalid sample (NaN,
 /// +-inf, <= 0, 0 for uint16); a burst [F, H, W] becomes the per-pixel median of its valid
 /// samples (NaN if none). Cameras are sorted by serial. Throws InputError naming the file,

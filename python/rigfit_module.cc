@@ -37,11 +37,6 @@ using Json = nlohmann::json;
 using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 
-/// The library's limits on depth (io/capture_h5.cc): a median beyond this is another unit.
-constexpr double kMaxMedianDepthM = 100.0;
-/// Finite depths beyond this are sensor glitches and become invalid.
-constexpr double kMaxRangeM = 1000.0;
-
 [[noreturn]] void Fail(const std::string& where, const std::string& what) {
   throw InputError(where + ": " + what);
 }
@@ -113,42 +108,15 @@ void ReadDepth(const py::dict& d, CameraCapture& camera, const std::string& wher
     Fail(where + ": depth", "expected float32 or float64 metres, or uint16 with depth_scale, got " +
                                 std::string(py::str(raw.dtype())));
   }
-  // Another unit (millimetres as metres), then sensor glitches: ReadCapture's rules.
-  std::vector<float> valid;
-  for (const float z : camera.depth_m) {
-    if (std::isfinite(z)) valid.push_back(z);
-  }
-  if (!valid.empty()) {
-    const auto middle = valid.begin() + static_cast<std::ptrdiff_t>(valid.size() / 2);
-    std::nth_element(valid.begin(), middle, valid.end());
-    if (*middle > kMaxMedianDepthM) {
-      std::ostringstream what;
-      what << "median valid depth " << *middle << " m is beyond " << kMaxMedianDepthM
-           << " m: depth must be float metres, or uint16 with depth_scale in metres per unit";
-      Fail(where + ": depth", what.str());
-    }
-  }
-  for (float& z : camera.depth_m) {
-    if (std::isfinite(z) && z > kMaxRangeM) {
-      z = std::numeric_limits<float>::quiet_NaN();
-      ++camera.glitch_depth_samples;
-    }
-  }
-
   if (!d.contains("K")) Fail(where, "a depth camera needs \"K\" (3x3 intrinsics)");
   const DoubleArray K = Matrix(d["K"], 3, 3, where + ": K");
   const auto k = K.unchecked<2>();
+  Mat3 K_matrix;
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) {
-      if (!std::isfinite(k(r, c))) Fail(where + ": K", "entries must be finite");
-    }
+    for (int c = 0; c < 3; ++c) K_matrix(r, c) = k(r, c);
   }
-  if (!(k(0, 0) > 0.0 && k(1, 1) > 0.0)) Fail(where + ": K", "fx and fy must be > 0");
-  if (k(0, 1) != 0.0 || k(1, 0) != 0.0) Fail(where + ": K", "skew must be 0 (K[0][1] and K[1][0])");
-  if (k(2, 0) != 0.0 || k(2, 1) != 0.0 || k(2, 2) != 1.0) {
-    Fail(where + ": K", "last row must be [0, 0, 1]");
-  }
-  camera.intrinsics = {k(0, 0), k(1, 1), k(0, 2), k(1, 2)};
+  // ReadCapture's rules: another unit refused, glitches dropped, the data contract on K.
+  CheckDepthCamera(&camera, K_matrix, where);
 
   if (d.contains("confidence")) {
     const FloatArray c = FloatArray::ensure(d["confidence"]);
