@@ -21,8 +21,6 @@
 namespace rigfit::cli {
 namespace {
 
-constexpr int kMaxThreads = 64;
-
 struct SlamArgs {
   std::string sequence_path;
   std::string out_path;
@@ -41,30 +39,8 @@ int RunSlamCommand(SlamArgs a) {
   if (!a.map_path.empty()) {
     CheckOutputFile(a.map_path, {a.sequence_path, a.out_path}, a.force, "slam: --map");
   }
-  if (a.prior == "constant-velocity") {
-    a.slam.prior = MotionPrior::kConstantVelocity;
-  } else if (a.prior == "identity") {
-    a.slam.prior = MotionPrior::kIdentity;
-  } else {
-    throw InputError("slam: --prior must be constant-velocity or identity, got " + a.prior);
-  }
-  if (a.iterations.empty() || a.iterations.size() > 6) {
-    throw InputError("slam: --iterations takes 1 to 6 counts, finest level first");
-  }
-  for (const int n : a.iterations) {
-    if (n < 0 || n > 100) throw InputError("slam: --iterations: each count in [0, 100]");
-  }
-  a.slam.icp.iterations = a.iterations;
-  a.slam.frame.levels = static_cast<int>(a.iterations.size());
-  const FrameOptions& f = a.slam.frame;
-  if (!(f.min_depth_m >= 0.0 && f.max_depth_m > f.min_depth_m)) {
-    throw InputError("slam: need 0 <= --min-depth < --max-depth");
-  }
-  const AssociationOptions& association = a.slam.icp.association;
-  if (!(association.max_distance_m > 0.0) ||
-      !(association.max_normal_angle_deg > 0.0 && association.max_normal_angle_deg <= 180.0)) {
-    throw InputError("slam: --max-distance must be > 0 and --max-angle in (0, 180]");
-  }
+  ApplyTrackingFlags("slam", a.prior, a.iterations, a.slam.threads, a.slam.max_frames,
+                     &a.slam.prior, &a.slam.frame, &a.slam.icp);
   const FusionOptions& fusion = a.slam.fusion;
   if (!(fusion.max_distance_m > 0.0) ||
       !(fusion.max_normal_angle_deg > 0.0 && fusion.max_normal_angle_deg <= 180.0)) {
@@ -72,10 +48,6 @@ int RunSlamCommand(SlamArgs a) {
   }
   if (fusion.dormant_frames < 0) throw InputError("slam: --dormant-frames must be >= 0 (0: off)");
   if (!(a.slam.render.min_weight >= 1.0f)) throw InputError("slam: --model-weight must be >= 1");
-  if (a.slam.threads < 1 || a.slam.threads > kMaxThreads) {
-    throw InputError("slam: --threads must be in [1, " + std::to_string(kMaxThreads) + "]");
-  }
-  if (a.slam.max_frames < 0) throw InputError("slam: --max-frames must be >= 0 (0: all)");
   ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);

@@ -19,8 +19,6 @@
 namespace rigfit::cli {
 namespace {
 
-constexpr int kMaxThreads = 64;
-
 struct TrackArgs {
   std::string sequence_path;
   std::string out_path;
@@ -35,40 +33,11 @@ struct TrackArgs {
 };
 
 int RunTrack(TrackArgs a) {
-  if (a.prior == "constant-velocity") {
-    a.odometry.prior = MotionPrior::kConstantVelocity;
-  } else if (a.prior == "identity") {
-    a.odometry.prior = MotionPrior::kIdentity;
-  } else {
-    throw InputError("track: --prior must be constant-velocity or identity, got " + a.prior);
-  }
-  if (a.iterations.empty() || a.iterations.size() > 6) {
-    throw InputError("track: --iterations takes 1 to 6 counts, finest level first");
-  }
-  for (const int n : a.iterations) {
-    if (n < 0 || n > 100) throw InputError("track: --iterations: each count in [0, 100]");
-  }
-  a.odometry.icp.iterations = a.iterations;
+  ApplyTrackingFlags("track", a.prior, a.iterations, a.odometry.threads, a.odometry.max_frames,
+                     &a.odometry.prior, &a.odometry.frame, &a.odometry.icp);
   if (!(a.min_step_m > 0.0)) throw InputError("track: --min-step must be > 0");
   a.odometry.icp.converged_translation_m = a.min_step_m;
   a.odometry.icp.converged_rotation_rad = a.min_step_m;
-  a.odometry.frame.levels = static_cast<int>(a.iterations.size());
-  const FrameOptions& f = a.odometry.frame;
-  if (!(f.min_depth_m >= 0.0 && f.max_depth_m > f.min_depth_m)) {
-    throw InputError("track: need 0 <= --min-depth < --max-depth");
-  }
-  if (!(a.odometry.icp.association.max_distance_m > 0.0) ||
-      !(a.odometry.icp.association.max_normal_angle_deg > 0.0 &&
-        a.odometry.icp.association.max_normal_angle_deg <= 180.0)) {
-    throw InputError("track: --max-distance must be > 0 and --max-angle in (0, 180]");
-  }
-  if (!(a.odometry.icp.weighting.huber_delta_m >= 0.0)) {
-    throw InputError("track: --huber must be >= 0");
-  }
-  if (a.odometry.threads < 1 || a.odometry.threads > kMaxThreads) {
-    throw InputError("track: --threads must be in [1, " + std::to_string(kMaxThreads) + "]");
-  }
-  if (a.odometry.max_frames < 0) throw InputError("track: --max-frames must be >= 0 (0: all)");
 
   ApplyIntrinsicsOption(a.intrinsics, "track", &a.sequence);
 

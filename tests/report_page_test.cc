@@ -15,10 +15,10 @@
 
 #include "core/pose.h"
 #include "core/trajectory.h"
+#include "io/png.h"
 #include "report/html.h"
 #include "report/palette.h"
 #include "report/plots.h"
-#include "io/png.h"
 #include "report/trajectory_report.h"
 
 namespace rigfit {
