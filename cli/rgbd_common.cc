@@ -41,6 +41,15 @@ void ApplyTrackingFlags(const std::string& command, const std::string& prior,
   if (max_frames < 0) throw InputError(c + "--max-frames must be >= 0 (0: all)");
 }
 
+std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
+                                                 const SequenceOptions& options, const Log& log) {
+  std::vector<std::string> warnings;
+  std::unique_ptr<RgbdSequence> sequence = OpenRgbdSequence(path, options, &warnings);
+  for (const std::string& warning : warnings) log.Warning(warning);
+  log.Info(sequence->Describe());
+  return sequence;
+}
+
 void ApplyIntrinsicsOption(const std::vector<double>& intrinsics, const std::string& command,
                            SequenceOptions* options) {
   if (intrinsics.empty()) return;

@@ -2,6 +2,7 @@
 // and the --evaluate report against the sequence's ground truth.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,10 @@ void ApplyTrackingFlags(const std::string& command, const std::string& prior,
 /// "<command>: --intrinsics takes fx,fy,cx,cy" on another count.
 void ApplyIntrinsicsOption(const std::vector<double>& intrinsics, const std::string& command,
                            SequenceOptions* options);
+
+/// Opens the sequence (io/rgbd_sequence.h), its loader's warnings and its description to `log`.
+std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
+                                                 const SequenceOptions& options, const Log& log);
 
 /// Prints the ATE, the RPE per frame and the end-point drift of `estimate` against the
 /// sequence's ground truth on stdout; a warning (not an error) when the sequence has none or

@@ -42,11 +42,8 @@ int RunTrack(TrackArgs a) {
   ApplyIntrinsicsOption(a.intrinsics, "track", &a.sequence);
 
   const Log log = StderrLog("track: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
-  std::vector<std::string> warnings;
   const std::unique_ptr<RgbdSequence> sequence =
-      OpenRgbdSequence(a.sequence_path, a.sequence, &warnings);
-  for (const std::string& warning : warnings) log.Warning(warning);
-  log.Info(sequence->Describe());
+      OpenSequenceLogged(a.sequence_path, a.sequence, log);
   int last_percent = -1;
   const auto progress = [&](int done, int total) {
     const int percent = 100 * done / total;
