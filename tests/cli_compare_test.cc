@@ -18,33 +18,16 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 using namespace cli_test;  // NOLINT: RunRigfit and friends
 
-class CliCompareTest : public ::testing::Test {
+class CliCompareTest : public SimulatedRigSuite<CliCompareTest> {
  protected:
   /// 3 cameras, 320 x 180, noise-free, a perturbation within the default safety bounds
   /// (as tests/cli_refine_test.cc).
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("rigfit_cli_compare_test_" + std::to_string(::getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-    const RunResult sim = RunRigfit(
-        {"simulate", "--out", (root_ / "rig").string(), "--cameras", "3", "--width", "320",
-         "--height", "180", "--noise", "0", "--perturb-yaw-deg", "0.5", "--perturb-xz-m", "0.02"},
-        root_);
-    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+    SimulateRig("rigfit_cli_compare_test",
+                {"--cameras", "3", "--width", "320", "--height", "180", "--noise", "0",
+                 "--perturb-yaw-deg", "0.5", "--perturb-xz-m", "0.02"});
   }
-  static void TearDownTestSuite() { fs::remove_all(root_); }
-
-  void SetUp() override { ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed"; }
-
-  static std::string Rig(const std::string& name) { return (root_ / "rig" / name).string(); }
-  static std::string Scratch(const std::string& name) { return (root_ / name).string(); }
-
-  static fs::path root_;
-  static std::string simulate_error_;
 };
-
-fs::path CliCompareTest::root_;
-std::string CliCompareTest::simulate_error_;
 
 TEST_F(CliCompareTest, BothModesSideBySideAndJointAgreesWithEvaluate) {
   const RunResult r =

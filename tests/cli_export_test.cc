@@ -25,23 +25,11 @@ using namespace cli_test;  // NOLINT: RunRigfit and friends
 /// Coordinates are stored as float32: metres-sized values round within 1e-6.
 constexpr double kFloatTolerance = 1e-6;
 
-class CliExportTest : public ::testing::Test {
+class CliExportTest : public SimulatedRigSuite<CliExportTest> {
  protected:
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("rigfit_cli_export_test_" + std::to_string(::getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-    const RunResult sim = RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras",
-                                     "3", "--width", "160", "--height", "90"},
-                                    root_);
-    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+    SimulateRig("rigfit_cli_export_test", {"--cameras", "3", "--width", "160", "--height", "90"});
   }
-  static void TearDownTestSuite() { fs::remove_all(root_); }
-
-  void SetUp() override { ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed"; }
-
-  static std::string Rig(const std::string& name) { return (root_ / "rig" / name).string(); }
-  static std::string Scratch(const std::string& name) { return (root_ / name).string(); }
 
   /// Checks `cloud` holds, camera after camera, the given camera-frame points of every
   /// camera moved by its pose, in that camera's colour.
@@ -64,13 +52,7 @@ class CliExportTest : public ::testing::Test {
       }
     }
   }
-
-  static fs::path root_;
-  static std::string simulate_error_;
 };
-
-fs::path CliExportTest::root_;
-std::string CliExportTest::simulate_error_;
 
 TEST_F(CliExportTest, EveryCameraInTheWorldInItsColour) {
   const RunResult r = RunRigfit({"export-ply", "--capture", Rig("capture.h5"), "--extrinsics",

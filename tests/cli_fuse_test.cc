@@ -21,24 +21,12 @@ using namespace cli_test;  // NOLINT: RunRigfit and friends
 
 constexpr int kSeed = 5;
 
-class CliFuseTest : public ::testing::Test {
+class CliFuseTest : public SimulatedRigSuite<CliFuseTest> {
  protected:
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("rigfit_cli_fuse_test_" + std::to_string(::getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-    const RunResult sim =
-        RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras", "3", "--width",
-                   "160", "--height", "90", "--noise", "0", "--seed", std::to_string(kSeed)},
-                  root_);
-    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+    SimulateRig("rigfit_cli_fuse_test", {"--cameras", "3", "--width", "160", "--height", "90",
+                                         "--noise", "0", "--seed", std::to_string(kSeed)});
   }
-  static void TearDownTestSuite() { fs::remove_all(root_); }
-
-  void SetUp() override { ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed"; }
-
-  static std::string Rig(const std::string& name) { return (root_ / "rig" / name).string(); }
-  static std::string Scratch(const std::string& name) { return (root_ / name).string(); }
 
   static RunResult Fuse(const std::string& extrinsics, const std::string& map,
                         std::vector<std::string> extra = {}) {
@@ -57,13 +45,7 @@ class CliFuseTest : public ::testing::Test {
               2)
         << out;
   }
-
-  static fs::path root_;
-  static std::string simulate_error_;
 };
-
-fs::path CliFuseTest::root_;
-std::string CliFuseTest::simulate_error_;
 
 TEST_F(CliFuseTest, TrueExtrinsicsGiveOneSurfaceWithNormalsAndColours) {
   const RunResult r = Fuse("gt.json", "gt.ply");

@@ -1,7 +1,9 @@
 // Running the built rigfit executable (RIGFIT_CLI_PATH) as a subprocess, for the CLI tests.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -65,5 +67,31 @@ inline bool AllNumbersFinite(const nlohmann::json& j) {
 inline std::string Describe(const RunResult& r) {
   return "exit " + std::to_string(r.exit_code) + "\nstdout:\n" + r.out + "\nstderr:\n" + r.err;
 }
+
+/// A suite that runs `rigfit simulate --out ROOT/rig ARGS...` once, in a temporary folder
+/// ROOT named after the suite (removed after it), and fails each test at once if the simulation
+/// did. Suite is the derived class, so that each suite has its own folder and state.
+template <class Suite>
+class SimulatedRigSuite : public ::testing::Test {
+ protected:
+  static void SimulateRig(const std::string& name, const std::vector<std::string>& args) {
+    root_ = fs::temp_directory_path() / (name + "_" + std::to_string(::getpid()));
+    fs::remove_all(root_);
+    fs::create_directories(root_);
+    std::vector<std::string> command = {"simulate", "--out", (root_ / "rig").string()};
+    command.insert(command.end(), args.begin(), args.end());
+    const RunResult sim = RunRigfit(command, root_);
+    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+  }
+  static void TearDownTestSuite() { fs::remove_all(root_); }
+
+  void SetUp() override { ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed"; }
+
+  static std::string Rig(const std::string& name) { return (root_ / "rig" / name).string(); }
+  static std::string Scratch(const std::string& name) { return (root_ / name).string(); }
+
+  static inline fs::path root_;
+  static inline std::string simulate_error_;
+};
 
 }  // namespace rigfit::cli_test
