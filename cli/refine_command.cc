@@ -211,12 +211,14 @@ std::string Summary(const RefineResult& result, const RefineOptions& options, co
       const SurfaceBundleReport& sb = result.surface;
       Appendf(&text,
               "\nsurface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the "
-              "noise model\n%-35s %22s\n",
-              sb.planes, sb.pixels, sb.rounds, sb.noise_scale, "camera", "plane thickness (sigma)");
+              "noise model\n%-35s %22s %18s\n",
+              sb.planes, sb.pixels, sb.rounds, sb.noise_scale, "camera", "plane thickness (sigma)",
+              "noise correlation");
       for (const CameraReport& c : result.cameras) {
         const std::string thickness =
             Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2);
-        Appendf(&text, "%-35s %22s%s\n", c.serial.c_str(), thickness.c_str(),
+        Appendf(&text, "%-35s %22s %18s%s\n", c.serial.c_str(), thickness.c_str(),
+                Fixed(c.surface_noise_correlation, 1).c_str(),
                 c.surface_fallback ? "  kept its joint pose" : "");
       }
     }

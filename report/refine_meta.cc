@@ -121,6 +121,7 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options,
     for (const CameraReport& c : result.cameras) {
       thickness[c.serial] = {{"before", c.surface_thickness_before},
                              {"after", c.surface_thickness_after},
+                             {"noise_correlation", c.surface_noise_correlation},
                              {"kept_joint_pose", c.surface_fallback}};
     }
     meta["surface_bundle"] = {{"planes", sb.planes},

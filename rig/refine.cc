@@ -144,6 +144,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     camera.surface_thickness_before = bundle.thickness_before[i];
     camera.surface_thickness_after = bundle.thickness_after[i];
     camera.surface_fallback = bundle.fallback[i];
+    camera.surface_noise_correlation = bundle.noise_correlation[i];
     if (!surfaces[i].free) continue;
     if (bundle.fallback[i]) {
       Warn(result, log,
@@ -445,6 +446,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
           surfaces[i].T_world_leveled = leveled[i];
           surfaces[i].depth_noise = depth_noise[i];
           surfaces[i].ray_model = camera.HasDepth();
+          if (camera.HasDepth()) surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
           surfaces[i].floor_leveled = floor_leveled[i];
           if (band.band_height > 0.0) {
             surfaces[i].band_bottom = -band.band_below;

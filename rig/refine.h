@@ -44,6 +44,10 @@ struct CameraReport {
   double surface_thickness_before = 0.0;
   double surface_thickness_after = 0.0;
   bool surface_fallback = false;
+  /// Surface bundle: the noise's spatial correlation measured on the camera's residuals, the
+  /// variance of a 32 x 32 pixel tile's sum against independent pixels' (1: independent;
+  /// stereo depth: tens). Its pixels were weighted down by it (SurfaceBundleResult).
+  double surface_noise_correlation = 0.0;
 };
 
 /// What the surface bundle did (method surface_bundle).

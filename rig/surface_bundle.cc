@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 #include <memory>
 
 #include "core/format.h"
@@ -135,22 +136,73 @@ MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   return cloud;
 }
 
-/// Sums each term's pixels into its cluster.
+/// Sums each term's pixels into its cluster, each pixel's variance times its camera's
+/// noise correlation.
 void FillClusters(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
-                  std::vector<ClusterTerm>* terms) {
+                  const std::vector<double>& correlation, std::vector<ClusterTerm>* terms) {
   for (ClusterTerm& t : *terms) {
     t.cluster = PlaneCluster{};
     const SurfaceCamera& camera = cameras[t.camera];
+    const double inflation = std::sqrt(correlation[t.camera]);
     for (const int i : t.pixels) {
       const Vec3& p = camera.points[i];
       if (camera.ray_model) {
-        t.cluster.AddRay(p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
-                         InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
+        t.cluster.AddRay(
+            p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
+            inflation * InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
       } else {
-        t.cluster.AddPoint(p, options.min_noise_m);
+        t.cluster.AddPoint(p, inflation * options.min_noise_m);
       }
     }
   }
+}
+
+/// The side of the image tiles over which the noise's correlation is measured, pixels.
+constexpr double kCorrelationTilePx = 32.0;
+
+/// Per camera, the noise correlation (SurfaceBundleResult::noise_correlation) at the blocks:
+/// the pixels of each term are grouped by image tile, and the squared sums of their whitened
+/// residuals over the groups are divided by the number of pixels: the variance of a tile's
+/// sum against what the noise model predicts for independent pixels (correlated pixels add
+/// their covariances). Against the model, not against the residuals' own scale: noise-free
+/// data, whose tiny residuals are all structure, stay at 1. At least 1; 1 for cameras
+/// without a pixel angle.
+std::vector<double> NoiseCorrelation(const std::vector<ClusterTerm>& terms,
+                                     const std::vector<SurfaceCamera>& cameras,
+                                     const std::vector<PoseBlock>& poses,
+                                     const std::vector<PlaneBlock>& planes,
+                                     const IcpOptions& options) {
+  std::vector<double> squared_sums(cameras.size(), 0.0);
+  std::vector<int> pixels(cameras.size(), 0);
+  for (const ClusterTerm& t : terms) {
+    const SurfaceCamera& camera = cameras[t.camera];
+    if (!camera.ray_model || !(camera.pixel_angle > 0.0)) continue;
+    const Pose T = PoseFromParameters(poses[t.camera].data());
+    const Vec3 n = planes[t.plane].Normal();
+    Vec4 plane_camera;  // [R^T n; n^T t + d]
+    plane_camera << T.linear().transpose() * n, n.dot(T.translation()) + planes[t.plane].x(3);
+    const double tile = kCorrelationTilePx * camera.pixel_angle;
+    std::map<std::pair<long long, long long>, double> tile_sums;
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      const Vec3 a = p / p.z();
+      Vec4 b;
+      b << a, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model);
+      const double r = b.dot(plane_camera) / plane_camera(3) /
+                       InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m);
+      tile_sums[{static_cast<long long>(std::floor(a.x() / tile)),
+                 static_cast<long long>(std::floor(a.y() / tile))}] += r;
+      ++pixels[t.camera];
+    }
+    for (const auto& [key, sum] : tile_sums) squared_sums[t.camera] += sum * sum;
+  }
+  std::vector<double> correlation(cameras.size(), 1.0);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (pixels[c] > 0) {
+      correlation[c] = std::max(1.0, squared_sums[c] / pixels[c]);
+    }
+  }
+  return correlation;
 }
 
 /// The pixels of every (camera, plane) with points (clusters not yet summed).
@@ -303,6 +355,10 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
   std::vector<ClusterTerm> terms;
   std::vector<PlaneBlock> planes;
   const int rounds = std::max(1, options.surface_rounds);
+  // The noise correlation the current terms are weighted with, and the one measured at the
+  // last solve (for the next round's terms).
+  std::vector<double> correlation(n, 1.0);
+  std::vector<double> measured(n, 1.0);
 
   // Solves poses and planes over the terms; false when Ceres fails (summary says why).
   ceres::Solver::Summary summary;
@@ -377,7 +433,8 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
     }
     terms = Clusters(cameras, cloud, segmented);
     PredictedHeightWindow(cameras, poses, planes, segmentation, &terms);
-    FillClusters(cameras, options, &terms);
+    correlation = measured;
+    FillClusters(cameras, options, correlation, &terms);
     if (round == 0) {
       result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
     }
@@ -390,6 +447,7 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
       return result;
     }
     for (size_t c = 0; c < n; ++c) poses[c] = PoseFromParameters(blocks[c].data());
+    measured = NoiseCorrelation(terms, cameras, blocks, planes, options);
     int pixels = 0;
     for (const ClusterTerm& t : terms) pixels += t.cluster.Count();
     result.planes = static_cast<int>(planes.size());
@@ -400,14 +458,20 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
               std::to_string(planes.size()) + " planes, " + std::to_string(pixels) +
               " pixels, cost " + Fixed(2.0 * summary.final_cost / std::max(pixels, 1), 4) +
               " per pixel, " + std::to_string(summary.iterations.size()) + " iterations");
+    std::string measured_text;
+    for (const double m : measured) measured_text += " " + Fixed(m, 1);
+    log.Debug("surface bundle: noise correlation per camera" + measured_text);
   }
   if (!result.usable) return result;
   result.poses = poses;
+  result.noise_correlation = correlation;
 
   // The noise scale, the thickness and the poses' covariance (planes marginalised) at the
   // blocks.
   const auto statistics = [&] {
-    const std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
+    // Each pixel's own squared whitened residual, without the correlation's weight.
+    std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
+    for (size_t k = 0; k < terms.size(); ++k) costs[k] *= correlation[terms[k].camera];
     result.thickness_after = Thickness(terms, costs, n);
     int parameters = 0;
     for (size_t c = 0; c < n; ++c) {

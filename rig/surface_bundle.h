@@ -30,6 +30,9 @@ struct SurfaceCamera {
   Pose T_world_leveled = Pose::Identity();  ///< for the gravity prior
   double depth_noise = 0.0;                 ///< k of sigma_z = k z^2 (0: icp.min_noise_m alone)
   bool ray_model = true;                    ///< a depth camera; false: a points camera
+  /// The angle of one pixel (1 / fx, radians) for the noise's spatial correlation
+  /// (SurfaceBundleResult::noise_correlation); 0: not measured (each pixel independent).
+  double pixel_angle = 0.0;
   bool floor_leveled = false;  ///< its floor was leveled to y = 0 (the floor is then known)
   bool free = false;           ///< estimated (connected, not the reference)
   /// The near-floor band (world heights at the leveled pose, region.band_below and
@@ -61,6 +64,13 @@ struct SurfaceBundleResult {
   /// sqrt(cost / (N - p)) at the end: the measured noise against the model's (N pixels,
   /// p parameters); the depth noise the data show is noise_scale * k.
   double noise_scale = 0.0;
+  /// Per camera: how many pixels' worth of variance the noise of a tile of 32 x 32
+  /// pixels on one plane has per pixel (1: independent pixels; stereo
+  /// block matching, whose errors are correlated over a few pixels, gives tens). Measured on
+  /// the residuals of each round; the next round's pixels of that camera each count as
+  /// 1 / noise_correlation of a pixel, so that the covariance is not that many times too
+  /// optimistic and a camera with correlated noise weighs what its data are worth.
+  std::vector<double> noise_correlation;
   int planes = 0;  ///< in the last round
   int pixels = 0;  ///< in the last round's clusters
   int rounds = 0;

@@ -47,6 +47,37 @@ TEST(SurfaceBundle, NoiseFreeRigsAreRecovered) {
   }
 }
 
+TEST(SurfaceBundle, MeasuresTheNoisesCorrelationAndWeighsItsPixelsByIt) {
+  // The same rig and noise sigma, once per pixel and once 80 % from a field correlated over
+  // 4 px (about 200 pixels in a 32 x 32 tile: c near 0.8 x 200 for the correlated share).
+  // White noise leaves c near 1 (the residuals' structure, e.g. where planes meet, adds a
+  // little: 1.2-4.7 on the benchmark's rigs).
+  for (const double share : {0.0, 0.8}) {
+    SCOPED_TRACE(share);
+    SimOptions sim;
+    sim.cameras = 4;
+    sim.width = 320;
+    sim.height = 180;
+    sim.noise_corr_px = share > 0.0 ? 4.0 : 0.0;
+    sim.noise_corr_share = share;
+    const SimulatedRig rig = SimulateRig(sim);
+    RefineOptions options;
+    options.icp.method = RegistrationMethod::kSurfaceBundle;
+    const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+    ASSERT_TRUE(result.success) << result.message;
+    ASSERT_TRUE(result.surface.ran);
+    for (const CameraReport& c : result.cameras) {
+      if (share == 0.0) {
+        EXPECT_GE(c.surface_noise_correlation, 1.0) << c.serial;
+        EXPECT_LT(c.surface_noise_correlation, 8.0) << c.serial;
+      } else {
+        EXPECT_GT(c.surface_noise_correlation, 30.0) << c.serial;
+        EXPECT_LT(c.surface_noise_correlation, 300.0) << c.serial;
+      }
+    }
+  }
+}
+
 TEST(PlaneSegmentation, FindsTheSimulatorsFacesOnANoiseFreeCapture) {
   const SimulatedRig rig = NoiseFreeRig(4);
   RegionOptions every_pixel;
