@@ -97,7 +97,7 @@ void BM_SolvePairs(benchmark::State& state) {
   const FramePair& pair = Frames(640);
   const FrameLevel source = Pyramid(pair.source, 1).levels[0];
   const FrameLevel target = Pyramid(pair.target, 1).levels[0];
-  const std::vector<Correspondence> pairs =
+  const std::vector<ProjectiveCorrespondence> pairs =
       FindCorrespondences(source, target, Pose::Identity(), {}, kThreads);
   for (auto _ : state) {
     benchmark::DoNotOptimize(
@@ -117,7 +117,7 @@ void BM_Track(benchmark::State& state) {
   int iterations = 0;
   for (auto _ : state) {
     const TrackResult result =
-        TrackProjective(source, target, Pose::Identity(), IcpOptions{}, kThreads);
+        TrackProjective(source, target, Pose::Identity(), ProjectiveIcpOptions{}, kThreads);
     iterations = result.iterations;
     benchmark::DoNotOptimize(result.T_target_source);
   }

@@ -9,7 +9,7 @@ namespace rigfit::cli {
 
 void ApplyTrackingFlags(const std::string& command, const std::string& prior,
                         const std::vector<int>& iterations, int threads, int max_frames,
-                        MotionPrior* motion_prior, FrameOptions* frame, IcpOptions* icp) {
+                        MotionPrior* motion_prior, FrameOptions* frame, ProjectiveIcpOptions* icp) {
   const std::string c = command + ": ";
   if (prior == "constant-velocity") {
     *motion_prior = MotionPrior::kConstantVelocity;

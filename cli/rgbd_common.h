@@ -26,7 +26,7 @@ inline constexpr int kMaxTrackingThreads = 64;
 /// InputError "<command>: <flag> ..." on a bad value.
 void ApplyTrackingFlags(const std::string& command, const std::string& prior,
                         const std::vector<int>& iterations, int threads, int max_frames,
-                        MotionPrior* motion_prior, FrameOptions* frame, IcpOptions* icp);
+                        MotionPrior* motion_prior, FrameOptions* frame, ProjectiveIcpOptions* icp);
 
 /// Sets options->intrinsics from --intrinsics fx,fy,cx,cy (nothing when empty); InputError
 /// "<command>: --intrinsics takes fx,fy,cx,cy" on another count.

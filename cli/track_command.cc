@@ -27,7 +27,7 @@ struct TrackArgs {
   std::string prior = "constant-velocity";
   std::vector<int> iterations = {10, 5, 4};
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
-  double min_step_m = IcpOptions{}.converged_translation_m;
+  double min_step_m = ProjectiveIcpOptions{}.converged_translation_m;
   bool evaluate = false;
   bool quiet = false;
 };

@@ -22,7 +22,7 @@ enum class MotionPrior {
 
 struct OdometryOptions {
   FrameOptions frame;
-  IcpOptions icp;
+  ProjectiveIcpOptions icp;
   MotionPrior prior = MotionPrior::kConstantVelocity;
   /// Track against a keyframe instead of the previous frame (on by default: the small errors
   /// of consecutive frame-to-frame steps do not add up while the keyframe stays); a new

@@ -110,7 +110,7 @@ NormalEquations Sum(const std::vector<Accumulator>& parts) {
   return total;
 }
 
-bool Converged(const Vec6& x, const IcpOptions& options) {
+bool Converged(const Vec6& x, const ProjectiveIcpOptions& options) {
   return x.head<3>().norm() < options.converged_rotation_rad &&
          x.tail<3>().norm() < options.converged_translation_m;
 }
@@ -128,13 +128,15 @@ AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLe
   return Associator(source, target, T_target_source, options)(i, &moved, target_index);
 }
 
-std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const FrameLevel& target,
-                                                const Pose& T_target_source,
-                                                const AssociationOptions& options, int threads) {
+std::vector<ProjectiveCorrespondence> FindCorrespondences(const FrameLevel& source,
+                                                          const FrameLevel& target,
+                                                          const Pose& T_target_source,
+                                                          const AssociationOptions& options,
+                                                          int threads) {
   const Associator associate(source, target, T_target_source, options);
   const std::vector<int>& pixels = source.valid_pixels;
   const int chunks = std::max(1, threads);
-  std::vector<std::vector<Correspondence>> parts(chunks);
+  std::vector<std::vector<ProjectiveCorrespondence>> parts(chunks);
   ParallelForChunks(static_cast<int>(pixels.size()), chunks, [&](int c, int begin, int end) {
     Vec3 moved;
     int j = 0;
@@ -146,12 +148,12 @@ std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const 
       }
     }
   });
-  std::vector<Correspondence> pairs;
+  std::vector<ProjectiveCorrespondence> pairs;
   for (const auto& part : parts) pairs.insert(pairs.end(), part.begin(), part.end());
   return pairs;
 }
 
-NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
+NormalEquations BuildNormalEquations(const std::vector<ProjectiveCorrespondence>& pairs,
                                      const Pose& T_target_source, const PairWeighting& weighting,
                                      int threads) {
   const int chunks = std::max(1, threads);
@@ -222,7 +224,7 @@ Pose ApplyLeftUpdate(const Vec6& x, const Pose& T) {
 }
 
 TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& target,
-                            const Pose& T_init, const IcpOptions& options, int threads) {
+                            const Pose& T_init, const ProjectiveIcpOptions& options, int threads) {
   TrackResult result;
   const int levels = static_cast<int>(std::min(source.levels.size(), target.levels.size()));
   if (levels == 0 || options.iterations.empty()) {
@@ -279,7 +281,7 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   return result;
 }
 
-Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose& T_init,
+Pose SolvePairsGaussNewton(const std::vector<ProjectiveCorrespondence>& pairs, const Pose& T_init,
                            const PairWeighting& weighting, int max_iterations, int threads) {
   Pose T = T_init;
   for (int it = 0; it < max_iterations; ++it) {
@@ -292,7 +294,7 @@ Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose&
   return T;
 }
 
-Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_init,
+Pose SolvePairsCeres(const std::vector<ProjectiveCorrespondence>& pairs, const Pose& T_init,
                      const PairWeighting& weighting, int threads) {
   if (pairs.empty()) return T_init;
   double pose[kPoseAmbientSize];
@@ -306,7 +308,7 @@ Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_ini
   // One loss object shared by every block: the problem deletes it once.
   ceres::LossFunction* loss =
       weighting.huber_delta_m > 0.0 ? new ceres::HuberLoss(weighting.huber_delta_m) : nullptr;
-  for (const Correspondence& pair : pairs) {
+  for (const ProjectiveCorrespondence& pair : pairs) {
     const double scale =
         weighting.depth_noise ? std::sqrt(DepthNoiseWeight(pair.p.z(), pair.q.z())) : 1.0;
     problem.AddResidualBlock(PointToPlaneCost::Create(pair.p, pair.q, scale * pair.n), loss, pose,

@@ -46,7 +46,7 @@ enum class AssociationOutcome {
 };
 
 /// A source-target pair: p in the source frame, q and its unit normal n in the target frame.
-struct Correspondence {
+struct ProjectiveCorrespondence {
   Vec3 p;
   Vec3 q;
   Vec3 n;
@@ -60,9 +60,11 @@ AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLe
                                   int* target_index);
 
 /// Every matched pair of the source's pixels, in pixel order.
-std::vector<Correspondence> FindCorrespondences(const FrameLevel& source, const FrameLevel& target,
-                                                const Pose& T_target_source,
-                                                const AssociationOptions& options, int threads = 2);
+std::vector<ProjectiveCorrespondence> FindCorrespondences(const FrameLevel& source,
+                                                          const FrameLevel& target,
+                                                          const Pose& T_target_source,
+                                                          const AssociationOptions& options,
+                                                          int threads = 2);
 
 /// How the pairs are weighed. With depth_noise, a pair's residual is divided by its standard
 /// deviation for a sensor whose depth noise grows as z^2 (structured light, stereo: Kinect,
@@ -91,7 +93,7 @@ struct NormalEquations {
 };
 
 /// The normal equations of a list of pairs (the reference path).
-NormalEquations BuildNormalEquations(const std::vector<Correspondence>& pairs,
+NormalEquations BuildNormalEquations(const std::vector<ProjectiveCorrespondence>& pairs,
                                      const Pose& T_target_source, const PairWeighting& weighting,
                                      int threads = 2);
 
@@ -118,7 +120,7 @@ StepSolution SolveStep(const NormalEquations& equations, double length_m, double
 /// [Exp(w) | dt] * T: the left-multiplied update of the linearisation above.
 Pose ApplyLeftUpdate(const Vec6& x, const Pose& T);
 
-struct IcpOptions {
+struct ProjectiveIcpOptions {
   AssociationOptions association;
   PairWeighting weighting = kTrackingWeighting;
   /// Gauss-Newton iterations per pyramid level, finest first (KinectFusion: 10, 5, 4).
@@ -151,18 +153,19 @@ struct TrackResult {
 /// at each level, Gauss-Newton steps of AccumulateProjective until converged or the level's
 /// iterations run out. Never throws on geometry: failure is success = false with a message.
 TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& target,
-                            const Pose& T_init, const IcpOptions& options, int threads = 2);
+                            const Pose& T_init, const ProjectiveIcpOptions& options,
+                            int threads = 2);
 
 /// Gauss-Newton on a FIXED set of pairs until converged (the closed-form path of the
 /// two-path comparison; docs/rgbd.md).
-Pose SolvePairsGaussNewton(const std::vector<Correspondence>& pairs, const Pose& T_init,
+Pose SolvePairsGaussNewton(const std::vector<ProjectiveCorrespondence>& pairs, const Pose& T_init,
                            const PairWeighting& weighting, int max_iterations, int threads = 2);
 
 /// The same problem solved by Ceres: one PointToPlaneCost (residuals/point_to_plane.h) per
 /// pair (its normal scaled by the square root of the depth-noise weight, which whitens the
 /// residual), the source pose T_target_source on the pose manifold, the target's pose the
 /// fixed identity, a HuberLoss when weighting.huber_delta_m > 0.
-Pose SolvePairsCeres(const std::vector<Correspondence>& pairs, const Pose& T_init,
+Pose SolvePairsCeres(const std::vector<ProjectiveCorrespondence>& pairs, const Pose& T_init,
                      const PairWeighting& weighting, int threads = 1);
 
 }  // namespace rigfit

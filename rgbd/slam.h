@@ -47,7 +47,7 @@ FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int wid
 
 struct SlamOptions {
   FrameOptions frame;
-  IcpOptions icp;
+  ProjectiveIcpOptions icp;
   FusionOptions fusion;
   RenderOptions render;
   MotionPrior prior = MotionPrior::kConstantVelocity;

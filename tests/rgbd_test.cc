@@ -238,7 +238,7 @@ TEST_F(RgbdTracking, ListAndFusedNormalEquationsAreTheSame) {
   const FrameLevel target = FineLevel(T_world_target_, 160, 120);
   const FrameLevel source = FineLevel(T_world_source_, 160, 120);
   const AssociationOptions options;
-  const std::vector<Correspondence> pairs =
+  const std::vector<ProjectiveCorrespondence> pairs =
       FindCorrespondences(source, target, Pose::Identity(), options);
   for (const PairWeighting weighting :
        {PairWeighting{}, PairWeighting{0.005, false}, PairWeighting{0.005, true}}) {
@@ -257,7 +257,7 @@ TEST_F(RgbdTracking, OneGaussNewtonStepRecoversASmallMotion) {
   // the identity leaves only the second-order error of the small-angle model.
   const FrameLevel source = FineLevel(T_world_source_, 160, 120);
   const FrameLevel target = FineLevel(T_world_target_, 160, 120);
-  std::vector<Correspondence> pairs;
+  std::vector<ProjectiveCorrespondence> pairs;
   const Pose motion = TrueMotion();
   for (int i = 0; i < source.width * source.height; ++i) {
     int j = -1;
@@ -283,7 +283,7 @@ TEST_F(RgbdTracking, OneGaussNewtonStepRecoversASmallMotion) {
 TEST_F(RgbdTracking, ClosedFormAndCeresAgreeOnTheSamePairs) {
   const FrameLevel source = FineLevel(T_world_source_, 80, 60, 0.0025, 1);
   const FrameLevel target = FineLevel(T_world_target_, 80, 60, 0.0025, 2);
-  const std::vector<Correspondence> pairs =
+  const std::vector<ProjectiveCorrespondence> pairs =
       FindCorrespondences(source, target, Pose::Identity(), AssociationOptions{});
   ASSERT_GT(pairs.size(), 1000u);
   for (const PairWeighting weighting : {PairWeighting{}, PairWeighting{0.01, false},
@@ -305,7 +305,8 @@ TEST_F(RgbdTracking, CoarseToFineTrackingRecoversTheMotion) {
       BuildFramePyramid(Render(*scene_, T_world_source_, 320, 240), frame_options);
   const FramePyramid target =
       BuildFramePyramid(Render(*scene_, T_world_target_, 320, 240), frame_options);
-  const TrackResult result = TrackProjective(source, target, Pose::Identity(), IcpOptions{});
+  const TrackResult result =
+      TrackProjective(source, target, Pose::Identity(), ProjectiveIcpOptions{});
   ASSERT_TRUE(result.success) << result.message;
   EXPECT_EQ(result.weak_directions, 0);
   EXPECT_GT(result.matched_ratio, 0.8);
@@ -337,7 +338,7 @@ TEST_F(RgbdTracking, AFlatWallHoldsWhatItCannotFix) {
   // Start 3 cm off along the wall: that offset must stay, the 1 cm across must be found.
   Pose start = Pose::Identity();
   start.translation() = Vec3(0.03, 0.0, 0.0);
-  const TrackResult result = TrackProjective(source, target, start, IcpOptions{});
+  const TrackResult result = TrackProjective(source, target, start, ProjectiveIcpOptions{});
   ASSERT_TRUE(result.success) << result.message;
   EXPECT_EQ(result.weak_directions, 3);
   const Pose motion = T_world_target.inverse() * T_world_source;

@@ -1,15 +1,13 @@
 // The simulated rig survives the file contract: what `rigfit simulate` writes reads back
-// bit-exactly (depth with its NaNs, intrinsics, colour, true and perturbed poses).
+// bit-exactly (depth with its NaNs, intrinsics, colour, true and perturbed poses). Built as a
+// library user would: the entry header alone, linked to rigfit_library (rigfit::rigfit).
 #include <gtest/gtest.h>
+#include <rigfit/rigfit.h>
 #include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
 #include <string>
-
-#include "io/capture_h5.h"
-#include "io/extrinsics_json.h"
-#include "sim/simulate_rig.h"
 
 namespace rigfit {
 namespace {

@@ -1,0 +1,41 @@
+// rigfit's public C++ API in one header: #include <rigfit/rigfit.h> and link rigfit::rigfit
+// (find_package(rigfit), examples/cpp/). Everything is in namespace rigfit.
+//
+// Rig pipeline: a RigCapture (core/types.h: one depth image or point cloud per camera, by
+// serial) and initial extrinsics, a PoseMap of T_world_camera (core/pose.h), go into Refine
+// with RefineOptions (rig/refine.h, rig/options.h; LoadConfig reads them from YAML); the
+// RefineResult holds the refined poses and what was and was not applied. ReadCapture and
+// WriteCapture (io/capture_h5.h) and ReadExtrinsics and WriteExtrinsics (io/extrinsics_json.h)
+// read and write the files of the CLI; SimulateRig (sim/simulate_rig.h) makes a rig with its
+// true and perturbed extrinsics; EvaluateRig (core/evaluate.h) measures extrinsics against the
+// truth, free of the pose of the rig as a whole.
+//
+// RGB-D pipeline: an RgbdSequence (core/rgbd.h) from OpenRgbdSequence (io/rgbd_sequence.h) or
+// a SimulatedSequence (sim/simulate_sequence.h) is tracked by RunOdometry (rgbd/odometry.h) or
+// RunSlam (rgbd/slam.h: frame-to-model, into a SurfelMap); EvaluateTrajectory
+// (core/trajectory.h) gives ATE and RPE, ReadTumTrajectory and WriteTumTrajectory
+// (io/trajectory_tum.h) the TUM files.
+//
+// Errors (core/errors.h): I/O throws InputError naming the file and field; the solvers return
+// a result with `success` and `message` instead of throwing on bad geometry. Progress and
+// warnings go to a Log (registration/log.h), silent when default-constructed.
+#pragma once
+
+#include "core/errors.h"
+#include "core/evaluate.h"
+#include "core/pose.h"
+#include "core/rgbd.h"
+#include "core/trajectory.h"
+#include "core/types.h"
+#include "io/capture_h5.h"
+#include "io/config_yaml.h"
+#include "io/extrinsics_json.h"
+#include "io/rgbd_sequence.h"
+#include "io/trajectory_tum.h"
+#include "registration/log.h"
+#include "rgbd/odometry.h"
+#include "rgbd/slam.h"
+#include "rig/options.h"
+#include "rig/refine.h"
+#include "sim/simulate_rig.h"
+#include "sim/simulate_sequence.h"
