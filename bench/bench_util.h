@@ -1,4 +1,4 @@
-// Helpers shared by the benchmark programs (tum_rig, bunny_rig, view_bias): seeded start
+// Helpers shared by the benchmark programs (sequence_rig, bunny_rig, view_bias): seeded start
 // perturbations and the markdown rows they print.
 #pragma once
 

@@ -6,9 +6,9 @@
 #   SECTION  accuracy | speed | real | micro | rgbd (default: all five, in that order)
 #   --quick  a few seconds to minutes: 1 seed, small images, 1 run per case; checks the script
 #            and the programs, its numbers are not for the docs
-#   --build  Release build directory (default: <repo>/build) with rigfit, rig_accuracy, tum_rig,
+#   --build  Release build directory (default: <repo>/build) with rigfit, rig_accuracy, sequence_rig,
 #            bunny_rig (and io_bench, knn_bench, residuals_bench for micro): cmake --build DIR
-#            --target rigfit rig_accuracy tum_rig bunny_rig io_bench knn_bench residuals_bench
+#            --target rigfit rig_accuracy sequence_rig bunny_rig io_bench knn_bench residuals_bench
 #   --out    where results go (default: DIR/bench-results/<date-time>): SECTION.md (markdown,
 #            ready to paste) and raw/ (every program's output)
 #
@@ -21,7 +21,8 @@
 #             5 runs (stage breakdown, 4 cameras) or 3 runs (2/4/8/16 cameras at 640x360;
 #             320x180/640x360/1280x720 with 4 cameras), and one run of 16 cameras at 1280x720.
 #             Not niced; the 1-minute load average at the start of each case is recorded.
-#   real      bench/tum_rig (TUM fr1/xyz frames as a 5-camera rig, against motion capture) and
+#   real      bench/sequence_rig (TUM fr1/xyz and 7-Scenes frames as 5-camera rigs, against
+#             their ground truth; the joint mode with point_to_plane and surface_bundle) and
 #             bench/bunny_rig (the Stanford bunny's 10 scans imported with rigfit import-ply,
 #             checked against bun.conf, then registered from perturbed starts).
 #   micro     the Google Benchmark programs io_bench, knn_bench and residuals_bench (capture
@@ -45,7 +46,7 @@ while [ $# -gt 0 ]; do
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
     accuracy | speed | real | micro | rgbd) sections+=("$1") ;;
-    -h | --help) sed -n '2,34p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
@@ -56,7 +57,7 @@ out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
 out="$(cd "$out" && pwd)"
 rigfit="$build/cli/rigfit"
-for tool in "$rigfit" "$build/bench/rig_accuracy" "$build/bench/tum_rig" "$build/bench/bunny_rig"; do
+for tool in "$rigfit" "$build/bench/rig_accuracy" "$build/bench/sequence_rig" "$build/bench/bunny_rig"; do
   [ -x "$tool" ] || { echo "bench/run.sh: $tool is missing: build it first" >&2; exit 2; }
 done
 for tool in /usr/bin/time python3; do
@@ -313,12 +314,19 @@ run_real() {
   file="$(header real)"
   [ $quick = 1 ] && seeds=1
   local tum="$out/raw/tum.txt" tum_gt="$out/raw/tum-from-mocap.txt"
-  echo "+ tum_rig --seeds $seeds" >&2
-  nice "$build/bench/tum_rig" --seeds "$seeds" >"$tum"
-  nice "$build/bench/tum_rig" --seeds 1 --perturb-deg 0 --perturb-m 0 >"$tum_gt"
+  echo "+ sequence_rig --seeds $seeds" >&2
+  nice "$build/bench/sequence_rig" --seeds "$seeds" >"$tum"
+  nice "$build/bench/sequence_rig" --seeds 1 --perturb-deg 0 --perturb-m 0 >"$tum_gt"
   local tum_sb="$out/raw/tum-sb.txt"
-  nice "$build/bench/tum_rig" --seeds "$seeds" --method surface_bundle >"$tum_sb" \
+  nice "$build/bench/sequence_rig" --seeds "$seeds" --method surface_bundle >"$tum_sb" \
     2>"$out/raw/tum-sb-warnings.txt"
+  local kitchen="$root/../shared/data/sevenscenes_kitchen" kitchen_frames=(0 10 20 30 40)
+  echo "+ sequence_rig --dir sevenscenes_kitchen --frames ${kitchen_frames[*]}" >&2
+  nice "$build/bench/sequence_rig" --dir "$kitchen" --frames "${kitchen_frames[@]}" \
+    --seeds "$seeds" >"$out/raw/kitchen.txt"
+  nice "$build/bench/sequence_rig" --dir "$kitchen" --frames "${kitchen_frames[@]}" \
+    --seeds "$seeds" --method surface_bundle >"$out/raw/kitchen-sb.txt" \
+    2>"$out/raw/kitchen-sb-warnings.txt"
 
   local bunny_dir="$root/../shared/data/stanford_bunny/data" scans=() capture="$out/raw/bunny.h5"
   for ply in "$bunny_dir"/*.ply; do
@@ -337,7 +345,7 @@ run_real() {
   [ $quick = 1 ] || nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" \
     --method surface_bundle >"$out/raw/bunny-sb.txt"
   {
-    echo "#### TUM fr1/xyz frames 0, 9, 18, 27, 36 as a rig: \`bench/tum_rig --seeds $seeds\`"
+    echo "#### TUM fr1/xyz frames 0, 9, 18, 27, 36 as a rig: \`bench/sequence_rig --seeds $seeds\`"
     echo
     echo "Errors: RMS relative rotation deg / RMS relative translation mm / worst pair mm against"
     echo "the motion capture."
@@ -352,6 +360,16 @@ run_real() {
     echo "$(grep -c 'too few planes' "$out/raw/tum-sb-warnings.txt" || true) of $((seeds * 4)) free-camera runs kept their joint point-to-plane pose (too few planes):"
     echo
     tail -n +3 "$tum_sb"
+    echo
+    echo "#### 7-Scenes kitchen frames ${kitchen_frames[*]} as a rig: \`bench/sequence_rig --dir sevenscenes_kitchen --frames ${kitchen_frames[*]} --seeds $seeds\`"
+    echo
+    echo "Errors against KinectFusion's poses (good to about 1 cm), as above."
+    echo
+    tail -n +3 "$out/raw/kitchen.txt"
+    echo
+    echo "With \`--method surface_bundle\`; $(grep -c 'too few planes' "$out/raw/kitchen-sb-warnings.txt" || true) of $((seeds * 4)) free-camera runs kept their joint point-to-plane pose (too few planes):"
+    echo
+    tail -n +3 "$out/raw/kitchen-sb.txt"
     echo
     echo "#### Stanford bunny, 10 scans: \`rigfit import-ply\` then \`bench/bunny_rig\`"
     echo

@@ -1,8 +1,10 @@
-// Real data nobody on the team made: frames of TUM RGB-D fr1/xyz taken as the fixed cameras
-// of a rig (real Kinect v1 depth, motion-capture ground truth), refined from a perturbed
-// start without ground leveling, with the whole cloud (band_height 0) and no gravity prior
-// (the motion-capture world is not gravity-aligned). Prints the gauge-free errors against
-// the motion capture before and after, per mode. Usage: tum_rig --help.
+// Real data nobody on the team made: frames of an RGB-D sequence with ground-truth poses
+// (io/rgbd_sequence.h: TUM RGB-D fr1/xyz with motion capture by default, 7-Scenes with
+// KinectFusion's poses, ...) taken as the fixed cameras of a rig (real Kinect v1 depth),
+// refined from a perturbed start without ground leveling, with the whole cloud (band_height
+// 0) and no gravity prior (the sequences' worlds are not gravity-aligned). Prints the
+// gauge-free errors against the ground truth before and after, per mode. Usage:
+// sequence_rig --help.
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdio>
@@ -17,15 +19,15 @@
 using namespace rigfit;
 
 int main(int argc, char** argv) {
-  CLI::App app{"TUM fr1/xyz frames as a fixed rig: joint and pairwise against motion capture"};
+  CLI::App app{"Frames of a sequence as a fixed rig: joint and pairwise against its ground truth"};
   std::string dir = std::string(RIGFIT_SHARED_DATA_DIR) + "/tum_fr1_xyz_subset";
   std::vector<int> frames = {0, 9, 18, 27, 36};
   double rotation_deg = 1.0, translation_m = 0.03, depth_noise = 0.0;
   int seeds = 5;
   std::string method = "point_to_plane";
-  std::vector<double> intrinsics = {517.3, 516.5, 318.6, 255.3};  // fr1, shared/data/README.md
-  app.add_option("--intrinsics", intrinsics, "fx fy cx cy")->expected(4);
-  app.add_option("--dir", dir, "the TUM folder");
+  std::vector<double> intrinsics;
+  app.add_option("--intrinsics", intrinsics, "fx fy cx cy (default: the sequence's)")->expected(4);
+  app.add_option("--dir", dir, "the sequence (rigfit track's formats, docs/sequences.md)");
   app.add_option("--frames", frames, "depth frame indices used as cameras");
   app.add_option("--perturb-deg", rotation_deg, "rotation of each start pose, degrees");
   app.add_option("--perturb-m", translation_m, "translation of each start pose, metres");
@@ -36,15 +38,17 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   SequenceOptions sequence_options;
-  sequence_options.intrinsics =
-      PinholeIntrinsics{intrinsics[0], intrinsics[1], intrinsics[2], intrinsics[3]};
+  if (!intrinsics.empty()) {
+    sequence_options.intrinsics =
+        PinholeIntrinsics{intrinsics[0], intrinsics[1], intrinsics[2], intrinsics[3]};
+  }
   const std::unique_ptr<RgbdSequence> sequence = OpenRgbdSequence(dir, sequence_options);
   RigCapture capture;
   PoseMap gt;
   for (int f : frames) {
     RgbdFrame frame = sequence->Frame(f);
     if (!frame.T_world_camera_gt) {
-      std::fprintf(stderr, "frame %d has no motion-capture pose\n", f);
+      std::fprintf(stderr, "frame %d has no ground-truth pose\n", f);
       return 1;
     }
     CameraCapture camera;
@@ -64,9 +68,9 @@ int main(int argc, char** argv) {
   options.region.band_height = 0.0;
   options.icp.gravity_weight = 0.0;
   options.icp.depth_noise = depth_noise;
-  std::printf(
-      "TUM fr1/xyz frames as %zu cameras, start perturbed by %.2f deg and %.3f m, method %s\n\n",
-      frames.size(), rotation_deg, translation_m, method.c_str());
+  std::printf("%s: %zu frames as cameras, start perturbed by %.2f deg and %.3f m, method %s\n\n",
+              sequence->Describe().c_str(), frames.size(), rotation_deg, translation_m,
+              method.c_str());
   std::printf(
       "| seed | start deg | start mm | start max mm | joint deg | joint mm | joint max mm | "
       "pairwise deg | pairwise mm | pairwise max mm |\n");
