@@ -114,6 +114,24 @@ class Segmenter {
     return dof > 0 && chi2 / dof <= 1.0 + options_.chi2_sigmas * std::sqrt(2.0 / dof);
   }
 
+  /// Whether point i's ray meets the planes a and b within gate_sigmas of its depth noise of
+  /// each other: near their crease, where its measured position (which its noise moves)
+  /// cannot say which plane it lies on. Unlike a test of the measured position, the choice
+  /// does not depend on the point's own noise. False for points without a ray.
+  bool NearCrease(int i, const PlaneFit& a, const PlaneFit& b) const {
+    const SegmentPoint& s = points_[i];
+    if (!(s.depth > 0.0)) return false;
+    const Vec3 centre = s.world - s.depth * s.ray_world;
+    const auto depth_on = [&](const PlaneFit& f) {
+      const double denominator = f.normal.dot(s.ray_world);
+      return std::abs(denominator) < 1e-9 ? std::numeric_limits<double>::infinity()
+                                          : -(f.normal.dot(centre) + f.offset) / denominator;
+    };
+    const double difference = depth_on(a) - depth_on(b);
+    const double gate = options_.gate_sigmas;
+    return difference * difference <= gate * gate * (s.sigma_z * s.sigma_z + base_variance_);
+  }
+
   /// The plane explains all the points, and the points of each camera that sees it.
   bool Planar(const PlaneFit& fit) const {
     if (!WithinNoise(fit.chi2, fit.dof)) return false;
@@ -272,8 +290,9 @@ class Segmenter {
     return out;
   }
 
-  /// Each patch keeps the points within gate_sigmas of its plane that fit no touching plane
-  /// as well, and the cameras with enough of them; patches seen by too few cameras go.
+  /// Each patch keeps the points within gate_sigmas of its plane that neither fit a touching
+  /// plane as well nor lie near its crease with it (NearCrease), and the cameras with enough
+  /// of them; patches seen by too few cameras go.
   std::vector<SegmentedPlane> Assign(const std::vector<Patch>& patches) const {
     const double gate2 = options_.gate_sigmas * options_.gate_sigmas;
     const auto fits = [&](int i, const PlaneFit& fit) {
@@ -294,7 +313,8 @@ class Segmenter {
         if (!fits(i, patches[p].fit)) continue;
         const bool ambiguous =
             std::any_of(neighbours.begin(), neighbours.end(), [&](const Patch* q) {
-              return q->box.Contains(points_[i].world, min_cell_) && fits(i, q->fit);
+              return q->box.Contains(points_[i].world, min_cell_) &&
+                     (fits(i, q->fit) || NearCrease(i, patches[p].fit, q->fit));
             });
         if (ambiguous) continue;
         kept.push_back(i);

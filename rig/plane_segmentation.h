@@ -2,7 +2,8 @@
 // an adaptive octree whose cells are kept when a plane explains their points within the noise
 // (a noise-normalised chi-square test, not a fixed eigenvalue ratio, which ignores range), and
 // at least two cameras see them; coplanar neighbours merged; the floor as one plane; points
-// that fit a neighbouring plane as well (where two planes meet) left out.
+// that fit a neighbouring plane as well, or whose ray meets the two planes within their noise
+// of each other (where two planes meet), left out.
 #pragma once
 
 #include <vector>
@@ -57,6 +58,7 @@ struct SegmentPoint {
   /// sigma_z ray_world. Zero for points cameras (no ray model).
   Vec3 ray_world = Vec3::Zero();
   double sigma_z = 0.0;  ///< depth noise along the ray (m), k z^2
+  double depth = 0.0;    ///< the measured depth z (m): world = centre + depth ray_world
   int camera = 0;
 };
 

@@ -128,6 +128,7 @@ MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<P
       if (camera.ray_model) {
         s.ray_world = T.linear() * (p / p.z());
         s.sigma_z = camera.depth_noise * p.z() * p.z();
+        s.depth = p.z();
       }
       cloud.points.push_back(s);
       cloud.source.emplace_back(static_cast<int>(c), static_cast<int>(i));
