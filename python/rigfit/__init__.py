@@ -1,18 +1,21 @@
-"""rigfit from Python: refine the extrinsics of a depth-camera rig (docs/python.md).
+"""rigfit from Python: refine the extrinsics of a depth-camera rig, or simulate one
+(docs/python.md).
 
-The same library calls as ``rigfit refine``: ``refine`` on the same capture, initial
-extrinsics and options gives the CLI's poses bit for bit and exactly the ``_meta`` report the
-CLI writes (without ``timings_s``). Nothing is written to disk unless asked. Bad input raises
-``ValueError`` with the library's message. Progress and warnings go to the logger ``"rigfit"``.
+The same library calls as the CLI: ``refine`` on the same capture, initial extrinsics and
+options gives ``rigfit refine``'s poses bit for bit and exactly the ``_meta`` report the CLI
+writes (without ``timings_s``); ``simulate`` is ``rigfit simulate``. Nothing is written to
+disk unless asked. Bad input raises ``ValueError`` with the library's message. Progress and
+warnings go to the logger ``"rigfit"``.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import operator
 import os
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Tuple, Union
 
 from . import _rigfit
 
@@ -20,7 +23,7 @@ if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
 __all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "load_capture", "save_capture", "load_extrinsics",
-           "save_extrinsics", "evaluate"]
+           "save_extrinsics", "evaluate", "simulate"]
 
 logger = logging.getLogger("rigfit")
 
@@ -202,3 +205,50 @@ def save_extrinsics(path: Union[str, os.PathLike], extrinsics: Extrinsics,
     ``RefineResult.meta``) as its ``_meta``."""
     meta_json = "" if meta is None else json.dumps(meta, allow_nan=False)
     _rigfit.save_extrinsics(os.fspath(path), dict(extrinsics), meta_json)
+
+
+# The keyword defaults below are the library's own (SimOptions), read once from the compiled
+# module, so that they cannot drift from the CLI's.
+_SIM = _rigfit.simulate_defaults()
+
+
+def simulate(
+    *,
+    cameras: int = _SIM["cameras"],
+    seed: int = _SIM["seed"],
+    width: int = _SIM["width"],
+    height: int = _SIM["height"],
+    noise: float = _SIM["noise"],
+    noise_corr_px: float = _SIM["noise_corr_px"],
+    noise_corr_share: float = _SIM["noise_corr_share"],
+    disparity_quant_px: float = _SIM["disparity_quant_px"],
+    dropout: float = _SIM["dropout"],
+    perturb_yaw_deg: float = _SIM["perturb_yaw_deg"],
+    perturb_xz_m: float = _SIM["perturb_xz_m"],
+    perturb_tilt_deg: float = _SIM["perturb_tilt_deg"],
+    bare: bool = _SIM["bare"],
+) -> Tuple[Dict[str, Dict[str, "np.ndarray"]], Dict[str, "np.ndarray"], Dict[str, "np.ndarray"]]:
+    """Simulates a rig in memory, as ``rigfit simulate`` writes it (same defaults, same checks).
+
+    A furnished room seen by ``cameras`` ZED-like depth cameras; deterministic for a seed (the
+    CLI's files for the same options hold the same numbers). The keywords are the CLI's flags:
+    ``noise`` is sigma = noise * z^2 (1/m); ``noise_corr_px`` and ``noise_corr_share`` make a
+    share of its variance correlated over that many pixels; ``disparity_quant_px`` rounds the
+    disparity to multiples of it; ``dropout`` drops that fraction of pixels; ``perturb_*`` set how
+    far ``start`` is from ``truth``; ``bare`` leaves the room empty (floor and walls only).
+
+    Returns ``(cameras, truth, start)``: ``cameras`` in ``refine``'s layout (``{"depth", "K",
+    "color"}`` per serial), ``truth`` and ``start`` serial -> (4, 4) T_world_camera; so
+    ``cameras, truth, start = rigfit.simulate(); rigfit.refine(cameras, start)``.
+
+    Raises:
+        ValueError: an option out of range, with the CLI's message (keywords for flags).
+    """
+    seed = operator.index(seed)
+    if not 0 <= seed < 2**64:
+        raise ValueError(f"simulate: seed must be in [0, 2^64 - 1], got {seed}")
+    cameras_out, truth, start = _rigfit.simulate(
+        operator.index(cameras), seed, operator.index(width), operator.index(height), float(noise),
+        float(noise_corr_px), float(noise_corr_share), float(disparity_quant_px), float(dropout),
+        float(perturb_yaw_deg), float(perturb_xz_m), float(perturb_tilt_deg), bool(bare))
+    return dict(cameras_out), dict(truth), dict(start)
