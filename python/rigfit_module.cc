@@ -1,8 +1,9 @@
 // rigfit._rigfit: the compiled half of the Python module (docs/python.md). Converts numpy
 // arrays and dicts to the library's plain structs (core/types.h, rig/options.h; python/convert.h),
 // runs the same library calls as `rigfit refine` (cli/refine_command.cc) and `rigfit simulate`
-// and hands back plain Python values; rigfit/__init__.py wraps them in typed objects. InputError
-// becomes ValueError.
+// and hands back plain Python values; rigfit/__init__.py wraps them in typed objects. The RGB-D
+// part (sequences, tracking, trajectories) is python/rgbd_module.cc. InputError becomes
+// ValueError.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -31,6 +32,8 @@
 #include "sim/simulate_rig.h"
 
 namespace rigfit::python {
+
+void AddRgbdFunctions(py::module_& m);  // python/rgbd_module.cc
 
 namespace {
 
@@ -454,4 +457,5 @@ PYBIND11_MODULE(_rigfit, m) {
         py::arg("height"), py::arg("noise"), py::arg("noise_corr_px"), py::arg("noise_corr_share"),
         py::arg("disparity_quant_px"), py::arg("dropout"), py::arg("perturb_yaw_deg"),
         py::arg("perturb_xz_m"), py::arg("perturb_tilt_deg"), py::arg("bare"));
+  AddRgbdFunctions(m);
 }
