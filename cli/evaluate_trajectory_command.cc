@@ -26,8 +26,8 @@ struct EvaluateTrajectoryArgs {
 };
 
 int RunEvaluateTrajectory(const EvaluateTrajectoryArgs& a) {
-  if (!(a.max_dt > 0.0)) throw InputError("evaluate-trajectory: --max-dt must be > 0");
-  if (a.delta < 1) throw InputError("evaluate-trajectory: --delta must be >= 1");
+  CheckTrajectoryEvaluationSettings("evaluate-trajectory", OptionSpelling::kFlag, a.max_dt,
+                                    a.delta);
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "evaluate-trajectory: --report");
   const Trajectory est = ReadTumTrajectory(a.estimate_path);
   const Trajectory gt = ReadTumTrajectory(a.ground_truth_path);

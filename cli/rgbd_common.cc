@@ -4,41 +4,15 @@
 #include <stdexcept>
 
 #include "core/errors.h"
+#include "rgbd/tracking_options.h"
 
 namespace rigfit::cli {
 
 void ApplyTrackingFlags(const std::string& command, const std::string& prior,
                         const std::vector<int>& iterations, int threads, int max_frames,
                         MotionPrior* motion_prior, FrameOptions* frame, ProjectiveIcpOptions* icp) {
-  const std::string c = command + ": ";
-  if (prior == "constant-velocity") {
-    *motion_prior = MotionPrior::kConstantVelocity;
-  } else if (prior == "identity") {
-    *motion_prior = MotionPrior::kIdentity;
-  } else {
-    throw InputError(c + "--prior must be constant-velocity or identity, got " + prior);
-  }
-  if (iterations.empty() || iterations.size() > 6) {
-    throw InputError(c + "--iterations takes 1 to 6 counts, finest level first");
-  }
-  for (const int n : iterations) {
-    if (n < 0 || n > 100) throw InputError(c + "--iterations: each count in [0, 100]");
-  }
-  icp->iterations = iterations;
-  frame->levels = static_cast<int>(iterations.size());
-  if (!(frame->min_depth_m >= 0.0 && frame->max_depth_m > frame->min_depth_m)) {
-    throw InputError(c + "need 0 <= --min-depth < --max-depth");
-  }
-  const AssociationOptions& association = icp->association;
-  if (!(association.max_distance_m > 0.0) ||
-      !(association.max_normal_angle_deg > 0.0 && association.max_normal_angle_deg <= 180.0)) {
-    throw InputError(c + "--max-distance must be > 0 and --max-angle in (0, 180]");
-  }
-  if (!(icp->weighting.huber_delta_m >= 0.0)) throw InputError(c + "--huber must be >= 0");
-  if (threads < 1 || threads > kMaxTrackingThreads) {
-    throw InputError(c + "--threads must be in [1, " + std::to_string(kMaxTrackingThreads) + "]");
-  }
-  if (max_frames < 0) throw InputError(c + "--max-frames must be >= 0 (0: all)");
+  ApplyTrackingSettings(command, OptionSpelling::kFlag, prior, iterations, threads, max_frames,
+                        motion_prior, frame, icp);
 }
 
 std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
@@ -52,10 +26,7 @@ std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
 
 void ApplyIntrinsicsOption(const std::vector<double>& intrinsics, const std::string& command,
                            SequenceOptions* options) {
-  if (intrinsics.empty()) return;
-  if (intrinsics.size() != 4) throw InputError(command + ": --intrinsics takes fx,fy,cx,cy");
-  options->intrinsics =
-      PinholeIntrinsics{intrinsics[0], intrinsics[1], intrinsics[2], intrinsics[3]};
+  SetSequenceIntrinsics(intrinsics, command, OptionSpelling::kFlag, options);
 }
 
 void PrintTrajectoryEvaluation(const RgbdSequence& sequence, const Trajectory& estimate,

@@ -16,20 +16,14 @@
 
 namespace rigfit::cli {
 
-/// Largest --threads.
-inline constexpr int kMaxTrackingThreads = 64;
-
-/// Checks and applies the tracking flags both commands have: --prior (constant-velocity or
-/// identity), --iterations (1 to 6 counts in [0, 100], finest level first; their count is the
-/// number of levels), --min-depth < --max-depth, --max-distance > 0, --max-angle in (0, 180],
-/// --huber >= 0 (already in icp), --threads in [1, kMaxTrackingThreads], --max-frames >= 0.
-/// InputError "<command>: <flag> ..." on a bad value.
+/// rgbd/tracking_options.h's ApplyTrackingSettings with the flags' spelling ("--prior", ...):
+/// the checks rigfit.track shares.
 void ApplyTrackingFlags(const std::string& command, const std::string& prior,
                         const std::vector<int>& iterations, int threads, int max_frames,
                         MotionPrior* motion_prior, FrameOptions* frame, ProjectiveIcpOptions* icp);
 
-/// Sets options->intrinsics from --intrinsics fx,fy,cx,cy (nothing when empty); InputError
-/// "<command>: --intrinsics takes fx,fy,cx,cy" on another count.
+/// io/rgbd_sequence.h's SetSequenceIntrinsics for --intrinsics fx,fy,cx,cy (nothing when
+/// empty).
 void ApplyIntrinsicsOption(const std::vector<double>& intrinsics, const std::string& command,
                            SequenceOptions* options);
 

@@ -26,7 +26,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kMaxCameras = 64;
 constexpr const char* kOutputFiles[] = {"capture.h5", "gt.json", "init.json"};
 
 struct SimulateArgs {
@@ -105,38 +104,6 @@ void PrintBound(const SimulateArgs& a) {
   }
 }
 
-void CheckArgs(const SimulateArgs& a) {
-  const SimOptions& o = a.sim;
-  auto fail = [](const std::string& what) { throw InputError("simulate: " + what); };
-  auto finite_non_negative = [](double x) { return std::isfinite(x) && x >= 0.0; };
-  if (o.cameras < 1 || o.cameras > kMaxCameras) {
-    fail("--cameras must be in [1, " + std::to_string(kMaxCameras) + "], got " +
-         std::to_string(o.cameras));
-  }
-  CheckImageSize("simulate", o.width, o.height);
-  if (!finite_non_negative(o.noise)) fail("--noise must be a finite number >= 0");
-  if (!(o.dropout >= 0.0 && o.dropout < 1.0)) fail("--dropout must be in [0, 1)");
-  if (!finite_non_negative(o.perturb_yaw_deg) || o.perturb_yaw_deg > 180.0) {
-    fail("--perturb-yaw-deg must be in [0, 180]");
-  }
-  if (!finite_non_negative(o.perturb_tilt_deg) || o.perturb_tilt_deg > 90.0) {
-    fail("--perturb-tilt-deg must be in [0, 90]");
-  }
-  if (!finite_non_negative(o.perturb_xz_m)) {
-    fail("--perturb-xz-m must be a finite number >= 0");
-  }
-  if (!finite_non_negative(o.noise_corr_px)) fail("--noise-corr-px must be a finite number >= 0");
-  if (!(o.noise_corr_share >= 0.0 && o.noise_corr_share <= 1.0)) {
-    fail("--noise-corr-share must be in [0, 1]");
-  }
-  if (o.noise_corr_share > 0.0 && o.noise_corr_px <= 0.0) {
-    fail("--noise-corr-share > 0 needs --noise-corr-px > 0");
-  }
-  if (!finite_non_negative(o.disparity_quant_px)) {
-    fail("--disparity-quant-px must be a finite number >= 0");
-  }
-}
-
 /// The simulation settings, recorded in the extrinsics files' _meta.
 nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
   nlohmann::json meta = {{"simulated",
@@ -165,7 +132,7 @@ nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
 }
 
 int RunSimulate(const SimulateArgs& a) {
-  CheckArgs(a);
+  CheckSimOptions(a.sim, "simulate", OptionSpelling::kFlag);
   if (!a.config_path.empty()) LoadConfig(a.config_path);  // bad config: exit 2 before writing
   PrepareOutputDir("simulate", a.out_dir, a.force,
                    std::vector<std::string>(std::begin(kOutputFiles), std::end(kOutputFiles)));

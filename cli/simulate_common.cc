@@ -1,7 +1,6 @@
 #include "cli/simulate_common.h"
 
 #include <filesystem>
-#include <utility>
 
 #include "core/errors.h"
 
@@ -40,16 +39,6 @@ void PrepareOutputDir(const std::string& command, const std::string& dir_name, b
     if (fs::exists(file, ec)) {
       throw InputError(command + ": " + file.string() +
                        " already exists; pass --force to overwrite it");
-    }
-  }
-}
-
-void CheckImageSize(const std::string& command, int width, int height) {
-  for (const auto& [flag, value] : {std::pair{"--width", width}, std::pair{"--height", height}}) {
-    if (value < kMinImageSize || value > kMaxImageSize) {
-      throw InputError(command + ": " + flag + " must be in [" + std::to_string(kMinImageSize) +
-                       ", " + std::to_string(kMaxImageSize) + "] pixels, got " +
-                       std::to_string(value));
     }
   }
 }

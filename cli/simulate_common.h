@@ -1,6 +1,7 @@
 // What the simulators' commands (`simulate`, `simulate-sequence`) share: the output
-// directory (created if missing, an earlier result kept unless --force), the image size
-// limits and the --seed option.
+// directory (created if missing, an earlier result kept unless --force) and the --seed
+// option. The image size limits are sim/simulate_rig.h's (CheckSimImageSize), shared with
+// rigfit.simulate.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -16,13 +17,6 @@ namespace rigfit::cli {
 /// or folders); with `outputs` empty, when dir holds anything at all.
 void PrepareOutputDir(const std::string& command, const std::string& dir, bool force,
                       const std::vector<std::string>& outputs);
-
-inline constexpr int kMinImageSize = 16;  ///< pixels, width or height
-inline constexpr int kMaxImageSize = 8192;
-
-/// Throws InputError ("<command>: --width must be in [16, 8192] pixels, got ...") unless
-/// both sides are within [kMinImageSize, kMaxImageSize].
-void CheckImageSize(const std::string& command, int width, int height);
 
 /// Adds --seed to sub: any unsigned 64-bit value, a negative one refused (CLI11 would wrap it
 /// around into the unsigned seed).

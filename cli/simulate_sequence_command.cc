@@ -16,6 +16,7 @@
 #include "io/atomic_file.h"
 #include "io/png.h"
 #include "io/trajectory_tum.h"
+#include "sim/simulate_rig.h"
 #include "sim/simulate_sequence.h"
 
 namespace rigfit::cli {
@@ -44,7 +45,7 @@ void CheckArgs(const SimulateSequenceArgs& a) {
     fail("--frames must be in [1, " + std::to_string(kMaxFrames) + "], got " +
          std::to_string(o.frames));
   }
-  CheckImageSize("simulate-sequence", o.width, o.height);
+  CheckSimImageSize("simulate-sequence", o.width, o.height, OptionSpelling::kFlag);
   if (!(o.rate_hz > 0.0) || !std::isfinite(o.rate_hz)) fail("--rate must be a finite number > 0");
   if (!(o.speed_mps > 0.0 && o.speed_mps <= kMaxSpeedMps)) {
     fail("--speed must be in (0, " + std::to_string(static_cast<int>(kMaxSpeedMps)) + "] m/s");

@@ -10,11 +10,11 @@
 #include "cli/commands.h"
 #include "cli/rgbd_common.h"
 #include "cli/stderr_log.h"
-#include "core/errors.h"
 #include "core/trajectory.h"
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
 #include "rgbd/odometry.h"
+#include "rgbd/tracking_options.h"
 
 namespace rigfit::cli {
 namespace {
@@ -35,9 +35,7 @@ struct TrackArgs {
 int RunTrack(TrackArgs a) {
   ApplyTrackingFlags("track", a.prior, a.iterations, a.odometry.threads, a.odometry.max_frames,
                      &a.odometry.prior, &a.odometry.frame, &a.odometry.icp);
-  if (!(a.min_step_m > 0.0)) throw InputError("track: --min-step must be > 0");
-  a.odometry.icp.converged_translation_m = a.min_step_m;
-  a.odometry.icp.converged_rotation_rad = a.min_step_m;
+  ApplyMinStep("track", OptionSpelling::kFlag, a.min_step_m, &a.odometry.icp);
 
   ApplyIntrinsicsOption(a.intrinsics, "track", &a.sequence);
 

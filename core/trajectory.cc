@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/errors.h"
 #include "core/geometry.h"
 
 namespace rigfit {
@@ -60,6 +61,14 @@ Pose AlignRigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
   S.linear() = svd.matrixU() * D * svd.matrixV().transpose();
   S.translation() = mean_b - S.linear() * mean_a;
   return S;
+}
+
+void CheckTrajectoryEvaluationSettings(const std::string& command, OptionSpelling spelling,
+                                       double max_dt, int delta) {
+  if (!(max_dt > 0.0)) {
+    throw InputError(command + ": " + OptionName("max_dt", spelling) + " must be > 0");
+  }
+  if (delta < 1) throw InputError(command + ": " + OptionName("delta", spelling) + " must be >= 1");
 }
 
 TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt, double max_dt,

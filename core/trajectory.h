@@ -4,8 +4,10 @@
 // no scale), and the relative pose error (RPE) over a fixed number of frames.
 #pragma once
 
+#include <string>
 #include <vector>
 
+#include "core/option_name.h"
 #include "core/pose.h"
 
 namespace rigfit {
@@ -47,6 +49,12 @@ struct TrajectoryErrors {
 /// truth, delta >= 1 pairs apart. Throws std::invalid_argument with fewer than 3 pairs.
 TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt, double max_dt,
                                     int delta);
+
+/// The checks of `rigfit evaluate-trajectory`'s --max-dt and --delta (rigfit's
+/// evaluate_trajectory(max_dt=, delta=)): max_dt > 0, delta >= 1. Throws InputError
+/// "<command>: <option> must be ..." with the options spelled as `spelling` asks.
+void CheckTrajectoryEvaluationSettings(const std::string& command, OptionSpelling spelling,
+                                       double max_dt, int delta);
 
 /// How far a trajectory that starts at the truth has wandered off at its end: over the pairs
 /// of AssociateByTimestamp(max_dt), the distance between the last pair's positions (no

@@ -460,6 +460,15 @@ PngSequenceLayout ReadSevenScenesFolder(fs::path folder, const SequenceOptions& 
 
 }  // namespace
 
+void SetSequenceIntrinsics(const std::vector<double>& values, const std::string& command,
+                           OptionSpelling spelling, SequenceOptions* options) {
+  if (values.empty()) return;
+  if (values.size() != 4) {
+    throw InputError(command + ": " + OptionName("intrinsics", spelling) + " takes fx,fy,cx,cy");
+  }
+  options->intrinsics = PinholeIntrinsics{values[0], values[1], values[2], values[3]};
+}
+
 PinholeIntrinsics TumIntrinsics(const std::string& camera) {
   if (camera == "fr1") return {517.3, 516.5, 318.6, 255.3};
   if (camera == "fr2") return {520.9, 521.0, 325.1, 249.7};

@@ -1,7 +1,9 @@
 // rigfit._rigfit: the compiled half of the Python module (docs/python.md). Converts numpy
-// arrays and dicts to the library's plain structs (core/types.h, rig/options.h), runs the same
-// library calls as `rigfit refine` (cli/refine_command.cc) and hands back plain Python values;
-// rigfit/__init__.py wraps them in typed objects. InputError becomes ValueError.
+// arrays and dicts to the library's plain structs (core/types.h, rig/options.h; python/convert.h),
+// runs the same library calls as `rigfit refine` (cli/refine_command.cc) and `rigfit simulate`
+// and hands back plain Python values; rigfit/__init__.py wraps them in typed objects. The RGB-D
+// part (sequences, tracking, trajectories) is python/rgbd_module.cc. InputError becomes
+// ValueError.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -10,7 +12,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -24,90 +25,28 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
+#include "python/convert.h"
 #include "report/refine_meta.h"
 #include "rig/options.h"
 #include "rig/refine.h"
+#include "sim/simulate_rig.h"
 
-namespace py = pybind11;
+namespace rigfit::python {
 
-namespace rigfit {
+void AddRgbdFunctions(py::module_& m);  // python/rgbd_module.cc
+
 namespace {
 
 using Json = nlohmann::json;
-using DoubleArray = py::array_t<double, py::array::c_style | py::array::forcecast>;
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 
-[[noreturn]] void Fail(const std::string& where, const std::string& what) {
-  throw InputError(where + ": " + what);
-}
-
-std::string Shape(const py::array& a) {
-  std::string s = "(";
-  for (py::ssize_t i = 0; i < a.ndim(); ++i) {
-    s += (i ? ", " : "") + std::to_string(a.shape(i));
-  }
-  return s + (a.ndim() == 1 ? ",)" : ")");
-}
-
-/// A float64 array of exactly `rows` x `cols` (rows < 0: any), as a C-contiguous array.
-DoubleArray Matrix(const py::handle& value, py::ssize_t rows, py::ssize_t cols,
-                   const std::string& where) {
-  DoubleArray a;
-  try {
-    a = DoubleArray::ensure(value);
-  } catch (const py::error_already_set&) {
-  }
-  if (!a) Fail(where, "expected a numeric array");
-  const bool shape_ok = a.ndim() == 2 && (rows < 0 || a.shape(0) == rows) && a.shape(1) == cols;
-  if (!shape_ok) {
-    Fail(where, "expected shape (" + (rows < 0 ? std::string("N") : std::to_string(rows)) + ", " +
-                    std::to_string(cols) + "), got " + Shape(a));
-  }
-  return a;
-}
-
-/// A depth sample in metres as float: NaN where invalid (NaN, +-inf, <= 0), as ReadCapture.
-float DepthSample(double z) {
-  if (!(z > 0.0 && std::isfinite(z))) return std::numeric_limits<float>::quiet_NaN();
-  return static_cast<float>(std::min<double>(z, std::numeric_limits<float>::max()));
-}
-
+/// The depth camera of d ("depth", "K", ["depth_scale", "confidence", "color"]): the depth read
+/// once into camera.depth_m (DepthView), then ReadCapture's rules (CheckDepthCamera).
 void ReadDepth(const py::dict& d, CameraCapture& camera, const std::string& where) {
-  const py::array raw = py::array::ensure(d["depth"]);
-  if (!raw || raw.ndim() != 2) {
-    Fail(where + ": depth",
-         "expected a 2-D array (H, W), got " + (raw ? Shape(raw) : std::string("no array")));
-  }
-  camera.height = static_cast<int>(raw.shape(0));
-  camera.width = static_cast<int>(raw.shape(1));
-  if (camera.width == 0 || camera.height == 0) Fail(where + ": depth", "empty image");
-  const size_t n = static_cast<size_t>(raw.size());
-  camera.depth_m.resize(n);
-  const bool has_scale = d.contains("depth_scale");
-  if (raw.dtype().is(py::dtype::of<std::uint16_t>())) {
-    if (!has_scale) Fail(where, "uint16 depth needs \"depth_scale\" (metres per unit)");
-    const double scale = py::cast<double>(d["depth_scale"]);
-    if (!(std::isfinite(scale) && scale > 0.0)) {
-      Fail(where + ": depth_scale", "must be a finite number > 0, got " + std::to_string(scale));
-    }
-    const auto a = py::array_t<std::uint16_t, py::array::c_style>::ensure(raw);
-    const std::uint16_t* p = a.data();
-    for (size_t i = 0; i < n; ++i) camera.depth_m[i] = DepthSample(p[i] * scale);
-  } else if (raw.dtype().kind() == 'f') {
-    if (has_scale) Fail(where, "\"depth_scale\" is for uint16 depth; float depth is in metres");
-    if (raw.dtype().is(py::dtype::of<float>())) {
-      const auto a = FloatArray::ensure(raw);
-      const float* p = a.data();
-      for (size_t i = 0; i < n; ++i) camera.depth_m[i] = DepthSample(p[i]);
-    } else {
-      const auto a = DoubleArray::ensure(raw);
-      const double* p = a.data();
-      for (size_t i = 0; i < n; ++i) camera.depth_m[i] = DepthSample(p[i]);
-    }
-  } else {
-    Fail(where + ": depth", "expected float32 or float64 metres, or uint16 with depth_scale, got " +
-                                std::string(py::str(raw.dtype())));
-  }
+  const DepthView depth(d, where);
+  camera.width = depth.width();
+  camera.height = depth.height();
+  camera.depth_m = depth.Read();
   if (!d.contains("K")) Fail(where, "a depth camera needs \"K\" (3x3 intrinsics)");
   const DoubleArray K = Matrix(d["K"], 3, 3, where + ": K");
   const auto k = K.unchecked<2>();
@@ -126,12 +65,7 @@ void ReadDepth(const py::dict& d, CameraCapture& camera, const std::string& wher
     camera.confidence.assign(c.data(), c.data() + c.size());
   }
   if (d.contains("color")) {
-    const auto c = py::array_t<std::uint8_t, py::array::c_style>::ensure(d["color"]);
-    if (!c || c.ndim() != 3 || c.shape(0) != camera.height || c.shape(1) != camera.width ||
-        c.shape(2) != 3) {
-      Fail(where + ": color", "expected uint8 (H, W, 3)");
-    }
-    camera.color.assign(c.data(), c.data() + c.size());
+    camera.color = ColorOf(d["color"], camera.width, camera.height, where + ": color");
   }
 }
 
@@ -190,68 +124,6 @@ RigCapture CaptureOf(const py::dict& cameras) {
     capture.cameras.push_back(std::move(camera));
   }
   return capture;
-}
-
-/// extrinsics: serial -> 4x4 T_world_camera, checked as ReadExtrinsics checks a file's
-/// (finite, last row [0, 0, 0, 1], rotation within 1e-3 of orthonormal with det > 0); not
-/// re-orthonormalised, so that a pose passes through unchanged.
-PoseMap PosesOf(const py::dict& extrinsics, const std::string& name) {
-  PoseMap poses;
-  for (const auto& [key, value] : extrinsics) {
-    if (!py::isinstance<py::str>(key)) throw InputError(name + ": keys must be serials (str)");
-    const std::string serial = py::cast<std::string>(key);
-    const std::string where = name + ": camera " + serial;
-    if (serial.empty()) throw InputError(name + ": empty serial");
-    const DoubleArray a = Matrix(value, 4, 4, where);
-    const auto m = a.unchecked<2>();
-    Pose T;
-    for (int r = 0; r < 4; ++r) {
-      for (int c = 0; c < 4; ++c) T.matrix()(r, c) = m(r, c);
-    }
-    if (!T.matrix().allFinite()) Fail(where, "entries must be finite");
-    if (T.matrix().row(3) != Eigen::RowVector4d(0, 0, 0, 1)) {
-      Fail(where, "last row must be [0, 0, 0, 1]");
-    }
-    const Mat3 R = T.linear();
-    const double deviation = (R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff();
-    if (deviation > 1e-3 || R.determinant() <= 0.0) {
-      std::ostringstream what;
-      what << "rotation block is not a rotation (max |R^T R - I| = " << deviation
-           << ", det = " << R.determinant() << ")";
-      Fail(where, what.str());
-    }
-    poses[serial] = T;
-  }
-  return poses;
-}
-
-py::array_t<double> MatrixToNumpy(const Eigen::Matrix4d& m) {
-  py::array_t<double> out({4, 4});
-  auto o = out.mutable_unchecked<2>();
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) o(r, c) = m(r, c);
-  }
-  return out;
-}
-
-py::dict PosesToDict(const PoseMap& poses) {
-  py::dict out;
-  for (const auto& [serial, T] : poses) out[py::str(serial)] = MatrixToNumpy(T.matrix());
-  return out;
-}
-
-/// The Python logger "rigfit" as a Log: callable from the solver's threads (takes the GIL).
-Log PythonLog(const py::object& logger) {
-  if (logger.is_none()) return {};
-  return {[logger](LogLevel level, const std::string& message) {
-    py::gil_scoped_acquire gil;
-    try {
-      const int py_level = level == LogLevel::kDebug ? 10 : level == LogLevel::kInfo ? 20 : 30;
-      logger.attr("log")(py_level, message);
-    } catch (const py::error_already_set&) {
-      // A failing handler must not abort the solve.
-    }
-  }};
 }
 
 /// The options of a run: config (YAML text from a dict, or a path, or the defaults) with the
@@ -397,51 +269,34 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
   return out;
 }
 
-py::dict LoadCapture(const std::string& path, const py::object& logger) {
-  const RigCapture capture = ReadCapture(path);
-  const Log log = PythonLog(logger);
-  for (const std::string& w : CaptureWarnings(capture, path)) log.Warning(w);
+/// A capture as `cameras` (serial -> {"depth", "K", ["confidence", "color"]} or {"points",
+/// ["normals"]}); its buffers become the arrays (VectorToNumpy: no copy), so `capture` is
+/// emptied.
+py::dict CaptureToDict(RigCapture&& capture) {
   py::dict out;
-  for (const CameraCapture& c : capture.cameras) {
+  for (CameraCapture& c : capture.cameras) {
     py::dict d;
     if (c.HasDepth()) {
-      py::array_t<float> depth({c.height, c.width});
-      std::copy(c.depth_m.begin(), c.depth_m.end(), depth.mutable_data());
-      d["depth"] = depth;
-      py::array_t<double> K({3, 3});
-      auto k = K.mutable_unchecked<2>();
-      const double values[3][3] = {{c.intrinsics.fx, 0.0, c.intrinsics.cx},
-                                   {0.0, c.intrinsics.fy, c.intrinsics.cy},
-                                   {0.0, 0.0, 1.0}};
-      for (int r = 0; r < 3; ++r) {
-        for (int col = 0; col < 3; ++col) k(r, col) = values[r][col];
-      }
-      d["K"] = K;
-      if (!c.confidence.empty()) {
-        py::array_t<float> conf({c.height, c.width});
-        std::copy(c.confidence.begin(), c.confidence.end(), conf.mutable_data());
-        d["confidence"] = conf;
-      }
-      if (!c.color.empty()) {
-        py::array_t<std::uint8_t> color({c.height, c.width, 3});
-        std::copy(c.color.begin(), c.color.end(), color.mutable_data());
-        d["color"] = color;
-      }
+      const py::ssize_t h = c.height;
+      const py::ssize_t w = c.width;
+      d["depth"] = VectorToNumpy(std::move(c.depth_m), {h, w});
+      d["K"] = IntrinsicsToK(c.intrinsics);
+      if (!c.confidence.empty()) d["confidence"] = VectorToNumpy(std::move(c.confidence), {h, w});
+      if (!c.color.empty()) d["color"] = VectorToNumpy(std::move(c.color), {h, w, 3});
     } else {
-      for (const auto& [name, vectors] :
-           {std::pair{"points", &c.points}, {"normals", &c.normals}}) {
-        if (vectors->empty()) continue;
-        py::array_t<double> a({static_cast<py::ssize_t>(vectors->size()), py::ssize_t{3}});
-        auto v = a.mutable_unchecked<2>();
-        for (size_t i = 0; i < vectors->size(); ++i) {
-          for (int j = 0; j < 3; ++j) v(i, j) = (*vectors)[i](j);
-        }
-        d[name] = a;
-      }
+      if (!c.points.empty()) d["points"] = PointsToNumpy(std::move(c.points));
+      if (!c.normals.empty()) d["normals"] = PointsToNumpy(std::move(c.normals));
     }
     out[py::str(c.serial)] = d;
   }
   return out;
+}
+
+py::dict LoadCapture(const std::string& path, const py::object& logger) {
+  RigCapture capture = ReadCapture(path);
+  const Log log = PythonLog(logger);
+  for (const std::string& w : CaptureWarnings(capture, path)) log.Warning(w);
+  return CaptureToDict(std::move(capture));
 }
 
 py::dict LoadExtrinsics(const std::string& path, const py::object& logger) {
@@ -523,11 +378,62 @@ void SaveCapture(const std::string& path, const py::dict& cameras, bool depth_as
   WriteCapture(path, capture, options);
 }
 
+/// The defaults of SimOptions under the names of `rigfit simulate`'s flags: rigfit.simulate's
+/// keyword defaults.
+py::dict SimulateDefaults() {
+  const SimOptions o;
+  py::dict d;
+  d["cameras"] = o.cameras;
+  d["seed"] = o.seed;
+  d["width"] = o.width;
+  d["height"] = o.height;
+  d["noise"] = o.noise;
+  d["noise_corr_px"] = o.noise_corr_px;
+  d["noise_corr_share"] = o.noise_corr_share;
+  d["disparity_quant_px"] = o.disparity_quant_px;
+  d["dropout"] = o.dropout;
+  d["perturb_yaw_deg"] = o.perturb_yaw_deg;
+  d["perturb_xz_m"] = o.perturb_xz_m;
+  d["perturb_tilt_deg"] = o.perturb_tilt_deg;
+  d["bare"] = o.bare;
+  return d;
+}
+
+/// (cameras, truth, start) of SimulateRig, after `rigfit simulate`'s checks (CheckSimOptions).
+py::tuple Simulate(int cameras, std::uint64_t seed, int width, int height, double noise,
+                   double noise_corr_px, double noise_corr_share, double disparity_quant_px,
+                   double dropout, double perturb_yaw_deg, double perturb_xz_m,
+                   double perturb_tilt_deg, bool bare) {
+  SimOptions o;
+  o.cameras = cameras;
+  o.seed = seed;
+  o.width = width;
+  o.height = height;
+  o.noise = noise;
+  o.noise_corr_px = noise_corr_px;
+  o.noise_corr_share = noise_corr_share;
+  o.disparity_quant_px = disparity_quant_px;
+  o.dropout = dropout;
+  o.perturb_yaw_deg = perturb_yaw_deg;
+  o.perturb_xz_m = perturb_xz_m;
+  o.perturb_tilt_deg = perturb_tilt_deg;
+  o.bare = bare;
+  CheckSimOptions(o, "simulate", OptionSpelling::kKeyword);
+  SimulatedRig rig;
+  {
+    py::gil_scoped_release release;
+    rig = SimulateRig(o);
+  }
+  return py::make_tuple(CaptureToDict(std::move(rig.capture)), PosesToDict(rig.gt),
+                        PosesToDict(rig.init));
+}
+
 }  // namespace
-}  // namespace rigfit
+}  // namespace rigfit::python
 
 PYBIND11_MODULE(_rigfit, m) {
   using namespace rigfit;
+  using namespace rigfit::python;
   m.doc() = "rigfit's compiled core; use the package rigfit instead (docs/python.md).";
   py::register_exception_translator([](std::exception_ptr p) {
     try {
@@ -546,4 +452,10 @@ PYBIND11_MODULE(_rigfit, m) {
   m.def("load_extrinsics", &LoadExtrinsics, py::arg("path"), py::arg("logger"));
   m.def("save_extrinsics", &SaveExtrinsics, py::arg("path"), py::arg("extrinsics"),
         py::arg("meta_json"));
+  m.def("simulate_defaults", &SimulateDefaults);
+  m.def("simulate", &Simulate, py::arg("cameras"), py::arg("seed"), py::arg("width"),
+        py::arg("height"), py::arg("noise"), py::arg("noise_corr_px"), py::arg("noise_corr_share"),
+        py::arg("disparity_quant_px"), py::arg("dropout"), py::arg("perturb_yaw_deg"),
+        py::arg("perturb_xz_m"), py::arg("perturb_tilt_deg"), py::arg("bare"));
+  AddRgbdFunctions(m);
 }

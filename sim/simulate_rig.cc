@@ -4,9 +4,12 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
+#include "core/errors.h"
 #include "sim/random.h"
 
 namespace rigfit {
@@ -403,6 +406,49 @@ PinholeIntrinsics SimIntrinsics(int width, int height) {
   K.cx = 0.5 * (width - 1);
   K.cy = 0.5 * (height - 1);
   return K;
+}
+
+void CheckSimImageSize(const std::string& command, int width, int height, OptionSpelling spelling) {
+  for (const auto& [key, value] : {std::pair{"width", width}, std::pair{"height", height}}) {
+    if (value < kMinSimImageSize || value > kMaxSimImageSize) {
+      throw InputError(command + ": " + OptionName(key, spelling) + " must be in [" +
+                       std::to_string(kMinSimImageSize) + ", " + std::to_string(kMaxSimImageSize) +
+                       "] pixels, got " + std::to_string(value));
+    }
+  }
+}
+
+void CheckSimOptions(const SimOptions& o, const std::string& command, OptionSpelling spelling) {
+  const auto fail = [&](const char* key, const std::string& what) {
+    throw InputError(command + ": " + OptionName(key, spelling) + " " + what);
+  };
+  const auto finite_non_negative = [](double x) { return std::isfinite(x) && x >= 0.0; };
+  if (o.cameras < 1 || o.cameras > kMaxSimCameras) {
+    fail("cameras", "must be in [1, " + std::to_string(kMaxSimCameras) + "], got " +
+                        std::to_string(o.cameras));
+  }
+  CheckSimImageSize(command, o.width, o.height, spelling);
+  if (!finite_non_negative(o.noise)) fail("noise", "must be a finite number >= 0");
+  if (!(o.dropout >= 0.0 && o.dropout < 1.0)) fail("dropout", "must be in [0, 1)");
+  if (!finite_non_negative(o.perturb_yaw_deg) || o.perturb_yaw_deg > 180.0) {
+    fail("perturb_yaw_deg", "must be in [0, 180]");
+  }
+  if (!finite_non_negative(o.perturb_tilt_deg) || o.perturb_tilt_deg > 90.0) {
+    fail("perturb_tilt_deg", "must be in [0, 90]");
+  }
+  if (!finite_non_negative(o.perturb_xz_m)) fail("perturb_xz_m", "must be a finite number >= 0");
+  if (!finite_non_negative(o.noise_corr_px)) {
+    fail("noise_corr_px", "must be a finite number >= 0");
+  }
+  if (!(o.noise_corr_share >= 0.0 && o.noise_corr_share <= 1.0)) {
+    fail("noise_corr_share", "must be in [0, 1]");
+  }
+  if (o.noise_corr_share > 0.0 && o.noise_corr_px <= 0.0) {
+    fail("noise_corr_share", "> 0 needs " + OptionName("noise_corr_px", spelling) + " > 0");
+  }
+  if (!finite_non_negative(o.disparity_quant_px)) {
+    fail("disparity_quant_px", "must be a finite number >= 0");
+  }
 }
 
 SimulatedRig SimulateRig(const SimOptions& options) {

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "core/option_name.h"
 #include "core/types.h"
 #include "sim/random.h"
 #include "sim/scene.h"
@@ -50,6 +51,26 @@ struct SimOptions {
   double disparity_quant_px = 0.0;
   double stereo_baseline_m = 0.12;  ///< ZED-like
 };
+
+/// Limits of the simulators' options (`rigfit simulate`, `rigfit simulate-sequence`,
+/// rigfit.simulate): cameras of a rig, and pixels on either side of an image.
+inline constexpr int kMaxSimCameras = 64;
+inline constexpr int kMinSimImageSize = 16;
+inline constexpr int kMaxSimImageSize = 8192;
+
+/// Throws InputError ("<command>: --width must be in [16, 8192] pixels, got ...", the option
+/// spelled as `spelling` asks) unless both sides are within [kMinSimImageSize,
+/// kMaxSimImageSize].
+void CheckSimImageSize(const std::string& command, int width, int height, OptionSpelling spelling);
+
+/// The checks of the options `rigfit simulate` takes as flags and rigfit.simulate as keywords:
+/// cameras in [1, kMaxSimCameras], the image size (CheckSimImageSize), noise, noise_corr_px,
+/// disparity_quant_px and perturb_xz_m finite and >= 0, dropout in [0, 1), perturb_yaw_deg in
+/// [0, 180], perturb_tilt_deg in [0, 90], noise_corr_share in [0, 1] and > 0 only with
+/// noise_corr_px > 0. Throws InputError "<command>: <option> must be ..." on the first
+/// problem. (SimulateRig's own check is a programmer's guard with looser bounds.)
+void CheckSimOptions(const SimOptions& options, const std::string& command,
+                     OptionSpelling spelling);
 
 /// A zero-mean Gaussian field of width x height pixels with unit variance at every pixel,
 /// correlated over about corr_px pixels: white N(0, 1) noise on a canvas padded by 3 corr_px,

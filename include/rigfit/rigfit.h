@@ -16,6 +16,12 @@
 // (core/trajectory.h) gives ATE and RPE, ReadTumTrajectory and WriteTumTrajectory
 // (io/trajectory_tum.h) the TUM files.
 //
+// Options as a command line or a script names them: CheckSimOptions (sim/simulate_rig.h),
+// ApplyTrackingSettings (rgbd/tracking_options.h) and CheckTrajectoryEvaluationSettings
+// (core/trajectory.h) check the settings of `rigfit simulate`, `track` and
+// `evaluate-trajectory` with their messages, naming each option as a flag or a keyword
+// (core/option_name.h).
+//
 // Errors (core/errors.h): I/O throws InputError naming the file and field; the solvers return
 // a result with `success` and `message` instead of throwing on bad geometry. Progress and
 // warnings go to a Log (registration/log.h), silent when default-constructed.
@@ -35,6 +41,7 @@
 #include "registration/log.h"
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
+#include "rgbd/tracking_options.h"
 #include "rig/options.h"
 #include "rig/refine.h"
 #include "sim/simulate_rig.h"

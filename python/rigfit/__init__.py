@@ -1,18 +1,23 @@
-"""rigfit from Python: refine the extrinsics of a depth-camera rig (docs/python.md).
+"""rigfit from Python: refine the extrinsics of a depth-camera rig, simulate one, and read,
+track and evaluate RGB-D sequences (docs/python.md).
 
-The same library calls as ``rigfit refine``: ``refine`` on the same capture, initial
-extrinsics and options gives the CLI's poses bit for bit and exactly the ``_meta`` report the
-CLI writes (without ``timings_s``). Nothing is written to disk unless asked. Bad input raises
-``ValueError`` with the library's message. Progress and warnings go to the logger ``"rigfit"``.
+The same library calls as the CLI: ``refine`` on the same capture, initial extrinsics and
+options gives ``rigfit refine``'s poses bit for bit and exactly the ``_meta`` report the CLI
+writes (without ``timings_s``); ``simulate`` is ``rigfit simulate``, ``track`` is ``rigfit
+track``. Nothing is written to disk unless asked. Bad input raises ``ValueError`` with the
+library's message. Progress and warnings go to the logger ``"rigfit"``.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import operator
 import os
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, Optional, Union
+from typing import (TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Tuple, Union,
+                    overload)
+from typing import Sequence as _Seq
 
 from . import _rigfit
 
@@ -20,7 +25,8 @@ if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
 __all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "load_capture", "save_capture", "load_extrinsics",
-           "save_extrinsics", "evaluate"]
+           "save_extrinsics", "evaluate", "simulate", "Frame", "Sequence", "open_sequence", "TrackedFrame",
+           "Trajectory", "track", "evaluate_trajectory", "load_trajectory", "save_trajectory"]
 
 logger = logging.getLogger("rigfit")
 
@@ -202,3 +208,320 @@ def save_extrinsics(path: Union[str, os.PathLike], extrinsics: Extrinsics,
     ``RefineResult.meta``) as its ``_meta``."""
     meta_json = "" if meta is None else json.dumps(meta, allow_nan=False)
     _rigfit.save_extrinsics(os.fspath(path), dict(extrinsics), meta_json)
+
+
+# The keyword defaults below are the library's own (SimOptions, SequenceOptions, the tracking
+# options), read once from the compiled module, so that they cannot drift from the CLI's.
+_SIM = _rigfit.simulate_defaults()
+_SEQ = _rigfit.sequence_defaults()
+_TRACK = _rigfit.track_defaults()
+
+
+def simulate(
+    *,
+    cameras: int = _SIM["cameras"],
+    seed: int = _SIM["seed"],
+    width: int = _SIM["width"],
+    height: int = _SIM["height"],
+    noise: float = _SIM["noise"],
+    noise_corr_px: float = _SIM["noise_corr_px"],
+    noise_corr_share: float = _SIM["noise_corr_share"],
+    disparity_quant_px: float = _SIM["disparity_quant_px"],
+    dropout: float = _SIM["dropout"],
+    perturb_yaw_deg: float = _SIM["perturb_yaw_deg"],
+    perturb_xz_m: float = _SIM["perturb_xz_m"],
+    perturb_tilt_deg: float = _SIM["perturb_tilt_deg"],
+    bare: bool = _SIM["bare"],
+) -> Tuple[Dict[str, Dict[str, "np.ndarray"]], Dict[str, "np.ndarray"], Dict[str, "np.ndarray"]]:
+    """Simulates a rig in memory, as ``rigfit simulate`` writes it (same defaults, same checks).
+
+    A furnished room seen by ``cameras`` ZED-like depth cameras; deterministic for a seed (the
+    CLI's files for the same options hold the same numbers). The keywords are the CLI's flags:
+    ``noise`` is sigma = noise * z^2 (1/m); ``noise_corr_px`` and ``noise_corr_share`` make a
+    share of its variance correlated over that many pixels; ``disparity_quant_px`` rounds the
+    disparity to multiples of it; ``dropout`` drops that fraction of pixels; ``perturb_*`` set how
+    far ``start`` is from ``truth``; ``bare`` leaves the room empty (floor and walls only).
+
+    Returns ``(cameras, truth, start)``: ``cameras`` in ``refine``'s layout (``{"depth", "K",
+    "color"}`` per serial), ``truth`` and ``start`` serial -> (4, 4) T_world_camera; so
+    ``cameras, truth, start = rigfit.simulate(); rigfit.refine(cameras, start)``.
+
+    Raises:
+        ValueError: an option out of range, with the CLI's message (keywords for flags).
+    """
+    seed = operator.index(seed)
+    if not 0 <= seed < 2**64:
+        raise ValueError(f"simulate: seed must be in [0, 2^64 - 1], got {seed}")
+    cameras_out, truth, start = _rigfit.simulate(
+        operator.index(cameras), seed, operator.index(width), operator.index(height), float(noise),
+        float(noise_corr_px), float(noise_corr_share), float(disparity_quant_px), float(dropout),
+        float(perturb_yaw_deg), float(perturb_xz_m), float(perturb_tilt_deg), bool(bare))
+    return dict(cameras_out), dict(truth), dict(start)
+
+
+@dataclass
+class Frame:
+    """One frame of an RGB-D sequence (core/rgbd.h RgbdFrame).
+
+    Attributes:
+        index: position in its sequence, from 0.
+        timestamp: seconds (the sequence's clock; index / 30 Hz where it has none).
+        depth: (H, W) float32 metres, NaN where invalid (the library's buffer, not a copy).
+        K: (3, 3) intrinsics of the depth image (OpenCV axes: x right, y down, z forward).
+        color: (H, W, 3) uint8 registered to depth, or None.
+        T_world_camera: (4, 4) ground-truth pose of this frame, or None.
+        source: the file the depth came from.
+    """
+
+    index: int
+    timestamp: float
+    depth: "np.ndarray"
+    K: "np.ndarray"
+    color: Optional["np.ndarray"]
+    T_world_camera: Optional["np.ndarray"]
+    source: str
+
+
+@dataclass
+class TrackedFrame:
+    """How one frame of ``track`` went (rgbd/odometry.h OdometryFrame).
+
+    ``success`` False: tracking failed and the frame kept the predicted pose (``message`` says
+    why). ``keyframe``: became the reference of the next frames. ``weak_directions``: directions
+    of the motion the frame could not fix (a flat wall), held at their prediction.
+    """
+
+    index: int
+    timestamp: float
+    success: bool
+    message: str
+    keyframe: bool
+    iterations: int
+    correspondences: int
+    matched_ratio: float
+    rmse_m: float
+    weak_directions: int
+
+
+@dataclass
+class Trajectory:
+    """A camera trajectory: (N,) timestamps in seconds and (N, 4, 4) T_world_camera.
+
+    From ``track`` also ``frames`` (one ``TrackedFrame`` per pose), ``failures``, ``restarts``
+    and ``timings`` (seconds: ``load_s``, ``preprocess_s``, ``track_s``); a ground truth or a
+    loaded file has none.
+    """
+
+    timestamps: "np.ndarray"
+    poses: "np.ndarray"
+    frames: List[TrackedFrame] = field(default_factory=list)
+    failures: int = 0
+    restarts: int = 0
+    timings: Dict[str, float] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.timestamps)
+
+
+def _frame(raw: Mapping[str, Any]) -> Frame:
+    return Frame(index=raw["index"], timestamp=raw["timestamp"], depth=raw["depth"], K=raw["K"],
+                 color=raw["color"], T_world_camera=raw["T_world_camera"], source=raw["source"])
+
+
+class Sequence:
+    """An RGB-D sequence opened by ``open_sequence``: frames read from the files on demand.
+
+    ``len(seq)`` frames; ``seq[i]`` reads frame i (negative from the end) as a ``Frame``,
+    ``seq[a:b]`` a list of them, iteration all of them in order. ``ground_truth``: the dataset's
+    trajectory (for TUM the 100 Hz motion capture, elsewhere one pose per frame) or None.
+    """
+
+    def __init__(self, native: Any) -> None:
+        self._native = native
+
+    def __len__(self) -> int:
+        return len(self._native)
+
+    @overload
+    def __getitem__(self, index: int) -> Frame: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> List[Frame]: ...
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        return _frame(self._native.frame(operator.index(index)))
+
+    def __iter__(self) -> Iterator[Frame]:
+        for i in range(len(self)):
+            yield self[i]
+
+    @property
+    def ground_truth(self) -> Optional[Trajectory]:
+        gt = self._native.ground_truth()
+        return None if gt is None else Trajectory(timestamps=gt[0], poses=gt[1])
+
+    def describe(self) -> str:
+        """One line: the format, the folder or file, the frame count."""
+        return self._native.describe()
+
+    def __repr__(self) -> str:
+        return f"<rigfit.Sequence: {self.describe()}>"
+
+
+def open_sequence(
+    path: Union[str, os.PathLike],
+    *,
+    camera: Optional[str] = None,
+    tum_camera: Optional[str] = None,
+    intrinsics: Optional[_Seq[float]] = None,
+    depth_scale: Optional[float] = None,
+    max_time_difference_s: float = _SEQ["max_time_difference_s"],
+    stride: int = _SEQ["stride"],
+    max_frames: int = _SEQ["max_frames"],
+) -> Sequence:
+    """Opens an RGB-D sequence, as ``rigfit track SEQUENCE`` does (docs/sequences.md).
+
+    ``path``: a TUM RGB-D or ICL-NUIM folder, a 7-Scenes folder, or a rig capture (HDF5) whose
+    camera ``camera`` (default the first) has a burst of depth frames. Lists and poses are read
+    now, images on demand. ``camera``, ``tum_camera`` ("fr1", "fr2", "fr3", "default") and
+    ``intrinsics`` ((fx, fy, cx, cy) of the depth image) are the CLI's ``--camera``,
+    ``--tum-camera``, ``--intrinsics``; ``depth_scale`` (metres per unit of 16-bit depth),
+    ``max_time_difference_s`` (associating colour and ground truth), ``stride`` and
+    ``max_frames`` (0: all) replace the format's defaults. The loader's notes go to the logger.
+
+    Raises:
+        ValueError: a missing or malformed folder or file, options out of range.
+    """
+    native = _rigfit.open_sequence(
+        os.fspath(path), camera or "", tum_camera or "",
+        [] if intrinsics is None else [float(v) for v in intrinsics],
+        None if depth_scale is None else float(depth_scale), float(max_time_difference_s),
+        operator.index(stride), operator.index(max_frames), logger)
+    return Sequence(native)
+
+
+#: A frame for ``track``: a ``Frame``, or a dict {"depth", "K", ["depth_scale", "timestamp",
+#: "T_world_camera"]} as ``refine``'s cameras take depth.
+FrameLike = Union[Frame, Mapping[str, Any]]
+
+
+def _frame_dict(frame: FrameLike) -> Dict[str, Any]:
+    if isinstance(frame, Frame):  # its arrays as they are: nothing copied here
+        d = {"depth": frame.depth, "K": frame.K, "timestamp": frame.timestamp}
+        if frame.T_world_camera is not None:
+            d["T_world_camera"] = frame.T_world_camera
+        return d
+    if isinstance(frame, Mapping):
+        return dict(frame)
+    raise TypeError(f"track: a frame must be a rigfit.Frame or a dict, got {type(frame).__name__}")
+
+
+def track(
+    frames: Union[Sequence, _Seq[FrameLike]],
+    *,
+    first: int = _TRACK["first"],
+    max_frames: int = _TRACK["max_frames"],
+    stride: int = _TRACK["stride"],
+    iterations: _Seq[int] = tuple(_TRACK["iterations"]),
+    prior: str = _TRACK["prior"],
+    keyframes: bool = _TRACK["keyframes"],
+    min_depth: float = _TRACK["min_depth"],
+    max_depth: float = _TRACK["max_depth"],
+    bilateral: bool = _TRACK["bilateral"],
+    max_distance: float = _TRACK["max_distance"],
+    max_angle: float = _TRACK["max_angle"],
+    depth_weights: bool = _TRACK["depth_weights"],
+    huber: float = _TRACK["huber"],
+    min_step: float = _TRACK["min_step"],
+    threads: int = _TRACK["threads"],
+) -> Trajectory:
+    """Frame-to-frame dense RGB-D odometry, as ``rigfit track`` (rgbd/odometry.h).
+
+    Each frame is tracked by projective point-to-plane ICP, coarse to fine, against the previous
+    frame or the last keyframe. ``frames``: a ``Sequence`` (read from its files as it goes), or
+    a list of ``Frame`` objects or dicts ``{"depth": (H, W) float32/float64 metres or uint16 with
+    "depth_scale", "K": (3, 3), "timestamp": seconds (every frame or none; default index /
+    30 Hz), "T_world_camera": (4, 4) optional}`` (each depth read once, when its frame is
+    tracked). The first frame's pose is its ``T_world_camera`` (ground truth) when it has one,
+    else the identity.
+
+    The keywords are the CLI's flags (``--max-frames`` is ``max_frames``, ``--no-keyframes`` is
+    ``keyframes=False``, ...), with the same defaults and checks: ``first``, ``max_frames`` (0:
+    all), ``stride`` pick the frames; ``iterations`` per pyramid level, finest first (their count
+    is the number of levels); ``prior`` "constant-velocity" or "identity"; ``min_depth`` and
+    ``max_depth`` (metres) the depth used; ``max_distance`` (m) and ``max_angle`` (deg) the
+    association; ``depth_weights`` and ``huber`` the weighting; ``min_step`` the convergence
+    test; ``threads``. Runs without the GIL; progress (every tenth) and warnings (failed frames)
+    go to the logger ``"rigfit"``. A failed frame keeps its prediction and is counted, as in the
+    CLI.
+
+    Raises:
+        ValueError: options out of range, a bad frame, an unreadable image.
+    """
+    if isinstance(frames, Sequence):
+        source: Any = frames._native
+    elif isinstance(frames, (str, bytes, os.PathLike)):
+        raise TypeError("track: expected a rigfit.Sequence or a list of frames; open a path "
+                        "with rigfit.open_sequence(path)")
+    else:
+        source = [_frame_dict(f) for f in frames]
+    raw = _rigfit.track(
+        source, operator.index(first), operator.index(max_frames), operator.index(stride),
+        [operator.index(n) for n in iterations], str(prior), bool(keyframes), float(min_depth),
+        float(max_depth), bool(bilateral), float(max_distance), float(max_angle),
+        bool(depth_weights), float(huber), float(min_step), operator.index(threads), logger)
+    return Trajectory(
+        timestamps=raw["timestamps"], poses=raw["poses"],
+        frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
+        restarts=raw["restarts"], timings=dict(raw["timings"]))
+
+
+TrajectoryLike = Union[Trajectory, Tuple["np.ndarray", "np.ndarray"]]
+
+
+def _trajectory_arrays(trajectory: TrajectoryLike, name: str) -> tuple:
+    if hasattr(trajectory, "timestamps") and hasattr(trajectory, "poses"):
+        return trajectory.timestamps, trajectory.poses
+    if isinstance(trajectory, (tuple, list)) and len(trajectory) == 2:
+        return trajectory[0], trajectory[1]
+    raise TypeError(f"{name} must be a rigfit.Trajectory or (timestamps, poses), got "
+                    f"{type(trajectory).__name__}")
+
+
+def evaluate_trajectory(estimated: TrajectoryLike, ground_truth: TrajectoryLike, *,
+                        max_dt: float = 0.02, delta: int = 1) -> Dict[str, Any]:
+    """Errors of a trajectory against ground truth, as ``rigfit evaluate-trajectory``.
+
+    Poses are matched by nearest timestamp (within ``max_dt`` seconds, the TUM tools' greedy
+    association), the estimate aligned rigidly to the truth (no scale). Each trajectory is a
+    ``Trajectory`` or ``(timestamps (N,), poses (N, 4, 4))``, timestamps increasing.
+
+    Returns core/trajectory.h's TrajectoryErrors as a dict, SI units: ``pairs`` (matched
+    poses), ``T_gt_est`` (4, 4) (the alignment), ``ate_rmse_m``, ``ate_mean_m``,
+    ``ate_median_m``, ``ate_max_m``, ``ate_m`` (per pair), ``rpe_pairs``,
+    ``rpe_translation_rmse_m`` and ``rpe_rotation_rmse_rad`` (pose pairs ``delta`` matched poses
+    apart).
+
+    Raises:
+        ValueError: malformed arrays, fewer than 3 poses matched in time, max_dt <= 0, delta < 1.
+    """
+    est = _trajectory_arrays(estimated, "estimated")
+    gt = _trajectory_arrays(ground_truth, "ground_truth")
+    return dict(_rigfit.evaluate_trajectory(est[0], est[1], gt[0], gt[1], float(max_dt),
+                                            operator.index(delta)))
+
+
+def load_trajectory(path: Union[str, os.PathLike]) -> Trajectory:
+    """Reads a trajectory in the TUM format (``timestamp tx ty tz qx qy qz qw`` per line), as
+    ``rigfit evaluate-trajectory`` reads it."""
+    timestamps, poses = _rigfit.load_trajectory(os.fspath(path))
+    return Trajectory(timestamps=timestamps, poses=poses)
+
+
+def save_trajectory(path: Union[str, os.PathLike], trajectory: TrajectoryLike) -> None:
+    """Writes a trajectory in the TUM format atomically, as ``rigfit track --out`` writes it
+    (the same bytes for the same poses)."""
+    timestamps, poses = _trajectory_arrays(trajectory, "trajectory")
+    _rigfit.save_trajectory(os.fspath(path), timestamps, poses)

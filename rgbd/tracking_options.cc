@@ -1,0 +1,56 @@
+#include "rgbd/tracking_options.h"
+
+#include "core/errors.h"
+
+namespace rigfit {
+
+void ApplyTrackingSettings(const std::string& command, OptionSpelling spelling,
+                           const std::string& prior, const std::vector<int>& iterations,
+                           int threads, int max_frames, MotionPrior* motion_prior,
+                           FrameOptions* frame, ProjectiveIcpOptions* icp) {
+  const std::string c = command + ": ";
+  const auto name = [spelling](const char* key) { return OptionName(key, spelling); };
+  if (prior == "constant-velocity") {
+    *motion_prior = MotionPrior::kConstantVelocity;
+  } else if (prior == "identity") {
+    *motion_prior = MotionPrior::kIdentity;
+  } else {
+    throw InputError(c + name("prior") + " must be constant-velocity or identity, got " + prior);
+  }
+  if (iterations.empty() || iterations.size() > 6) {
+    throw InputError(c + name("iterations") + " takes 1 to 6 counts, finest level first");
+  }
+  for (const int n : iterations) {
+    if (n < 0 || n > 100) throw InputError(c + name("iterations") + ": each count in [0, 100]");
+  }
+  icp->iterations = iterations;
+  frame->levels = static_cast<int>(iterations.size());
+  if (!(frame->min_depth_m >= 0.0 && frame->max_depth_m > frame->min_depth_m)) {
+    throw InputError(c + "need 0 <= " + name("min_depth") + " < " + name("max_depth"));
+  }
+  const AssociationOptions& association = icp->association;
+  if (!(association.max_distance_m > 0.0) ||
+      !(association.max_normal_angle_deg > 0.0 && association.max_normal_angle_deg <= 180.0)) {
+    throw InputError(c + name("max_distance") + " must be > 0 and " + name("max_angle") +
+                     " in (0, 180]");
+  }
+  if (!(icp->weighting.huber_delta_m >= 0.0)) {
+    throw InputError(c + name("huber") + " must be >= 0");
+  }
+  if (threads < 1 || threads > kMaxTrackingThreads) {
+    throw InputError(c + name("threads") + " must be in [1, " +
+                     std::to_string(kMaxTrackingThreads) + "]");
+  }
+  if (max_frames < 0) throw InputError(c + name("max_frames") + " must be >= 0 (0: all)");
+}
+
+void ApplyMinStep(const std::string& command, OptionSpelling spelling, double min_step_m,
+                  ProjectiveIcpOptions* icp) {
+  if (!(min_step_m > 0.0)) {
+    throw InputError(command + ": " + OptionName("min_step", spelling) + " must be > 0");
+  }
+  icp->converged_translation_m = min_step_m;
+  icp->converged_rotation_rad = min_step_m;
+}
+
+}  // namespace rigfit

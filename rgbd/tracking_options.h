@@ -1,0 +1,36 @@
+// The tracking settings `rigfit track` and `rigfit slam` take as flags and rigfit.track as
+// keywords (docs/python.md): checked and applied to the options structs in one place, so that
+// the CLI and the Python module accept the same values with the same messages.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/option_name.h"
+#include "rgbd/frame.h"
+#include "rgbd/odometry.h"
+#include "rgbd/projective_icp.h"
+
+namespace rigfit {
+
+/// Largest number of tracking threads.
+inline constexpr int kMaxTrackingThreads = 64;
+
+/// Checks and applies the settings both commands have: prior ("constant-velocity" or
+/// "identity"), iterations (1 to 6 counts in [0, 100], finest level first; their count is the
+/// number of pyramid levels), min_depth < max_depth (frame), max_distance > 0 and max_angle in
+/// (0, 180] (icp->association), huber >= 0 (already in icp), threads in [1,
+/// kMaxTrackingThreads], max_frames >= 0. Throws InputError "<command>: <option> ..." on a bad
+/// value, the options spelled as `spelling` asks.
+void ApplyTrackingSettings(const std::string& command, OptionSpelling spelling,
+                           const std::string& prior, const std::vector<int>& iterations,
+                           int threads, int max_frames, MotionPrior* motion_prior,
+                           FrameOptions* frame, ProjectiveIcpOptions* icp);
+
+/// Sets the convergence test of `rigfit track --min-step` (rigfit.track's min_step): a
+/// pyramid level ends when a step moves the camera less than min_step_m metres and turns it
+/// less than min_step_m radians. Throws InputError "<command>: <option> must be > 0".
+void ApplyMinStep(const std::string& command, OptionSpelling spelling, double min_step_m,
+                  ProjectiveIcpOptions* icp);
+
+}  // namespace rigfit
