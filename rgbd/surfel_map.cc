@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/parallel.h"
+
 namespace rigfit {
 
 namespace {
@@ -26,7 +28,7 @@ double SurfelMap::CompressionRatio() const {
 
 FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_camera,
                                  int frame_index, const FusionOptions& options,
-                                 const std::vector<std::uint8_t>& color) {
+                                 const std::vector<std::uint8_t>& color, int threads) {
   const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
   if (frame.width <= 0 || frame.height <= 0 || frame.vertices.size() != pixels ||
       frame.normals.size() != pixels) {
@@ -48,64 +50,77 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
   }
   ++frames_;
 
-  // 1. Association through projection: per pixel the candidate closest to the camera.
+  // 1. Association through projection: per pixel the candidate closest to the camera (each
+  // thread projects its share of the points into its own z-buffer; rgbd/zbuffer.h).
   const Eigen::Matrix3f R = T_world_camera.linear().cast<float>();
   const Vec3f t = T_world_camera.translation().cast<float>();
   const Eigen::Matrix3f R_cw = R.transpose();
   const PinholeIntrinsics& K = frame.intrinsics;
+  const float fx = static_cast<float>(K.fx);
+  const float fy = static_cast<float>(K.fy);
+  const float cx = static_cast<float>(K.cx);
+  const float cy = static_cast<float>(K.cy);
   const float max_distance_sq = static_cast<float>(options.max_distance_m * options.max_distance_m);
   const float min_cosine = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
-  std::vector<int> match(pixels, -1);
-  std::vector<float> match_z(pixels, std::numeric_limits<float>::infinity());
-  const int map_size = size();
-  for (int i = 0; i < map_size; ++i) {
-    const Vec3f p_c = R_cw * (positions_[i] - t);
-    if (!(p_c.z() > 0.0f)) continue;
-    const int u = static_cast<int>(std::lround(K.fx * p_c.x() / p_c.z() + K.cx));
-    const int v = static_cast<int>(std::lround(K.fy * p_c.y() / p_c.z() + K.cy));
-    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
-    const int j = v * frame.width + u;
-    if (!frame.Valid(j) || p_c.z() >= match_z[j]) continue;
-    if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
-    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
-    match[j] = i;
-    match_z[j] = p_c.z();
-  }
+  threads = std::max(1, threads);
+  zbuffer_.Reset(static_cast<int>(pixels), threads);
+  ParallelForChunks(size(), threads, [&](int c, int begin, int end) {
+    std::uint64_t* keys = zbuffer_.Thread(c);
+    for (int i = begin; i < end; ++i) {
+      const Vec3f p_c = R_cw * (positions_[i] - t);
+      if (!(p_c.z() > 0.0f)) continue;
+      const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
+      const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
+      if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
+      const int j = v * frame.width + u;
+      if (!frame.Valid(j)) continue;
+      if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
+      if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
+      ZBuffer::Write(keys, j, ZBuffer::Key(p_c.z(), i));
+    }
+  });
+  const std::vector<std::uint64_t>& match = zbuffer_.Merge();
 
-  // 2. Merge, 3. add.
+  // 2. Merge (in parallel: a map point is the candidate of one pixel at most), 3. add.
   FusionStats stats;
   stats.input_points = static_cast<int>(frame.valid_pixels.size());
   input_points_ += stats.input_points;
   const double focal_px = 0.5 * (K.fx + K.fy);
+  const auto color_of = [&](int j) {
+    return with_color ? Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]) : Vec3f::Zero();
+  };
+  std::vector<int> merged(threads, 0);
+  ParallelForChunks(stats.input_points, threads, [&](int c, int begin, int end) {
+    int count = 0;
+    for (int k = begin; k < end; ++k) {
+      const int j = frame.valid_pixels[k];
+      if (match[j] == ZBuffer::kEmpty) continue;
+      const int i = ZBuffer::Index(match[j]);
+      const Vec3f& q = frame.vertices[j];
+      const Vec3f& n_q = frame.normals[j];
+      const float w = weights_[i];
+      positions_[i] = (w * positions_[i] + R * q + t) / (w + 1.0f);
+      normals_[i] = (w * normals_[i] + R * n_q).normalized();
+      if (with_color) colors_[i] = (w * colors_[i] + color_of(j)) / (w + 1.0f);
+      weights_[i] = w + 1.0f;
+      radii_[i] = std::min(radii_[i], SurfelRadius(q.z(), n_q.z(), focal_px));
+      last_seen_[i] = frame_index;
+      ++count;
+    }
+    merged[c] = count;
+  });
+  for (const int count : merged) stats.merged += count;
   for (const int j : frame.valid_pixels) {
+    if (match[j] != ZBuffer::kEmpty) continue;
     const Vec3f& q = frame.vertices[j];
     const Vec3f& n_q = frame.normals[j];
-    const Vec3f q_world = R * q + t;
-    const Vec3f n_world = R * n_q;
-    const float radius = SurfelRadius(q.z(), n_q.z(), focal_px);
-    Vec3f c_q = Vec3f::Zero();
-    if (with_color) {
-      c_q = Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]);
-    }
-    const int i = match[j];
-    if (i >= 0) {
-      const float w = weights_[i];
-      positions_[i] = (w * positions_[i] + q_world) / (w + 1.0f);
-      normals_[i] = (w * normals_[i] + n_world).normalized();
-      if (with_color) colors_[i] = (w * colors_[i] + c_q) / (w + 1.0f);
-      weights_[i] = w + 1.0f;
-      radii_[i] = std::min(radii_[i], radius);
-      last_seen_[i] = frame_index;
-      ++stats.merged;
-    } else {
-      positions_.push_back(q_world);
-      normals_.push_back(n_world);
-      if (with_color) colors_.push_back(c_q);
-      weights_.push_back(1.0f);
-      radii_.push_back(radius);
-      last_seen_.push_back(frame_index);
-      ++stats.added;
-    }
+    positions_.push_back(R * q + t);
+    normals_.push_back(R * n_q);
+    if (with_color) colors_.push_back(color_of(j));
+    weights_.push_back(1.0f);
+    radii_.push_back(SurfelRadius(q.z(), n_q.z(), focal_px));
+    last_seen_.push_back(frame_index);
+    ++stats.added;
   }
 
   // 4. Remove dormant unstable points.

@@ -33,6 +33,7 @@
 
 #include "core/pose.h"
 #include "rgbd/frame.h"
+#include "rgbd/zbuffer.h"
 
 namespace rigfit {
 
@@ -65,9 +66,11 @@ class SurfelMap {
   /// empty, or [height, width, 3] RGB of the frame's pixels. A map holds colours when its
   /// first fused frame had them; every later frame must then have them too, and a map
   /// without colours takes no frame with colour. Throws std::invalid_argument on a colour
-  /// of the wrong size or presence, or maps of inconsistent sizes.
+  /// of the wrong size or presence, or maps of inconsistent sizes. The association and the
+  /// merge are split over `threads` threads; the result does not depend on their number.
   FusionStats FuseFrame(const FrameLevel& frame, const Pose& T_world_camera, int frame_index,
-                        const FusionOptions& options, const std::vector<std::uint8_t>& color = {});
+                        const FusionOptions& options, const std::vector<std::uint8_t>& color = {},
+                        int threads = 2);
 
   int size() const { return static_cast<int>(positions_.size()); }
   bool has_color() const { return has_color_; }
@@ -93,6 +96,7 @@ class SurfelMap {
   std::vector<float> weights_;
   std::vector<float> radii_;
   std::vector<int> last_seen_;
+  ZBuffer zbuffer_;  ///< the association's, kept between frames (no reallocation)
   bool has_color_ = false;
   int frames_ = 0;  ///< frames fused
   std::int64_t input_points_ = 0;

@@ -103,6 +103,50 @@ TEST(RgbdRender, ARenderedMapLiesOnTheSurfacesAndSplattingFillsItsHoles) {
   EXPECT_GT(model.levels[2].valid_pixels.size(), 0.9 * frame.levels[2].valid_pixels.size());
 }
 
+// Bit for bit: NaN-free values compared by their bits, the invalid pixels by the list.
+void ExpectSameLevel(const FrameLevel& a, const FrameLevel& b) {
+  ASSERT_EQ(a.valid_pixels, b.valid_pixels);
+  for (const int j : a.valid_pixels) {
+    EXPECT_EQ(a.depth_m[j], b.depth_m[j]);
+    EXPECT_EQ(a.vertices[j], b.vertices[j]);
+    EXPECT_EQ(a.normals[j], b.normals[j]);
+  }
+}
+
+TEST(RgbdRender, ThreadsGiveTheSerialResultExactly) {
+  // A noisy map (points overlap, ties and near-ties in the z-buffer), fused and rendered on 1
+  // and on 3 threads: the same map and the same renderings, bit for bit.
+  const Scene scene = TestRoom();
+  const std::vector<Pose> poses = Walk(10);
+  SurfelMap serial;
+  SurfelMap parallel;
+  for (int i = 0; i < 10; i += 2) {
+    const FrameLevel level =
+        BuildFramePyramid(Render(scene, poses[i], 160, 120, 0.01, i), FrameOptions{}).levels[0];
+    const FusionStats one = serial.FuseFrame(level, poses[i], i, FusionOptions{}, {}, 1);
+    const FusionStats three = parallel.FuseFrame(level, poses[i], i, FusionOptions{}, {}, 3);
+    EXPECT_EQ(one.merged, three.merged);
+    EXPECT_EQ(one.added, three.added);
+    EXPECT_EQ(one.removed, three.removed);
+  }
+  ASSERT_EQ(serial.size(), parallel.size());
+  EXPECT_GT(serial.size(), 20000);
+  EXPECT_EQ(serial.positions(), parallel.positions());
+  EXPECT_EQ(serial.normals(), parallel.normals());
+  EXPECT_EQ(serial.weights(), parallel.weights());
+  EXPECT_EQ(serial.radii(), parallel.radii());
+  EXPECT_EQ(serial.last_seen(), parallel.last_seen());
+  const PinholeIntrinsics K = Intrinsics(160, 120);
+  RenderOptions splat;
+  splat.splat = true;
+  for (const RenderOptions& options : {PixelOnly(), splat}) {
+    const FrameLevel one = RenderModel(serial, poses[5], 160, 120, K, options, 9, 1);
+    EXPECT_GT(one.valid_pixels.size(), 10000u);
+    ExpectSameLevel(one, RenderModel(serial, poses[5], 160, 120, K, options, 9, 2));
+    ExpectSameLevel(one, RenderModel(serial, poses[5], 160, 120, K, options, 9, 3));
+  }
+}
+
 TEST(RgbdSlam, NoiseFreeWalkStaysWellUnderAMillimetre) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(30), 320, 240, 0.0);
