@@ -110,8 +110,75 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
     merged[c] = count;
   });
   for (const int count : merged) stats.merged += count;
+
+  // 2b. Fold: a map point B that projects to a pixel which merged into another point A, and
+  // passes that pixel's gates, is folded into A when their discs overlap (|p_B - p_A| <
+  // r_A + r_B) and their normals agree: the same piece of surface twice (Keller et al.,
+  // section 4.3). Found in parallel, folded in index order (several B may fold into one A).
+  const int map_size = static_cast<int>(positions_.size());
+  if (options.fold_overlapping) {
+    fold_into_.assign(map_size, -1);
+    ParallelForChunks(map_size, threads, [&](int, int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        const Vec3f p_c = R_cw * (positions_[i] - t);
+        if (!(p_c.z() > 0.0f)) continue;
+        const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
+        const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
+        if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
+        const int j = v * frame.width + u;
+        if (match[j] == ZBuffer::kEmpty) continue;
+        const int a = ZBuffer::Index(match[j]);
+        if (a == i) continue;
+        if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
+        if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
+        const float overlap = radii_[a] + radii_[i];
+        if ((positions_[i] - positions_[a]).squaredNorm() >= overlap * overlap) continue;
+        if (normals_[i].dot(normals_[a]) <= min_cosine) continue;
+        fold_into_[i] = a;
+      }
+    });
+    for (int i = 0; i < map_size; ++i) {
+      const int a = fold_into_[i];
+      if (a < 0) continue;
+      const float w_a = weights_[a];
+      const float w_b = weights_[i];
+      positions_[a] = (w_a * positions_[a] + w_b * positions_[i]) / (w_a + w_b);
+      normals_[a] = (w_a * normals_[a] + w_b * normals_[i]).normalized();
+      if (has_color_) colors_[a] = (w_a * colors_[a] + w_b * colors_[i]) / (w_a + w_b);
+      weights_[a] = w_a + w_b;
+      radii_[a] = std::min(radii_[a], radii_[i]);
+      weights_[i] = 0.0f;  // removed below
+      ++stats.folded;
+    }
+  }
+  // A pixel is covered when a 4-neighbour merged into a point whose disc (radius scaled by
+  // cover_radius_scale) holds the pixel's vertex, with a normal within the angle gate.
+  const float cover_scale_sq =
+      static_cast<float>(options.cover_radius_scale * options.cover_radius_scale);
+  const auto covered = [&](int j) {
+    if (!(cover_scale_sq > 0.0f)) return false;
+    const int u = j % frame.width;
+    const int v = j / frame.width;
+    const int neighbours[4][2] = {{u - 1, v}, {u + 1, v}, {u, v - 1}, {u, v + 1}};
+    for (const auto& [un, vn] : neighbours) {
+      if (un < 0 || vn < 0 || un >= frame.width || vn >= frame.height) continue;
+      const std::uint64_t key = match[vn * frame.width + un];
+      if (key == ZBuffer::kEmpty) continue;
+      const int i = ZBuffer::Index(key);
+      const Vec3f p_c = R_cw * (positions_[i] - t);
+      if ((p_c - frame.vertices[j]).squaredNorm() >= cover_scale_sq * radii_[i] * radii_[i]) {
+        continue;
+      }
+      if ((R_cw * normals_[i]).dot(frame.normals[j]) > min_cosine) return true;
+    }
+    return false;
+  };
   for (const int j : frame.valid_pixels) {
     if (match[j] != ZBuffer::kEmpty) continue;
+    if (covered(j)) {
+      ++stats.covered;
+      continue;
+    }
     const Vec3f& q = frame.vertices[j];
     const Vec3f& n_q = frame.normals[j];
     positions_.push_back(R * q + t);
@@ -123,17 +190,18 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
     ++stats.added;
   }
 
-  // 4. Remove dormant unstable points.
-  if (options.dormant_frames > 0) RemoveDormant(frame_index, options, &stats);
+  // 4. Remove dormant unstable points (and the folded ones).
+  if (options.dormant_frames > 0 || stats.folded > 0) RemoveDormant(frame_index, options, &stats);
   return stats;
 }
 
 void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
   int kept = 0;
   for (int i = 0; i < size(); ++i) {
-    const bool dormant = frame_index - last_seen_[i] > options.dormant_frames &&
+    const bool dormant = options.dormant_frames > 0 &&
+                         frame_index - last_seen_[i] > options.dormant_frames &&
                          weights_[i] < options.min_stable_weight;
-    if (dormant) continue;
+    if (dormant || weights_[i] == 0.0f) continue;  // weight 0: folded
     if (kept != i) {
       positions_[kept] = positions_[i];
       normals_[kept] = normals_[i];
@@ -144,7 +212,7 @@ void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, Fus
     }
     ++kept;
   }
-  stats->removed = size() - kept;
+  stats->removed = size() - kept - stats->folded;
   positions_.resize(kept);
   normals_.resize(kept);
   if (has_color_) colors_.resize(kept);

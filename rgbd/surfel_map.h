@@ -47,6 +47,16 @@ struct FusionOptions {
   /// last_seen > dormant_frames) with weight below min_stable_weight is removed. 0: never
   /// remove (a rig's cameras, all at one instant, each see parts the others do not).
   int dormant_frames = 20;
+  /// Coverage: a pixel that merged into no point is not added when a 4-neighbour pixel merged
+  /// into a point whose disc, of radius cover_radius_scale * radius, holds the pixel's vertex
+  /// (with normals within max_normal_angle_deg): the surface there is already in the map at
+  /// this resolution. 0: every such pixel is added.
+  double cover_radius_scale = 1.0;
+  /// Fold duplicates: a map point that projects to a pixel merged into another point, passes
+  /// that pixel's gates and overlaps the other's disc (normals within the angle gate) is
+  /// folded into it (weights added) and removed (Keller et al.'s merging of overlapping
+  /// points). Off: it halved the 7-Scenes map but made the ATE worse (docs/rgbd.md).
+  bool fold_overlapping = false;
   double min_stable_weight = 3.0;
 };
 
@@ -55,6 +65,8 @@ struct FusionStats {
   int input_points = 0;  ///< the frame's valid pixels
   int merged = 0;        ///< pixels merged into a map point
   int added = 0;         ///< pixels added as new points
+  int covered = 0;       ///< pixels neither merged nor added: covered by a neighbour's point
+  int folded = 0;        ///< map points folded into an overlapping point (removed)
   int removed = 0;       ///< dormant points removed
 };
 
@@ -96,7 +108,8 @@ class SurfelMap {
   std::vector<float> weights_;
   std::vector<float> radii_;
   std::vector<int> last_seen_;
-  ZBuffer zbuffer_;  ///< the association's, kept between frames (no reallocation)
+  std::vector<int> fold_into_;  ///< per point: the point it folds into, or -1 (scratch)
+  ZBuffer zbuffer_;             ///< the association's, kept between frames (no reallocation)
   bool has_color_ = false;
   int frames_ = 0;  ///< frames fused
   std::int64_t input_points_ = 0;
