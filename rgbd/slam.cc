@@ -25,7 +25,7 @@ struct CameraPoint {
 
 void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
                  const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
-                 int threads, ZBuffer* zbuffer, FrameLevel* level) {
+                 int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view) {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   level->width = width;
   level->height = height;
@@ -44,20 +44,22 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
   const float cy = static_cast<float>(intrinsics.cy);
   const float focal = 0.5f * (fx + fy);
   const bool filtered = options.min_weight > 1.0f;
-  // Point i in the camera, or false when it is not rendered (filtered, behind the camera,
-  // seen from behind).
-  const auto to_camera = [&](int i, CameraPoint* point) {
+  // Point i in the camera and its nearest pixel; false behind the camera.
+  const auto project = [&](int i, CameraPoint* point) {
+    point->p_c = R_cw * (map.positions()[i] - t);
+    if (!(point->p_c.z() > 0.0f)) return false;
+    point->u0 = NearestPixel(fx * point->p_c.x() / point->p_c.z() + cx);
+    point->v0 = NearestPixel(fy * point->p_c.y() / point->p_c.z() + cy);
+    return true;
+  };
+  // Whether a projected point is rendered (not filtered, not seen from behind); sets n_c.
+  const auto rendered = [&](int i, CameraPoint* point) {
     if (filtered && map.weights()[i] < options.min_weight &&
         frame_index - map.last_seen()[i] > options.recent_frames) {
       return false;
     }
-    point->p_c = R_cw * (map.positions()[i] - t);
-    if (!(point->p_c.z() > 0.0f)) return false;
     point->n_c = R_cw * map.normals()[i];
-    if (point->n_c.dot(point->p_c) >= 0.0f) return false;  // seen from behind
-    point->u0 = NearestPixel(fx * point->p_c.x() / point->p_c.z() + cx);
-    point->v0 = NearestPixel(fy * point->p_c.y() / point->p_c.z() + cy);
-    return true;
+    return point->n_c.dot(point->p_c) < 0.0f;  // not seen from behind
   };
   const auto half_width = [&](int i, const CameraPoint& point) {
     return options.splat ? std::min(options.max_splat_px,
@@ -76,25 +78,35 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
            (*q - point.p_c).squaredNorm() <= map.radii()[i] * map.radii()[i];
   };
 
-  // 1. Every thread projects its share of the points into its own z-buffer.
+  // 1. Every thread projects its share of the points into its own z-buffer (and collects
+  // the view's points).
   threads = std::max(1, threads);
   zbuffer->Reset(pixels, threads);
+  const int margin = view ? view->margin_px : 0;
+  if (view) view->parts.resize(threads);
   ParallelForChunks(map.size(), threads, [&](int c, int begin, int end) {
     std::uint64_t* keys = zbuffer->Thread(c);
+    std::vector<int>* part = view ? &view->parts[c] : nullptr;
+    if (part) part->clear();
     CameraPoint point;
     Vec3f q = Vec3f::Zero();
     for (int i = begin; i < end; ++i) {
-      if (!to_camera(i, &point)) continue;
+      if (!project(i, &point)) continue;
       const int u0 = point.u0;
       const int v0 = point.v0;
+      if (part && point.p_c.z() >= MapView::kMinDepthM && u0 >= -margin && v0 >= -margin &&
+          u0 < width + margin && v0 < height + margin) {
+        part->push_back(i);
+      }
       if (!options.splat) {
-        if (u0 >= 0 && v0 >= 0 && u0 < width && v0 < height) {
+        if (u0 >= 0 && v0 >= 0 && u0 < width && v0 < height && rendered(i, &point)) {
           ZBuffer::Write(keys, v0 * width + u0, ZBuffer::Key(point.p_c.z(), i));
         }
         continue;
       }
       const int half = half_width(i, point);
       if (u0 + half < 0 || v0 + half < 0 || u0 - half >= width || v0 - half >= height) continue;
+      if (!rendered(i, &point)) continue;
       for (int v = std::max(0, v0 - half); v <= std::min(height - 1, v0 + half); ++v) {
         for (int u = std::max(0, u0 - half); u <= std::min(width - 1, u0 + half); ++u) {
           if (on_disc(i, point, u, v, &q))
@@ -110,7 +122,8 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
     for (int j = begin; j < end; ++j) {
       if (keys[j] == ZBuffer::kEmpty) continue;
       const int i = ZBuffer::Index(keys[j]);
-      to_camera(i, &point);
+      project(i, &point);
+      rendered(i, &point);
       Vec3f q = point.p_c;
       if (options.splat) on_disc(i, point, j % width, j / width, &q);
       level->depth_m[j] = q.z();
@@ -121,6 +134,17 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
   for (int j = 0; j < pixels; ++j) {
     if (keys[j] != ZBuffer::kEmpty) level->valid_pixels.push_back(j);
   }
+  if (view) {
+    view->T_world_camera = T_world_camera;
+    view->intrinsics = intrinsics;
+    view->width = width;
+    view->height = height;
+    view->map_size = map.size();
+    view->points.clear();
+    for (const std::vector<int>& part : view->parts) {
+      view->points.insert(view->points.end(), part.begin(), part.end());
+    }
+  }
 }
 
 FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
@@ -129,7 +153,7 @@ FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int wid
   FrameLevel level;
   ZBuffer zbuffer;
   RenderModel(map, T_world_camera, width, height, intrinsics, options, frame_index, threads,
-              &zbuffer, &level);
+              &zbuffer, &level, nullptr);
   return level;
 }
 
@@ -157,6 +181,7 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
   bool use_color = false;
   FramePyramid model;  // the rendered model and its z-buffer, reused every frame
   ZBuffer zbuffer;
+  MapView view;  // the map points near the rendered view, for the fusion that follows
   for (std::size_t k = 0; k < indices.size(); ++k) {
     auto start = std::chrono::steady_clock::now();
     const RgbdFrame frame = sequence.Frame(indices[k]);
@@ -188,7 +213,7 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
       const FrameLevel& base = pyramid.levels[0];
       model.levels.resize(1);
       RenderModel(result.map, predicted, base.width, base.height, base.intrinsics, options.render,
-                  indices[k], options.threads, &zbuffer, &model.levels[0]);
+                  indices[k], options.threads, &zbuffer, &model.levels[0], &view);
       BuildCoarserLevels(&model, options.frame.levels, options.frame.max_depth_jump_ratio,
                          options.threads);
       tracked.model_pixels = static_cast<int>(model.levels[0].valid_pixels.size());
@@ -222,8 +247,9 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
     }
     if (fuse) {
       start = std::chrono::steady_clock::now();
-      tracked.fusion = result.map.FuseFrame(pyramid.levels[0], T_world_current, indices[k],
-                                            options.fusion, color, options.threads);
+      tracked.fusion =
+          result.map.FuseFrame(pyramid.levels[0], T_world_current, indices[k], options.fusion,
+                               color, options.threads, k == 0 ? nullptr : &view);
       result.fuse_s += SecondsSince(start);
     }
     tracked.map_size = result.map.size();

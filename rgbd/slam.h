@@ -49,10 +49,11 @@ FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int wid
                        int frame_index = 0, int threads = 2);
 
 /// As above, into *level, whose buffers are reused, as are *zbuffer's (what a sequence
-/// renders every frame without allocating).
+/// renders every frame without allocating); with a `view`, also collects the map points near
+/// the view (MapView, rgbd/surfel_map.h) for the fusion of the same frame.
 void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
                  const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
-                 int threads, ZBuffer* zbuffer, FrameLevel* level);
+                 int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view = nullptr);
 
 struct SlamOptions {
   FrameOptions frame;

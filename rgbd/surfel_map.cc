@@ -22,13 +22,42 @@ float SurfelRadius(float z, float n_z, double focal_px) {
   return static_cast<float>(z / focal_px) / std::max(std::abs(n_z), kMinRadiusCosine);
 }
 
+bool MapView::Covers(const FrameLevel& frame, const Pose& T_world_camera_now, int map_size_now,
+                     double max_distance_m) const {
+  if (map_size != map_size_now || frame.width != width || frame.height != height ||
+      frame.intrinsics.fx != intrinsics.fx || frame.intrinsics.fy != intrinsics.fy ||
+      frame.intrinsics.cx != intrinsics.cx || frame.intrinsics.cy != intrinsics.cy) {
+    return false;
+  }
+  // The nearest a point can be and still pass the distance gate of some valid pixel.
+  float nearest = std::numeric_limits<float>::infinity();
+  for (const int j : frame.valid_pixels) nearest = std::min(nearest, frame.vertices[j].z());
+  const Pose delta = T_world_camera.inverse() * T_world_camera_now;  // view <- now
+  const double dt = delta.translation().norm();
+  const double dtheta = Eigen::AngleAxisd(delta.linear()).angle();
+  const double z_low = nearest - max_distance_m - dt;  // in the view's camera
+  if (!(z_low >= kMinDepthM)) return false;
+  // The largest |x / z| and |y / z| in the image and its margin.
+  const double a =
+      std::max(intrinsics.cx + margin_px + 0.5, width - 0.5 + margin_px - intrinsics.cx) /
+      intrinsics.fx;
+  const double b =
+      std::max(intrinsics.cy + margin_px + 0.5, height - 0.5 + margin_px - intrinsics.cy) /
+      intrinsics.fy;
+  const double f = std::max(intrinsics.fx, intrinsics.fy);
+  const double bound_px =
+      1.5 * f * (dtheta * std::sqrt(1.0 + a * a + b * b) + dt / z_low) * (1.0 + std::max(a, b));
+  return bound_px < margin_px;
+}
+
 double SurfelMap::CompressionRatio() const {
   return positions_.empty() ? 0.0 : static_cast<double>(input_points_) / positions_.size();
 }
 
 FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_camera,
                                  int frame_index, const FusionOptions& options,
-                                 const std::vector<std::uint8_t>& color, int threads) {
+                                 const std::vector<std::uint8_t>& color, int threads,
+                                 const MapView* view) {
   const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
   if (frame.width <= 0 || frame.height <= 0 || frame.vertices.size() != pixels ||
       frame.normals.size() != pixels) {
@@ -64,9 +93,13 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
   const float min_cosine = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
   threads = std::max(1, threads);
   zbuffer_.Reset(static_cast<int>(pixels), threads);
-  ParallelForChunks(size(), threads, [&](int c, int begin, int end) {
+  const bool use_view =
+      view != nullptr && view->Covers(frame, T_world_camera, size(), options.max_distance_m);
+  const int candidates = use_view ? static_cast<int>(view->points.size()) : size();
+  ParallelForChunks(candidates, threads, [&](int c, int begin, int end) {
     std::uint64_t* keys = zbuffer_.Thread(c);
-    for (int i = begin; i < end; ++i) {
+    for (int k = begin; k < end; ++k) {
+      const int i = use_view ? view->points[k] : k;
       const Vec3f p_c = R_cw * (positions_[i] - t);
       if (!(p_c.z() > 0.0f)) continue;
       const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
@@ -83,6 +116,7 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
 
   // 2. Merge (in parallel: a map point is the candidate of one pixel at most), 3. add.
   FusionStats stats;
+  stats.projected = candidates;
   stats.input_points = static_cast<int>(frame.valid_pixels.size());
   input_points_ += stats.input_points;
   const double focal_px = 0.5 * (K.fx + K.fy);

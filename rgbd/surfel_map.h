@@ -67,7 +67,33 @@ struct FusionStats {
   int added = 0;         ///< pixels added as new points
   int covered = 0;       ///< pixels neither merged nor added: covered by a neighbour's point
   int folded = 0;        ///< map points folded into an overlapping point (removed)
-  int removed = 0;       ///< dormant points removed
+  int removed = 0;
+  int projected = 0;  ///< map points projected for the association (all, or a MapView's)       ///<
+                      ///< dormant points removed
+};
+
+/// The map points that can be seen from near a view (what RenderModel collects while it
+/// projects the map, rgbd/slam.h): those at least kMinDepthM in front of the camera at
+/// T_world_camera that project within margin_px pixels of its image, in increasing order.
+/// FuseFrame then projects only them instead of the whole map, when the fused pose is close
+/// enough to the view's that no other point can land in the image (MapView::Covers).
+struct MapView {
+  static constexpr float kMinDepthM = 0.05f;
+  Pose T_world_camera = Pose::Identity();
+  PinholeIntrinsics intrinsics;
+  int width = 0;
+  int height = 0;
+  int margin_px = 32;
+  int map_size = -1;  ///< the map's size when collected (-1: not collected)
+  std::vector<int> points;
+  std::vector<std::vector<int>> parts;  ///< per thread while collecting (kept between frames)
+
+  /// True when every map point that can be associated with a pixel of `frame` (depth within
+  /// max_distance_m of a valid vertex) seen at T_world_camera is in `points`: same camera,
+  /// same map size, and a first-order bound of how far the pose change moves a point in the
+  /// image, f (|dtheta| |p| / z + |dt| / z) (1 + |x / z|) with 50% slack, below margin_px.
+  bool Covers(const FrameLevel& frame, const Pose& T_world_camera_now, int map_size_now,
+              double max_distance_m) const;
 };
 
 /// The surfel map, stored as a structure of arrays (one array per property, index = point).
@@ -80,9 +106,11 @@ class SurfelMap {
   /// without colours takes no frame with colour. Throws std::invalid_argument on a colour
   /// of the wrong size or presence, or maps of inconsistent sizes. The association and the
   /// merge are split over `threads` threads; the result does not depend on their number.
+  /// With a `view` that covers the frame (MapView::Covers) only its points are projected for
+  /// the association (the same result: the others cannot land in the image).
   FusionStats FuseFrame(const FrameLevel& frame, const Pose& T_world_camera, int frame_index,
                         const FusionOptions& options, const std::vector<std::uint8_t>& color = {},
-                        int threads = 2);
+                        int threads = 2, const MapView* view = nullptr);
 
   int size() const { return static_cast<int>(positions_.size()); }
   bool has_color() const { return has_color_; }

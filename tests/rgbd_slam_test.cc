@@ -147,6 +147,61 @@ TEST(RgbdRender, ThreadsGiveTheSerialResultExactly) {
   }
 }
 
+TEST(RgbdRender, FusingThroughTheRenderedViewEqualsFusingThroughTheWholeMap) {
+  // Each frame rendered at a prediction 5 mm and 0.1 degrees off, then fused at the true pose
+  // once through the points the rendering collected (MapView, a margin of 6 pixels) and once
+  // through every point: the same maps, while the view held fewer points than the map.
+  const Scene scene = TestRoom();
+  const std::vector<Pose> poses = Walk(12);
+  SurfelMap with_view;
+  SurfelMap whole;
+  // First a look at the side wall, out of the walk's view.
+  const Pose side = LookAt(Vec3(0.0, 1.4, 1.5), Vec3(-2.5, 0.8, 1.0));
+  const FrameLevel side_level =
+      BuildFramePyramid(Render(scene, side, 160, 120), FrameOptions{}).levels[0];
+  with_view.FuseFrame(side_level, side, 0, {});
+  whole.FuseFrame(side_level, side, 0, {});
+  int used = 0;
+  for (int k = 1; k < 12; ++k) {
+    const FrameLevel level =
+        BuildFramePyramid(Render(scene, poses[k], 160, 120, 0.005, k), FrameOptions{}).levels[0];
+    Pose predicted = poses[k];
+    predicted.linear() = predicted.linear() * ExpSO3(Vec3(0.0, 0.0017, 0.0));
+    predicted.translation() += Vec3(0.005, 0.0, 0.0);
+    ZBuffer zbuffer;
+    FrameLevel model;
+    MapView view;
+    view.margin_px = 6;
+    RenderModel(with_view, predicted, 160, 120, level.intrinsics, {}, k, 2, &zbuffer, &model,
+                &view);
+    const bool covers =
+        view.Covers(level, poses[k], with_view.size(), FusionOptions{}.max_distance_m);
+    const FusionStats a = with_view.FuseFrame(level, poses[k], k, {}, {}, 2, &view);
+    const FusionStats b = whole.FuseFrame(level, poses[k], k, {}, {}, 2);
+    if (covers) {
+      ++used;
+      EXPECT_LT(a.projected, b.projected);
+    }
+    EXPECT_EQ(a.merged, b.merged);
+    EXPECT_EQ(a.added, b.added);
+  }
+  EXPECT_GE(used, 10);
+  EXPECT_EQ(with_view.positions(), whole.positions());
+  EXPECT_EQ(with_view.weights(), whole.weights());
+  // A view does not cover a pose turned 10 degrees away, nor a map that changed.
+  MapView view;
+  ZBuffer zbuffer;
+  FrameLevel model;
+  RenderModel(whole, poses[6], 160, 120, Intrinsics(160, 120), {}, 12, 2, &zbuffer, &model, &view);
+  const FrameLevel level =
+      BuildFramePyramid(Render(scene, poses[6], 160, 120), FrameOptions{}).levels[0];
+  EXPECT_TRUE(view.Covers(level, poses[6], whole.size(), 0.05));
+  Pose turned = poses[6];
+  turned.linear() = turned.linear() * ExpSO3(Vec3(0.0, 10.0 * M_PI / 180.0, 0.0));
+  EXPECT_FALSE(view.Covers(level, turned, whole.size(), 0.05));
+  EXPECT_FALSE(view.Covers(level, poses[6], whole.size() + 1, 0.05));
+}
+
 TEST(RgbdSlam, NoiseFreeWalkStaysWellUnderAMillimetre) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(30), 320, 240, 0.0);
