@@ -117,6 +117,10 @@ Command AddSlamCommand(CLI::App& app) {
   sub->add_option("--max-frames", a.slam.max_frames, "Frames to track (0 = all)")
       ->capture_default_str();
   sub->add_option("--stride", a.slam.stride, "Track every N-th frame")->capture_default_str();
+  sub->add_option("--halve", a.slam.halvings,
+                  "Halve the frames' resolution this many times first (1: 640x480 runs at "
+                  "320x240; depth averaged over 2x2 blocks without crossing a depth jump)")
+      ->capture_default_str();
   sub->add_option("--iterations", a.iterations,
                   "Gauss-Newton iterations per pyramid level, finest first (the count of "
                   "numbers is the number of levels)")

@@ -160,6 +160,7 @@ FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int wid
 SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, const Log& log,
                    const std::function<void(int, int, const SlamFrame&)>& progress) {
   if (options.stride < 1) throw InputError("slam: stride must be at least 1");
+  if (options.halvings < 0) throw InputError("slam: halvings must be >= 0");
   if (options.max_frames < 0) throw InputError("slam: max frames must be >= 0 (0: all)");
   if (options.restart_after_failures < 1) {
     throw InputError("slam: restart after failures must be at least 1");
@@ -184,7 +185,10 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
   MapView view;  // the map points near the rendered view, for the fusion that follows
   for (std::size_t k = 0; k < indices.size(); ++k) {
     auto start = std::chrono::steady_clock::now();
-    const RgbdFrame frame = sequence.Frame(indices[k]);
+    RgbdFrame frame = sequence.Frame(indices[k]);
+    for (int h = 0; h < options.halvings; ++h) {
+      frame = HalveFrame(frame, options.frame.max_depth_jump_ratio);
+    }
     result.load_s += SecondsSince(start);
     start = std::chrono::steady_clock::now();
     const FramePyramid pyramid = BuildFramePyramid(frame, options.frame, options.threads);

@@ -70,6 +70,9 @@ struct SlamOptions {
   int first_frame = 0;
   int max_frames = 0;
   int stride = 1;
+  /// Halve every frame's resolution this many times before anything else (HalveFrame,
+  /// rgbd/frame.h): 1 runs a 640x480 sequence at 320x240.
+  int halvings = 0;
   int threads = 2;
 };
 

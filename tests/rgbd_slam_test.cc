@@ -233,6 +233,20 @@ TEST(RgbdSlam, NoiseFreeWalkStaysWellUnderAMillimetre) {
   }
 }
 
+TEST(RgbdSlam, AHalvedSequenceIsTrackedAtHalfTheResolution) {
+  const Scene scene = TestRoom();
+  const RenderedSequence sequence(scene, Walk(10), 320, 240, 0.0);
+  SlamOptions options;
+  options.halvings = 1;
+  const SlamResult result = RunSlam(sequence, options);
+  EXPECT_EQ(result.failures, 0);
+  const TrajectoryErrors e = EvaluateTrajectory(result.trajectory, sequence.GroundTruth(), 0.02, 1);
+  EXPECT_LT(e.ate_rmse_m, 1e-3);
+  // At most one point per 160x120 pixel and frame.
+  EXPECT_LE(result.map.input_points(), 10 * 160 * 120);
+  EXPECT_GT(result.map.input_points(), 5 * 160 * 120);
+}
+
 TEST(RgbdSlam, RefusesBadOptions) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(2), 80, 60, 0.0);
@@ -241,6 +255,9 @@ TEST(RgbdSlam, RefusesBadOptions) {
   EXPECT_THROW(RunSlam(sequence, bad), InputError);
   bad = SlamOptions{};
   bad.first_frame = 5;
+  EXPECT_THROW(RunSlam(sequence, bad), InputError);
+  bad = SlamOptions{};
+  bad.halvings = -1;
   EXPECT_THROW(RunSlam(sequence, bad), InputError);
 }
 
