@@ -140,10 +140,6 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
     view->width = width;
     view->height = height;
     view->map_size = map.size();
-    view->points.clear();
-    for (const std::vector<int>& part : view->parts) {
-      view->points.insert(view->points.end(), part.begin(), part.end());
-    }
   }
 }
 

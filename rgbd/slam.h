@@ -71,7 +71,8 @@ struct SlamOptions {
   int max_frames = 0;
   int stride = 1;
   /// Halve every frame's resolution this many times before anything else (HalveFrame,
-  /// rgbd/frame.h): 1 runs a 640x480 sequence at 320x240.
+  /// rgbd/frame.h): 1 runs a 640x480 sequence at 320x240. Timed with the loading (load_s):
+  /// a sensor of that size would not do it.
   int halvings = 0;
   int threads = 2;
 };

@@ -91,32 +91,42 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
   const float cy = static_cast<float>(K.cy);
   const float max_distance_sq = static_cast<float>(options.max_distance_m * options.max_distance_m);
   const float min_cosine = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
-  threads = std::max(1, threads);
-  zbuffer_.Reset(static_cast<int>(pixels), threads);
   const bool use_view =
       view != nullptr && view->Covers(frame, T_world_camera, size(), options.max_distance_m);
-  const int candidates = use_view ? static_cast<int>(view->points.size()) : size();
-  ParallelForChunks(candidates, threads, [&](int c, int begin, int end) {
-    std::uint64_t* keys = zbuffer_.Thread(c);
-    for (int k = begin; k < end; ++k) {
-      const int i = use_view ? view->points[k] : k;
-      const Vec3f p_c = R_cw * (positions_[i] - t);
-      if (!(p_c.z() > 0.0f)) continue;
-      const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
-      const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
-      if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
-      const int j = v * frame.width + u;
-      if (!frame.Valid(j)) continue;
-      if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
-      if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
-      ZBuffer::Write(keys, j, ZBuffer::Key(p_c.z(), i));
-    }
-  });
+  // Through a view: one thread per part of it (the parts the rendering's threads collected).
+  const int chunks = use_view ? static_cast<int>(view->parts.size()) : std::max(1, threads);
+  zbuffer_.Reset(static_cast<int>(pixels), chunks);
+  const auto associate = [&](std::uint64_t* keys, int i) {
+    const Vec3f p_c = R_cw * (positions_[i] - t);
+    if (!(p_c.z() > 0.0f)) return;
+    const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
+    const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
+    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) return;
+    const int j = v * frame.width + u;
+    if (!frame.Valid(j)) return;
+    if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) return;
+    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) return;
+    ZBuffer::Write(keys, j, ZBuffer::Key(p_c.z(), i));
+  };
+  int projected = 0;
+  if (use_view) {
+    for (const std::vector<int>& part : view->parts) projected += static_cast<int>(part.size());
+    ParallelForChunks(chunks, chunks, [&](int c, int, int) {
+      std::uint64_t* keys = zbuffer_.Thread(c);
+      for (const int i : view->parts[c]) associate(keys, i);
+    });
+  } else {
+    projected = size();
+    ParallelForChunks(size(), chunks, [&](int c, int begin, int end) {
+      std::uint64_t* keys = zbuffer_.Thread(c);
+      for (int i = begin; i < end; ++i) associate(keys, i);
+    });
+  }
   const std::vector<std::uint64_t>& match = zbuffer_.Merge();
 
   // 2. Merge (in parallel: a map point is the candidate of one pixel at most), 3. add.
   FusionStats stats;
-  stats.projected = candidates;
+  stats.projected = projected;
   stats.input_points = static_cast<int>(frame.valid_pixels.size());
   input_points_ += stats.input_points;
   const double focal_px = 0.5 * (K.fx + K.fy);

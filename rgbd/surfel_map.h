@@ -18,7 +18,8 @@
 //        c <- (w c + c_q) / (w + 1)
 //        w <- w + 1,  radius <- min(radius, r_q),  last seen <- this frame.
 //   3. add (seed 3.3): every valid pixel that merged into no map point becomes a new point of
-//      weight 1.
+//      weight 1, unless a 4-neighbour merged into a point whose disc holds the pixel's vertex
+//      (covered: the surface is in the map already; cover_radius_scale).
 //   4. remove (the seed's bonus): points not seen for more than dormant_frames frames whose
 //      weight is below min_stable_weight (seen too rarely to be trusted: outliers, moving
 //      things, a pose that was off).
@@ -67,14 +68,13 @@ struct FusionStats {
   int added = 0;         ///< pixels added as new points
   int covered = 0;       ///< pixels neither merged nor added: covered by a neighbour's point
   int folded = 0;        ///< map points folded into an overlapping point (removed)
-  int removed = 0;
-  int projected = 0;  ///< map points projected for the association (all, or a MapView's)       ///<
-                      ///< dormant points removed
+  int removed = 0;       ///< dormant points removed
+  int projected = 0;     ///< map points projected for the association (all, or a MapView's)
 };
 
 /// The map points that can be seen from near a view (what RenderModel collects while it
 /// projects the map, rgbd/slam.h): those at least kMinDepthM in front of the camera at
-/// T_world_camera that project within margin_px pixels of its image, in increasing order.
+/// T_world_camera that project within margin_px pixels of its image.
 /// FuseFrame then projects only them instead of the whole map, when the fused pose is close
 /// enough to the view's that no other point can land in the image (MapView::Covers).
 struct MapView {
@@ -85,11 +85,12 @@ struct MapView {
   int height = 0;
   int margin_px = 32;
   int map_size = -1;  ///< the map's size when collected (-1: not collected)
-  std::vector<int> points;
-  std::vector<std::vector<int>> parts;  ///< per thread while collecting (kept between frames)
+  /// The points, in parts (one per thread of the rendering that collected them, each in
+  /// increasing order; their buffers are kept between frames).
+  std::vector<std::vector<int>> parts;
 
   /// True when every map point that can be associated with a pixel of `frame` (depth within
-  /// max_distance_m of a valid vertex) seen at T_world_camera is in `points`: same camera,
+  /// max_distance_m of a valid vertex) seen at T_world_camera is in `parts`: same camera,
   /// same map size, and a first-order bound of how far the pose change moves a point in the
   /// image, f (|dtheta| |p| / z + |dt| / z) (1 + |x / z|) with 50% slack, below margin_px.
   bool Covers(const FrameLevel& frame, const Pose& T_world_camera_now, int map_size_now,
