@@ -123,7 +123,7 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
       if (keys[j] == ZBuffer::kEmpty) continue;
       const int i = ZBuffer::Index(keys[j]);
       project(i, &point);
-      rendered(i, &point);
+      point.n_c = R_cw * map.normals()[i];  // it was rendered: what `rendered` sets
       Vec3f q = point.p_c;
       if (options.splat) on_disc(i, point, j % width, j / width, &q);
       level->depth_m[j] = q.z();
