@@ -32,7 +32,9 @@
 #             without keyframes, and the variants of docs/benchmarks.md), on the TUM fr1/xyz
 #             subset, on rigfit simulate-sequence sequences (noise-free and Kinect noise), and
 #             bench/rgbd_bench (pyramid, normal equations, both solve paths, tracking at 640x480
-#             and 320x240), median of 5 repetitions. Not niced.
+#             and 320x240), median of 5 repetitions; rigfit slam --evaluate on the 7-Scenes
+#             frames at 640x480 and halved to 320x240 (--halve 1), median of 3 runs by frames/s,
+#             peak RSS from /usr/bin/time. Not niced.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -421,6 +423,39 @@ print("| %s | `%s` | %s | %s | %s / %s | %s | %s | %s |" % (
 PY
 }
 
+# One markdown row of `rigfit slam --evaluate` on SEQUENCE with FLAGS (label first): the
+# median run by frames/s of $runs, each under /usr/bin/time, with the load before it.
+slam_row() {
+  local label="$1" sequence="$2"
+  shift 2
+  local base raws=() runs=3
+  [ $quick = 1 ] && runs=1
+  base="$out/raw/slam-$(echo "$label $*" | tr -c 'a-zA-Z0-9' '_')"
+  for r in $(seq 1 $runs); do
+    echo "load $(load1)" >"$base-$r.txt"
+    /usr/bin/time -v "$rigfit" slam "$sequence" --out "$base-$r.traj" --evaluate --quiet "$@" \
+      >>"$base-$r.txt" 2>&1
+    raws+=("$base-$r.txt")
+  done
+  python3 - "$label" "$*" "${raws[@]}" <<'PY'
+import re, sys
+rows = []
+for path in sys.argv[3:]:
+    text = open(path).read()
+    def num(pattern):
+        m = re.search(pattern, text, re.M)
+        return m.group(1) if m else "-"
+    rows.append((float(num(r"\(([0-9.]+) frames/s without loading\)")), num(r"ATE RMSE ([0-9.]+) mm"),
+                 num(r"^map (\d+) points"), "%.0f" % (int(num(r"Maximum resident set size \(kbytes\): (\d+)")) / 1024),
+                 num(r"^load ([0-9.]+)")))
+rows.sort()
+fps, ate, size, rss, load = rows[len(rows) // 2]
+print("| %s | `%s` | %s | %.1f (%s) | %s | %s | %s |" % (
+    sys.argv[1], sys.argv[2] or "(defaults)", ate, fps, " / ".join("%.1f" % r[0] for r in rows),
+    size, rss, " / ".join(r[4] for r in rows)))
+PY
+}
+
 run_rgbd() {
   local file data="$root/../shared/data" sim="$out/raw/sequences"
   file="$(header rgbd)"
@@ -454,6 +489,13 @@ run_rgbd() {
     track_row "simulated, noise-free" "$sim/clean" --no-keyframes
     track_row "simulated, Kinect noise" "$sim/kinect"
     track_row "simulated, Kinect noise" "$sim/kinect" --no-keyframes
+    echo
+    echo "#### \`rigfit slam SEQUENCE --evaluate [flags]\`"
+    echo
+    echo "| sequence | flags | ATE RMSE mm | frames/s, median (all runs) | map points at the end | peak RSS MB | load before each run |"
+    echo "|---|---|---|---|---|---|---|"
+    slam_row "7-Scenes kitchen, 640x480" "$kitchen" "${max[@]}"
+    slam_row "7-Scenes kitchen, 320x240" "$kitchen" --halve 1 "${max[@]}"
     echo
     echo "bench/rgbd_bench: 7-Scenes frames 300 -> 301 (320x240: their level 1); tracking from"
     echo "the identity, pyramids built beforehand."

@@ -57,8 +57,10 @@ int RunFuse(FuseArgs a) {
     all_color = all_color && !camera.color.empty();
   }
 
-  // A rig's cameras are one instant: nothing is dormant.
+  // A rig's cameras are one instant: nothing is dormant, and no pixel is left out as covered
+  // (a rule against a sequence's growth, rgbd/surfel_map.h: each camera is seen once).
   a.fusion.dormant_frames = 0;
+  a.fusion.cover_radius_scale = 0.0;
   a.frame.levels = 1;
   SurfelMap map;
   std::printf("%-16s %10s %10s %10s\n", "camera", "points", "merged", "added");

@@ -46,6 +46,7 @@ int RunSlamCommand(SlamArgs a) {
       !(fusion.max_normal_angle_deg > 0.0 && fusion.max_normal_angle_deg <= 180.0)) {
     throw InputError("slam: --fuse-distance must be > 0 and --fuse-angle in (0, 180]");
   }
+  if (!(fusion.cover_radius_scale >= 0.0)) throw InputError("slam: --cover-radius must be >= 0");
   if (fusion.dormant_frames < 0) throw InputError("slam: --dormant-frames must be >= 0 (0: off)");
   if (!(a.slam.render.min_weight >= 1.0f)) throw InputError("slam: --model-weight must be >= 1");
   ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
@@ -116,6 +117,10 @@ Command AddSlamCommand(CLI::App& app) {
   sub->add_option("--max-frames", a.slam.max_frames, "Frames to track (0 = all)")
       ->capture_default_str();
   sub->add_option("--stride", a.slam.stride, "Track every N-th frame")->capture_default_str();
+  sub->add_option("--halve", a.slam.halvings,
+                  "Halve the frames' resolution this many times first (1: 640x480 runs at "
+                  "320x240; depth averaged over 2x2 blocks without crossing a depth jump)")
+      ->capture_default_str();
   sub->add_option("--iterations", a.iterations,
                   "Gauss-Newton iterations per pyramid level, finest first (the count of "
                   "numbers is the number of levels)")
@@ -143,6 +148,12 @@ Command AddSlamCommand(CLI::App& app) {
                   "Remove points unseen for this many frames whose weight is below "
                   "--min-stable-weight (0 = keep every point)")
       ->capture_default_str();
+  sub->add_option("--cover-radius", a.slam.fusion.cover_radius_scale,
+                  "Do not add a pixel that lies on the disc (radius x this) of a point a "
+                  "neighbouring pixel merged into (0 = add every unmerged pixel)")
+      ->capture_default_str();
+  sub->add_flag("--fold,!--no-fold", a.slam.fusion.fold_overlapping,
+                "Fold map points that overlap the point their pixel merged into (off by default)");
   sub->add_option("--min-stable-weight", a.slam.fusion.min_stable_weight,
                   "Weight from which a point is never removed as dormant")
       ->capture_default_str();

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "core/errors.h"
 #include "core/parallel.h"
@@ -210,6 +211,45 @@ FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& optio
                           options.bilateral ? &filtered : nullptr);
   BuildCoarserLevels(&pyramid, options.levels, options.max_depth_jump_ratio, threads);
   return pyramid;
+}
+
+RgbdFrame HalveFrame(const RgbdFrame& frame, double max_depth_jump_ratio) {
+  const std::size_t n = static_cast<std::size_t>(frame.width) * frame.height;
+  if (frame.width < 2 || frame.height < 2 || frame.depth_m.size() != n ||
+      (!frame.color.empty() && frame.color.size() != 3 * n)) {
+    throw InputError(frame.source + ": cannot halve a " + std::to_string(frame.width) + "x" +
+                     std::to_string(frame.height) + " frame of " +
+                     std::to_string(frame.depth_m.size()) + " depths and " +
+                     std::to_string(frame.color.size()) + " colour bytes");
+  }
+  RgbdFrame half = frame;
+  half.width = frame.width / 2;
+  half.height = frame.height / 2;
+  half.intrinsics.fx = frame.intrinsics.fx / 2.0;
+  half.intrinsics.fy = frame.intrinsics.fy / 2.0;
+  half.intrinsics.cx = (frame.intrinsics.cx + 0.5) / 2.0 - 0.5;
+  half.intrinsics.cy = (frame.intrinsics.cy + 0.5) / 2.0 - 0.5;
+  half.depth_m = Downsample(frame.depth_m, frame.width, frame.height, max_depth_jump_ratio);
+  if (!frame.color.empty()) {
+    half.color.assign(3 * static_cast<std::size_t>(half.width) * half.height, 0);
+    for (int v = 0; v < half.height; ++v) {
+      for (int u = 0; u < half.width; ++u) {
+        for (int c = 0; c < 3; ++c) {
+          int sum = 0;
+          for (int dv = 0; dv < 2; ++dv) {
+            for (int du = 0; du < 2; ++du) {
+              sum += frame.color[3 * ((static_cast<std::size_t>(2 * v + dv)) * frame.width + 2 * u +
+                                      du) +
+                                 c];
+            }
+          }
+          half.color[3 * (static_cast<std::size_t>(v) * half.width + u) + c] =
+              static_cast<std::uint8_t>((sum + 2) / 4);
+        }
+      }
+    }
+  }
+  return half;
 }
 
 void BuildCoarserLevels(FramePyramid* pyramid, int levels, double max_depth_jump_ratio,

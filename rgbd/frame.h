@@ -72,6 +72,13 @@ FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& optio
 void BuildCoarserLevels(FramePyramid* pyramid, int levels, double max_depth_jump_ratio,
                         int threads = 2);
 
+/// The frame at half its resolution, what a sensor of half the size would give: the depth
+/// downsampled as the pyramid's coarser levels are (2x2 blocks, no averaging across a depth
+/// jump of more than max_depth_jump_ratio), the colour averaged over each 2x2 block, the
+/// intrinsics scaled as a coarser level's. Odd widths and heights lose their last column or
+/// row.
+RgbdFrame HalveFrame(const RgbdFrame& frame, double max_depth_jump_ratio);
+
 /// The vertex and normal maps of a depth image (NaN for invalid depth). The normal of pixel
 /// (u, v) is (V(u+1, v) - V(u-1, v)) x (V(u, v+1) - V(u, v-1)), normalised and turned to face
 /// the camera; invalid at the image border, next to an invalid pixel, or across a depth jump.

@@ -16,6 +16,7 @@
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
 #include "rgbd/surfel_map.h"
+#include "rgbd/zbuffer.h"
 
 namespace rigfit {
 
@@ -38,12 +39,21 @@ struct RenderOptions {
 /// The map seen from T_world_camera by a camera of the given size and intrinsics: a z-buffer
 /// (index map) where each rendered map point p, moved into the camera (p_c = R^T (p - t)) and
 /// projected, fills its nearest pixel (and with options.splat the pixels of its disc) unless
-/// a point closer along the ray is already there. The level's vertices and normals are the
-/// points' (camera frame), depth_m their z; uncovered pixels are invalid (NaN), as in a
-/// frame. `frame_index`: the current frame, the clock of RenderOptions::recent_frames.
+/// a point closer along the ray is already there (at equal depth: the lower index). The
+/// level's vertices and normals are the points' (camera frame), depth_m their z; uncovered
+/// pixels are invalid (NaN), as in a frame. `frame_index`: the current frame, the clock of
+/// RenderOptions::recent_frames. The points are split over `threads` threads, each with its
+/// own z-buffer, merged by depth: the result has the same bits for every thread count.
 FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
                        const PinholeIntrinsics& intrinsics, const RenderOptions& options,
-                       int frame_index = 0);
+                       int frame_index = 0, int threads = 2);
+
+/// As above, into *level, whose buffers are reused, as are *zbuffer's (what a sequence
+/// renders every frame without allocating); with a `view`, also collects the map points near
+/// the view (MapView, rgbd/surfel_map.h) for the fusion of the same frame.
+void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
+                 const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
+                 int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view = nullptr);
 
 struct SlamOptions {
   FrameOptions frame;
@@ -60,6 +70,10 @@ struct SlamOptions {
   int first_frame = 0;
   int max_frames = 0;
   int stride = 1;
+  /// Halve every frame's resolution this many times before anything else (HalveFrame,
+  /// rgbd/frame.h): 1 runs a 640x480 sequence at 320x240. Timed with the loading (load_s):
+  /// a sensor of that size would not do it.
+  int halvings = 0;
   int threads = 2;
 };
 

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "core/parallel.h"
+
 namespace rigfit {
 
 namespace {
@@ -20,13 +22,42 @@ float SurfelRadius(float z, float n_z, double focal_px) {
   return static_cast<float>(z / focal_px) / std::max(std::abs(n_z), kMinRadiusCosine);
 }
 
+bool MapView::Covers(const FrameLevel& frame, const Pose& T_world_camera_now, int map_size_now,
+                     double max_distance_m) const {
+  if (map_size != map_size_now || frame.width != width || frame.height != height ||
+      frame.intrinsics.fx != intrinsics.fx || frame.intrinsics.fy != intrinsics.fy ||
+      frame.intrinsics.cx != intrinsics.cx || frame.intrinsics.cy != intrinsics.cy) {
+    return false;
+  }
+  // The nearest a point can be and still pass the distance gate of some valid pixel.
+  float nearest = std::numeric_limits<float>::infinity();
+  for (const int j : frame.valid_pixels) nearest = std::min(nearest, frame.vertices[j].z());
+  const Pose delta = T_world_camera.inverse() * T_world_camera_now;  // view <- now
+  const double dt = delta.translation().norm();
+  const double dtheta = Eigen::AngleAxisd(delta.linear()).angle();
+  const double z_low = nearest - max_distance_m - dt;  // in the view's camera
+  if (!(z_low >= kMinDepthM)) return false;
+  // The largest |x / z| and |y / z| in the image and its margin.
+  const double a =
+      std::max(intrinsics.cx + margin_px + 0.5, width - 0.5 + margin_px - intrinsics.cx) /
+      intrinsics.fx;
+  const double b =
+      std::max(intrinsics.cy + margin_px + 0.5, height - 0.5 + margin_px - intrinsics.cy) /
+      intrinsics.fy;
+  const double f = std::max(intrinsics.fx, intrinsics.fy);
+  const double bound_px =
+      1.5 * f * (dtheta * std::sqrt(1.0 + a * a + b * b) + dt / z_low) * (1.0 + std::max(a, b));
+  return bound_px < margin_px;
+}
+
 double SurfelMap::CompressionRatio() const {
   return positions_.empty() ? 0.0 : static_cast<double>(input_points_) / positions_.size();
 }
 
 FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_camera,
                                  int frame_index, const FusionOptions& options,
-                                 const std::vector<std::uint8_t>& color) {
+                                 const std::vector<std::uint8_t>& color, int threads,
+                                 const MapView* view) {
   const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
   if (frame.width <= 0 || frame.height <= 0 || frame.vertices.size() != pixels ||
       frame.normals.size() != pixels) {
@@ -48,77 +79,173 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
   }
   ++frames_;
 
-  // 1. Association through projection: per pixel the candidate closest to the camera.
+  // 1. Association through projection: per pixel the candidate closest to the camera (each
+  // thread projects its share of the points into its own z-buffer; rgbd/zbuffer.h).
   const Eigen::Matrix3f R = T_world_camera.linear().cast<float>();
   const Vec3f t = T_world_camera.translation().cast<float>();
   const Eigen::Matrix3f R_cw = R.transpose();
   const PinholeIntrinsics& K = frame.intrinsics;
+  const float fx = static_cast<float>(K.fx);
+  const float fy = static_cast<float>(K.fy);
+  const float cx = static_cast<float>(K.cx);
+  const float cy = static_cast<float>(K.cy);
   const float max_distance_sq = static_cast<float>(options.max_distance_m * options.max_distance_m);
   const float min_cosine = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
-  std::vector<int> match(pixels, -1);
-  std::vector<float> match_z(pixels, std::numeric_limits<float>::infinity());
-  const int map_size = size();
-  for (int i = 0; i < map_size; ++i) {
+  const bool use_view =
+      view != nullptr && view->Covers(frame, T_world_camera, size(), options.max_distance_m);
+  // Through a view: one thread per part of it (the parts the rendering's threads collected).
+  const int chunks = use_view ? static_cast<int>(view->parts.size()) : std::max(1, threads);
+  zbuffer_.Reset(static_cast<int>(pixels), chunks);
+  const auto associate = [&](std::uint64_t* keys, int i) {
     const Vec3f p_c = R_cw * (positions_[i] - t);
-    if (!(p_c.z() > 0.0f)) continue;
-    const int u = static_cast<int>(std::lround(K.fx * p_c.x() / p_c.z() + K.cx));
-    const int v = static_cast<int>(std::lround(K.fy * p_c.y() / p_c.z() + K.cy));
-    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
+    if (!(p_c.z() > 0.0f)) return;
+    const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
+    const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
+    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) return;
     const int j = v * frame.width + u;
-    if (!frame.Valid(j) || p_c.z() >= match_z[j]) continue;
-    if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
-    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
-    match[j] = i;
-    match_z[j] = p_c.z();
+    if (!frame.Valid(j)) return;
+    if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) return;
+    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) return;
+    ZBuffer::Write(keys, j, ZBuffer::Key(p_c.z(), i));
+  };
+  int projected = 0;
+  if (use_view) {
+    for (const std::vector<int>& part : view->parts) projected += static_cast<int>(part.size());
+    ParallelForChunks(chunks, chunks, [&](int c, int, int) {
+      std::uint64_t* keys = zbuffer_.Thread(c);
+      for (const int i : view->parts[c]) associate(keys, i);
+    });
+  } else {
+    projected = size();
+    ParallelForChunks(size(), chunks, [&](int c, int begin, int end) {
+      std::uint64_t* keys = zbuffer_.Thread(c);
+      for (int i = begin; i < end; ++i) associate(keys, i);
+    });
   }
+  const std::vector<std::uint64_t>& match = zbuffer_.Merge();
 
-  // 2. Merge, 3. add.
+  // 2. Merge (in parallel: a map point is the candidate of one pixel at most), 3. add.
   FusionStats stats;
+  stats.projected = projected;
   stats.input_points = static_cast<int>(frame.valid_pixels.size());
   input_points_ += stats.input_points;
   const double focal_px = 0.5 * (K.fx + K.fy);
-  for (const int j : frame.valid_pixels) {
-    const Vec3f& q = frame.vertices[j];
-    const Vec3f& n_q = frame.normals[j];
-    const Vec3f q_world = R * q + t;
-    const Vec3f n_world = R * n_q;
-    const float radius = SurfelRadius(q.z(), n_q.z(), focal_px);
-    Vec3f c_q = Vec3f::Zero();
-    if (with_color) {
-      c_q = Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]);
-    }
-    const int i = match[j];
-    if (i >= 0) {
+  const auto color_of = [&](int j) {
+    return with_color ? Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]) : Vec3f::Zero();
+  };
+  std::vector<int> merged(threads, 0);
+  ParallelForChunks(stats.input_points, threads, [&](int c, int begin, int end) {
+    int count = 0;
+    for (int k = begin; k < end; ++k) {
+      const int j = frame.valid_pixels[k];
+      if (match[j] == ZBuffer::kEmpty) continue;
+      const int i = ZBuffer::Index(match[j]);
+      const Vec3f& q = frame.vertices[j];
+      const Vec3f& n_q = frame.normals[j];
       const float w = weights_[i];
-      positions_[i] = (w * positions_[i] + q_world) / (w + 1.0f);
-      normals_[i] = (w * normals_[i] + n_world).normalized();
-      if (with_color) colors_[i] = (w * colors_[i] + c_q) / (w + 1.0f);
+      positions_[i] = (w * positions_[i] + R * q + t) / (w + 1.0f);
+      normals_[i] = (w * normals_[i] + R * n_q).normalized();
+      if (with_color) colors_[i] = (w * colors_[i] + color_of(j)) / (w + 1.0f);
       weights_[i] = w + 1.0f;
-      radii_[i] = std::min(radii_[i], radius);
+      radii_[i] = std::min(radii_[i], SurfelRadius(q.z(), n_q.z(), focal_px));
       last_seen_[i] = frame_index;
-      ++stats.merged;
-    } else {
-      positions_.push_back(q_world);
-      normals_.push_back(n_world);
-      if (with_color) colors_.push_back(c_q);
-      weights_.push_back(1.0f);
-      radii_.push_back(radius);
-      last_seen_.push_back(frame_index);
-      ++stats.added;
+      ++count;
+    }
+    merged[c] = count;
+  });
+  for (const int count : merged) stats.merged += count;
+
+  // 2b. Fold: a map point B that projects to a pixel which merged into another point A, and
+  // passes that pixel's gates, is folded into A when their discs overlap (|p_B - p_A| <
+  // r_A + r_B) and their normals agree: the same piece of surface twice (Keller et al.,
+  // section 4.3). Found in parallel, folded in index order (several B may fold into one A).
+  const int map_size = static_cast<int>(positions_.size());
+  if (options.fold_overlapping) {
+    fold_into_.assign(map_size, -1);
+    ParallelForChunks(map_size, threads, [&](int, int begin, int end) {
+      for (int i = begin; i < end; ++i) {
+        const Vec3f p_c = R_cw * (positions_[i] - t);
+        if (!(p_c.z() > 0.0f)) continue;
+        const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
+        const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
+        if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
+        const int j = v * frame.width + u;
+        if (match[j] == ZBuffer::kEmpty) continue;
+        const int a = ZBuffer::Index(match[j]);
+        if (a == i) continue;
+        if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
+        if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
+        const float overlap = radii_[a] + radii_[i];
+        if ((positions_[i] - positions_[a]).squaredNorm() >= overlap * overlap) continue;
+        if (normals_[i].dot(normals_[a]) <= min_cosine) continue;
+        fold_into_[i] = a;
+      }
+    });
+    for (int i = 0; i < map_size; ++i) {
+      const int a = fold_into_[i];
+      if (a < 0) continue;
+      const float w_a = weights_[a];
+      const float w_b = weights_[i];
+      positions_[a] = (w_a * positions_[a] + w_b * positions_[i]) / (w_a + w_b);
+      normals_[a] = (w_a * normals_[a] + w_b * normals_[i]).normalized();
+      if (has_color_) colors_[a] = (w_a * colors_[a] + w_b * colors_[i]) / (w_a + w_b);
+      weights_[a] = w_a + w_b;
+      radii_[a] = std::min(radii_[a], radii_[i]);
+      weights_[i] = 0.0f;  // removed below
+      ++stats.folded;
     }
   }
+  // A pixel is covered when a 4-neighbour merged into a point whose disc (radius scaled by
+  // cover_radius_scale) holds the pixel's vertex, with a normal within the angle gate.
+  const float cover_scale_sq =
+      static_cast<float>(options.cover_radius_scale * options.cover_radius_scale);
+  const auto covered = [&](int j) {
+    if (!(cover_scale_sq > 0.0f)) return false;
+    const int u = j % frame.width;
+    const int v = j / frame.width;
+    const int neighbours[4][2] = {{u - 1, v}, {u + 1, v}, {u, v - 1}, {u, v + 1}};
+    for (const auto& [un, vn] : neighbours) {
+      if (un < 0 || vn < 0 || un >= frame.width || vn >= frame.height) continue;
+      const std::uint64_t key = match[vn * frame.width + un];
+      if (key == ZBuffer::kEmpty) continue;
+      const int i = ZBuffer::Index(key);
+      const Vec3f p_c = R_cw * (positions_[i] - t);
+      if ((p_c - frame.vertices[j]).squaredNorm() >= cover_scale_sq * radii_[i] * radii_[i]) {
+        continue;
+      }
+      if ((R_cw * normals_[i]).dot(frame.normals[j]) > min_cosine) return true;
+    }
+    return false;
+  };
+  for (const int j : frame.valid_pixels) {
+    if (match[j] != ZBuffer::kEmpty) continue;
+    if (covered(j)) {
+      ++stats.covered;
+      continue;
+    }
+    const Vec3f& q = frame.vertices[j];
+    const Vec3f& n_q = frame.normals[j];
+    positions_.push_back(R * q + t);
+    normals_.push_back(R * n_q);
+    if (with_color) colors_.push_back(color_of(j));
+    weights_.push_back(1.0f);
+    radii_.push_back(SurfelRadius(q.z(), n_q.z(), focal_px));
+    last_seen_.push_back(frame_index);
+    ++stats.added;
+  }
 
-  // 4. Remove dormant unstable points.
-  if (options.dormant_frames > 0) RemoveDormant(frame_index, options, &stats);
+  // 4. Remove dormant unstable points (and the folded ones).
+  if (options.dormant_frames > 0 || stats.folded > 0) RemoveDormant(frame_index, options, &stats);
   return stats;
 }
 
 void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
   int kept = 0;
   for (int i = 0; i < size(); ++i) {
-    const bool dormant = frame_index - last_seen_[i] > options.dormant_frames &&
+    const bool dormant = options.dormant_frames > 0 &&
+                         frame_index - last_seen_[i] > options.dormant_frames &&
                          weights_[i] < options.min_stable_weight;
-    if (dormant) continue;
+    if (dormant || weights_[i] == 0.0f) continue;  // weight 0: folded
     if (kept != i) {
       positions_[kept] = positions_[i];
       normals_[kept] = normals_[i];
@@ -129,7 +256,7 @@ void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, Fus
     }
     ++kept;
   }
-  stats->removed = size() - kept;
+  stats->removed = size() - kept - stats->folded;
   positions_.resize(kept);
   normals_.resize(kept);
   if (has_color_) colors_.resize(kept);

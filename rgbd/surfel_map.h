@@ -18,7 +18,8 @@
 //        c <- (w c + c_q) / (w + 1)
 //        w <- w + 1,  radius <- min(radius, r_q),  last seen <- this frame.
 //   3. add (seed 3.3): every valid pixel that merged into no map point becomes a new point of
-//      weight 1.
+//      weight 1, unless a 4-neighbour merged into a point whose disc holds the pixel's vertex
+//      (covered: the surface is in the map already; cover_radius_scale).
 //   4. remove (the seed's bonus): points not seen for more than dormant_frames frames whose
 //      weight is below min_stable_weight (seen too rarely to be trusted: outliers, moving
 //      things, a pose that was off).
@@ -33,6 +34,7 @@
 
 #include "core/pose.h"
 #include "rgbd/frame.h"
+#include "rgbd/zbuffer.h"
 
 namespace rigfit {
 
@@ -46,6 +48,16 @@ struct FusionOptions {
   /// last_seen > dormant_frames) with weight below min_stable_weight is removed. 0: never
   /// remove (a rig's cameras, all at one instant, each see parts the others do not).
   int dormant_frames = 20;
+  /// Coverage: a pixel that merged into no point is not added when a 4-neighbour pixel merged
+  /// into a point whose disc, of radius cover_radius_scale * radius, holds the pixel's vertex
+  /// (with normals within max_normal_angle_deg): the surface there is already in the map at
+  /// this resolution. 0: every such pixel is added.
+  double cover_radius_scale = 1.0;
+  /// Fold duplicates: a map point that projects to a pixel merged into another point, passes
+  /// that pixel's gates and overlaps the other's disc (normals within the angle gate) is
+  /// folded into it (weights added) and removed (Keller et al.'s merging of overlapping
+  /// points). Off: it halved the 7-Scenes map but made the ATE worse (docs/rgbd.md).
+  bool fold_overlapping = false;
   double min_stable_weight = 3.0;
 };
 
@@ -54,7 +66,35 @@ struct FusionStats {
   int input_points = 0;  ///< the frame's valid pixels
   int merged = 0;        ///< pixels merged into a map point
   int added = 0;         ///< pixels added as new points
+  int covered = 0;       ///< pixels neither merged nor added: covered by a neighbour's point
+  int folded = 0;        ///< map points folded into an overlapping point (removed)
   int removed = 0;       ///< dormant points removed
+  int projected = 0;     ///< map points projected for the association (all, or a MapView's)
+};
+
+/// The map points that can be seen from near a view (what RenderModel collects while it
+/// projects the map, rgbd/slam.h): those at least kMinDepthM in front of the camera at
+/// T_world_camera that project within margin_px pixels of its image.
+/// FuseFrame then projects only them instead of the whole map, when the fused pose is close
+/// enough to the view's that no other point can land in the image (MapView::Covers).
+struct MapView {
+  static constexpr float kMinDepthM = 0.05f;
+  Pose T_world_camera = Pose::Identity();
+  PinholeIntrinsics intrinsics;
+  int width = 0;
+  int height = 0;
+  int margin_px = 32;
+  int map_size = -1;  ///< the map's size when collected (-1: not collected)
+  /// The points, in parts (one per thread of the rendering that collected them, each in
+  /// increasing order; their buffers are kept between frames).
+  std::vector<std::vector<int>> parts;
+
+  /// True when every map point that can be associated with a pixel of `frame` (depth within
+  /// max_distance_m of a valid vertex) seen at T_world_camera is in `parts`: same camera,
+  /// same map size, and a first-order bound of how far the pose change moves a point in the
+  /// image, f (|dtheta| |p| / z + |dt| / z) (1 + |x / z|) with 50% slack, below margin_px.
+  bool Covers(const FrameLevel& frame, const Pose& T_world_camera_now, int map_size_now,
+              double max_distance_m) const;
 };
 
 /// The surfel map, stored as a structure of arrays (one array per property, index = point).
@@ -65,9 +105,13 @@ class SurfelMap {
   /// empty, or [height, width, 3] RGB of the frame's pixels. A map holds colours when its
   /// first fused frame had them; every later frame must then have them too, and a map
   /// without colours takes no frame with colour. Throws std::invalid_argument on a colour
-  /// of the wrong size or presence, or maps of inconsistent sizes.
+  /// of the wrong size or presence, or maps of inconsistent sizes. The association and the
+  /// merge are split over `threads` threads; the result does not depend on their number.
+  /// With a `view` that covers the frame (MapView::Covers) only its points are projected for
+  /// the association (the same result: the others cannot land in the image).
   FusionStats FuseFrame(const FrameLevel& frame, const Pose& T_world_camera, int frame_index,
-                        const FusionOptions& options, const std::vector<std::uint8_t>& color = {});
+                        const FusionOptions& options, const std::vector<std::uint8_t>& color = {},
+                        int threads = 2, const MapView* view = nullptr);
 
   int size() const { return static_cast<int>(positions_.size()); }
   bool has_color() const { return has_color_; }
@@ -93,6 +137,8 @@ class SurfelMap {
   std::vector<float> weights_;
   std::vector<float> radii_;
   std::vector<int> last_seen_;
+  std::vector<int> fold_into_;  ///< per point: the point it folds into, or -1 (scratch)
+  ZBuffer zbuffer_;             ///< the association's, kept between frames (no reallocation)
   bool has_color_ = false;
   int frames_ = 0;  ///< frames fused
   std::int64_t input_points_ = 0;

@@ -103,6 +103,105 @@ TEST(RgbdRender, ARenderedMapLiesOnTheSurfacesAndSplattingFillsItsHoles) {
   EXPECT_GT(model.levels[2].valid_pixels.size(), 0.9 * frame.levels[2].valid_pixels.size());
 }
 
+// Bit for bit: NaN-free values compared by their bits, the invalid pixels by the list.
+void ExpectSameLevel(const FrameLevel& a, const FrameLevel& b) {
+  ASSERT_EQ(a.valid_pixels, b.valid_pixels);
+  for (const int j : a.valid_pixels) {
+    EXPECT_EQ(a.depth_m[j], b.depth_m[j]);
+    EXPECT_EQ(a.vertices[j], b.vertices[j]);
+    EXPECT_EQ(a.normals[j], b.normals[j]);
+  }
+}
+
+TEST(RgbdRender, ThreadsGiveTheSerialResultExactly) {
+  // A noisy map (points overlap, ties and near-ties in the z-buffer), fused and rendered on 1
+  // and on 3 threads: the same map and the same renderings, bit for bit.
+  const Scene scene = TestRoom();
+  const std::vector<Pose> poses = Walk(10);
+  SurfelMap serial;
+  SurfelMap parallel;
+  for (int i = 0; i < 10; i += 2) {
+    const FrameLevel level =
+        BuildFramePyramid(Render(scene, poses[i], 160, 120, 0.01, i), FrameOptions{}).levels[0];
+    const FusionStats one = serial.FuseFrame(level, poses[i], i, FusionOptions{}, {}, 1);
+    const FusionStats three = parallel.FuseFrame(level, poses[i], i, FusionOptions{}, {}, 3);
+    EXPECT_EQ(one.merged, three.merged);
+    EXPECT_EQ(one.added, three.added);
+    EXPECT_EQ(one.removed, three.removed);
+  }
+  ASSERT_EQ(serial.size(), parallel.size());
+  EXPECT_GT(serial.size(), 20000);
+  EXPECT_EQ(serial.positions(), parallel.positions());
+  EXPECT_EQ(serial.normals(), parallel.normals());
+  EXPECT_EQ(serial.weights(), parallel.weights());
+  EXPECT_EQ(serial.radii(), parallel.radii());
+  EXPECT_EQ(serial.last_seen(), parallel.last_seen());
+  const PinholeIntrinsics K = Intrinsics(160, 120);
+  RenderOptions splat;
+  splat.splat = true;
+  for (const RenderOptions& options : {PixelOnly(), splat}) {
+    const FrameLevel one = RenderModel(serial, poses[5], 160, 120, K, options, 9, 1);
+    EXPECT_GT(one.valid_pixels.size(), 10000u);
+    ExpectSameLevel(one, RenderModel(serial, poses[5], 160, 120, K, options, 9, 2));
+    ExpectSameLevel(one, RenderModel(serial, poses[5], 160, 120, K, options, 9, 3));
+  }
+}
+
+TEST(RgbdRender, FusingThroughTheRenderedViewEqualsFusingThroughTheWholeMap) {
+  // Each frame rendered at a prediction 5 mm and 0.1 degrees off, then fused at the true pose
+  // once through the points the rendering collected (MapView, a margin of 6 pixels) and once
+  // through every point: the same maps, while the view held fewer points than the map.
+  const Scene scene = TestRoom();
+  const std::vector<Pose> poses = Walk(12);
+  SurfelMap with_view;
+  SurfelMap whole;
+  // First a look at the side wall, out of the walk's view.
+  const Pose side = LookAt(Vec3(0.0, 1.4, 1.5), Vec3(-2.5, 0.8, 1.0));
+  const FrameLevel side_level =
+      BuildFramePyramid(Render(scene, side, 160, 120), FrameOptions{}).levels[0];
+  with_view.FuseFrame(side_level, side, 0, {});
+  whole.FuseFrame(side_level, side, 0, {});
+  int used = 0;
+  for (int k = 1; k < 12; ++k) {
+    const FrameLevel level =
+        BuildFramePyramid(Render(scene, poses[k], 160, 120, 0.005, k), FrameOptions{}).levels[0];
+    Pose predicted = poses[k];
+    predicted.linear() = predicted.linear() * ExpSO3(Vec3(0.0, 0.0017, 0.0));
+    predicted.translation() += Vec3(0.005, 0.0, 0.0);
+    ZBuffer zbuffer;
+    FrameLevel model;
+    MapView view;
+    view.margin_px = 6;
+    RenderModel(with_view, predicted, 160, 120, level.intrinsics, {}, k, 2, &zbuffer, &model,
+                &view);
+    const bool covers =
+        view.Covers(level, poses[k], with_view.size(), FusionOptions{}.max_distance_m);
+    const FusionStats a = with_view.FuseFrame(level, poses[k], k, {}, {}, 2, &view);
+    const FusionStats b = whole.FuseFrame(level, poses[k], k, {}, {}, 2);
+    if (covers) {
+      ++used;
+      EXPECT_LT(a.projected, b.projected);
+    }
+    EXPECT_EQ(a.merged, b.merged);
+    EXPECT_EQ(a.added, b.added);
+  }
+  EXPECT_GE(used, 10);
+  EXPECT_EQ(with_view.positions(), whole.positions());
+  EXPECT_EQ(with_view.weights(), whole.weights());
+  // A view does not cover a pose turned 10 degrees away, nor a map that changed.
+  MapView view;
+  ZBuffer zbuffer;
+  FrameLevel model;
+  RenderModel(whole, poses[6], 160, 120, Intrinsics(160, 120), {}, 12, 2, &zbuffer, &model, &view);
+  const FrameLevel level =
+      BuildFramePyramid(Render(scene, poses[6], 160, 120), FrameOptions{}).levels[0];
+  EXPECT_TRUE(view.Covers(level, poses[6], whole.size(), 0.05));
+  Pose turned = poses[6];
+  turned.linear() = turned.linear() * ExpSO3(Vec3(0.0, 10.0 * M_PI / 180.0, 0.0));
+  EXPECT_FALSE(view.Covers(level, turned, whole.size(), 0.05));
+  EXPECT_FALSE(view.Covers(level, poses[6], whole.size() + 1, 0.05));
+}
+
 TEST(RgbdSlam, NoiseFreeWalkStaysWellUnderAMillimetre) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(30), 320, 240, 0.0);
@@ -134,6 +233,20 @@ TEST(RgbdSlam, NoiseFreeWalkStaysWellUnderAMillimetre) {
   }
 }
 
+TEST(RgbdSlam, AHalvedSequenceIsTrackedAtHalfTheResolution) {
+  const Scene scene = TestRoom();
+  const RenderedSequence sequence(scene, Walk(10), 320, 240, 0.0);
+  SlamOptions options;
+  options.halvings = 1;
+  const SlamResult result = RunSlam(sequence, options);
+  EXPECT_EQ(result.failures, 0);
+  const TrajectoryErrors e = EvaluateTrajectory(result.trajectory, sequence.GroundTruth(), 0.02, 1);
+  EXPECT_LT(e.ate_rmse_m, 1e-3);
+  // At most one point per 160x120 pixel and frame.
+  EXPECT_LE(result.map.input_points(), 10 * 160 * 120);
+  EXPECT_GT(result.map.input_points(), 5 * 160 * 120);
+}
+
 TEST(RgbdSlam, RefusesBadOptions) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(2), 80, 60, 0.0);
@@ -142,6 +255,9 @@ TEST(RgbdSlam, RefusesBadOptions) {
   EXPECT_THROW(RunSlam(sequence, bad), InputError);
   bad = SlamOptions{};
   bad.first_frame = 5;
+  EXPECT_THROW(RunSlam(sequence, bad), InputError);
+  bad = SlamOptions{};
+  bad.halvings = -1;
   EXPECT_THROW(RunSlam(sequence, bad), InputError);
 }
 

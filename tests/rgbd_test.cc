@@ -55,6 +55,33 @@ TEST(RgbdFrame, PyramidScalesIntrinsicsAndKeepsSilhouettes) {
   EXPECT_FLOAT_EQ(coarse.depth_m[2], 3.0f);
 }
 
+TEST(RgbdFrame, HalvingAveragesBlocksWithoutCrossingAJumpAndScalesTheIntrinsics) {
+  RgbdFrame frame;
+  frame.width = 4;
+  frame.height = 2;
+  frame.intrinsics = {100.0, 90.0, 1.5, 0.5};
+  // Left block: 1.0, 1.02, 1.04 and an invalid pixel; right block: 1.0 next to 3.0 (a jump).
+  frame.depth_m = {1.0f, 1.02f, 1.0f, 3.0f, 1.04f, kNaN, 3.0f, 3.0f};
+  frame.color.assign(3 * 8, 0);
+  frame.color[0] = 10;  // pixel (0, 0) red 10; (1, 0) red 20; (0, 1) red 31; (1, 1) red 0
+  frame.color[3] = 20;
+  frame.color[12] = 31;
+  const RgbdFrame half = HalveFrame(frame, 0.05);
+  ASSERT_EQ(half.width, 2);
+  ASSERT_EQ(half.height, 1);
+  EXPECT_DOUBLE_EQ(half.intrinsics.fx, 50.0);
+  EXPECT_DOUBLE_EQ(half.intrinsics.fy, 45.0);
+  EXPECT_DOUBLE_EQ(half.intrinsics.cx, 0.5);  // (1.5 + 0.5) / 2 - 0.5
+  EXPECT_DOUBLE_EQ(half.intrinsics.cy, 0.0);
+  EXPECT_NEAR(half.depth_m[0], 1.02f, 1e-6f);  // the mean of the three valid ones
+  EXPECT_FLOAT_EQ(half.depth_m[1], 1.0f);      // the nearest, the far ones left out
+  ASSERT_EQ(half.color.size(), 6u);
+  EXPECT_EQ(half.color[0], 15);  // (10 + 20 + 31 + 0) / 4 rounded
+  EXPECT_EQ(half.color[3], 0);
+  frame.depth_m.pop_back();
+  EXPECT_THROW(HalveFrame(frame, 0.05), InputError);
+}
+
 TEST(RgbdFrame, TruncationAndVertexAndNormalMapsOfATiltedPlane) {
   // The plane z = 2 + 0.5 x seen by a 32x24 camera: every interior normal is the plane's.
   RgbdFrame frame;
