@@ -25,6 +25,7 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
+#include "io/text_table.h"
 #include "rig/diagnostics.h"
 #include "rig/refine.h"
 
@@ -214,29 +215,19 @@ std::string Verdict(const ModeRun& p, const ModeRun& j, const RigErrors* e_p,
                                                  : Lower(m.pairwise, m.joint, "p", "j");
     (lower == "p" ? favour_p : lower == "j" ? favour_j : even).push_back(numbers);
   }
-  const auto join = [](const std::vector<std::string>& items) {
-    std::string text;
-    for (const std::string& item : items) text += (text.empty() ? "" : "; ") + item;
-    return text;
-  };
-  const std::string even_note = even.empty() ? "" : "; even: " + join(even);
+  const std::string even_note = even.empty() ? "" : "; even: " + Join(even, "; ");
   if (!favour_p.empty() && favour_j.empty()) {
-    return "pairwise is better (" + basis + "): " + join(favour_p) + even_note;
+    return "pairwise is better (" + basis + "): " + Join(favour_p, "; ") + even_note;
   }
   if (!favour_j.empty() && favour_p.empty()) {
-    return "joint is better (" + basis + "): " + join(favour_j) + even_note;
+    return "joint is better (" + basis + "): " + Join(favour_j, "; ") + even_note;
   }
   if (favour_p.empty()) {
     return "no clear winner (" + basis + ", within " + Fixed(kEvenFraction * 100.0, 0) +
-           "%): " + join(even);
+           "%): " + Join(even, "; ");
   }
-  return "mixed (" + basis + "): pairwise better on " + join(favour_p) + "; joint better on " +
-         join(favour_j);
-}
-
-/// `value` with digits decimals, or "-".
-std::string Cell(bool shown, double value, int digits) {
-  return shown ? Fixed(value, digits) : "-";
+  return "mixed (" + basis + "): pairwise better on " + Join(favour_p, "; ") +
+         "; joint better on " + Join(favour_j, "; ");
 }
 
 struct Comparison {
@@ -255,126 +246,155 @@ struct Comparison {
   std::string verdict;
 };
 
-void PrintTables(const Comparison& c) {
+/// The comparison as printed: prose, one table a view, the verdict.
+std::string Tables(const Comparison& c) {
   const ModeRun* runs = c.runs;
-  std::printf("\ncompare: %s, %zu cameras, method %s, reference %s\n", c.args->capture_path.c_str(),
-              c.capture->cameras.size(), c.method.c_str(), c.reference.c_str());
-  std::printf(
-      "Both modes start from the same leveled poses; \"change\" is each mode's move from "
-      "there%s.\n",
-      c.has_gt ? ", \"error\" the camera's pose relative to the reference against the truth "
-                 "(and its tilt)"
-               : "");
+  std::string text;
+  Appendf(&text, "\ncompare: %s, %zu cameras, method %s, reference %s\n",
+          c.args->capture_path.c_str(), c.capture->cameras.size(), c.method.c_str(),
+          c.reference.c_str());
+  Appendf(&text,
+          "Both modes start from the same leveled poses; \"change\" is each mode's move from "
+          "there%s.\n",
+          c.has_gt ? ", \"error\" the camera's pose relative to the reference against the truth "
+                     "(and its tilt)"
+                   : "");
 
-  // Per camera.
-  std::printf("\n%-16s", "");
+  // Per camera: each mode's change (and error), the joint 1-sigma.
+  std::vector<TextColumn> columns = {{16, Align::kLeft, ""}};
+  std::vector<TextSpan> modes = {{"", 1}}, parts = {{"", 1}};
+  std::vector<std::string> units = {"camera"};
   for (const ModeRun& run : c.runs) {
-    std::printf(" | %-*s", c.has_gt ? 36 : 14, run.name.c_str());
+    columns.insert(columns.end(), {{6, Align::kRight, " | "}, {7}});
+    parts.push_back({"change", 2});
+    units.insert(units.end(), {"deg", "mm"});
+    if (c.has_gt) {
+      columns.insert(columns.end(), {{6}, {7}, {6}});
+      parts.push_back({"error vs gt", 3});
+      units.insert(units.end(), {"deg", "mm", "tilt"});
+    }
+    modes.push_back({run.name, c.has_gt ? 5 : 2});
   }
-  std::printf(" | %s\n", "joint 1-sigma");
-  std::printf("%-16s", "");
-  for (int m = 0; m < 2; ++m) {
-    std::printf(" | %-14s", "change");
-    if (c.has_gt) std::printf(" %-21s", "error vs gt");
-  }
-  std::printf(" |\n%-16s", "camera");
-  for (int m = 0; m < 2; ++m) {
-    std::printf(" | %6s %7s", "deg", "mm");
-    if (c.has_gt) std::printf(" %6s %7s %6s", "deg", "mm", "tilt");
-  }
-  std::printf(" | %7s %8s %6s %6s %6s\n", "yaw deg", "tilt deg", "x mm", "y mm", "z mm");
+  columns.insert(columns.end(),
+                 {{7, Align::kRight, " | "}, {8}, {6}, {6}, {6}, {0, Align::kLeft, "  "}});
+  modes.push_back({"joint 1-sigma", 5});
+  parts.push_back({"", 5});
+  units.insert(units.end(), {"yaw deg", "tilt deg", "x mm", "y mm", "z mm"});
+  TextTable cameras(columns);
+  cameras.AddSpans(modes);
+  cameras.AddSpans(parts);
+  cameras.AddRow(units);
   for (size_t i = 0; i < c.capture->cameras.size(); ++i) {
     const std::string& serial = c.capture->cameras[i].serial;
-    std::printf("%-16s", serial.c_str());
+    std::vector<std::string> row = {serial};
     for (int m = 0; m < 2; ++m) {
       const Change change = ChangeOf(c.leveled, runs[m].output, serial);
-      std::printf(" | %6s %7s", Fixed(change.rotation_deg, 3).c_str(),
-                  Fixed(change.translation_mm, 1).c_str());
+      row.insert(row.end(), {Fixed(change.rotation_deg, 3), Fixed(change.translation_mm, 1)});
       if (c.has_gt) {
         const CameraError e = CameraErrorOf(c.errors[m], serial, c.reference);
-        std::printf(" %6s %7s %6s", Cell(e.has_relative, e.rotation_deg, 3).c_str(),
-                    Cell(e.has_relative, e.translation_mm, 1).c_str(),
-                    Fixed(e.tilt_deg, 3).c_str());
+        row.insert(row.end(),
+                   {FixedOrDash(e.has_relative, e.rotation_deg, 3),
+                    FixedOrDash(e.has_relative, e.translation_mm, 1), Fixed(e.tilt_deg, 3)});
       }
     }
     const CameraReport& joint = runs[1].cameras[i];
     const PoseSigma s = SigmaOf(joint.covariance);
     const bool shown = joint.has_covariance;
-    std::printf(" | %7s %8s %6s %6s %6s%s\n", Cell(shown, s.yaw_deg, 3).c_str(),
-                Cell(shown, s.tilt_deg, 3).c_str(), Cell(shown, s.x_mm, 2).c_str(),
-                Cell(shown, s.y_mm, 2).c_str(), Cell(shown, s.z_mm, 2).c_str(),
-                joint.reference ? "  (reference)" : "");
+    row.insert(row.end(), {FixedOrDash(shown, s.yaw_deg, 3), FixedOrDash(shown, s.tilt_deg, 3),
+                           FixedOrDash(shown, s.x_mm, 2), FixedOrDash(shown, s.y_mm, 2),
+                           FixedOrDash(shown, s.z_mm, 2), joint.reference ? "(reference)" : ""});
+    cameras.AddRow(row);
   }
+  text += "\n" + cameras.text();
 
-  // Per pair.
-  std::printf("\n%-35s | %-24s | %-24s | %-24s\n", "pair fit (finest scale, both ways)", "before",
-              runs[0].name.c_str(), runs[1].name.c_str());
-  std::printf("%-35s |", "pair: RMSE mm (all, off-floor)");
-  for (int k = 0; k < 3; ++k)
-    std::printf(" %7s %7s %8s%s", "all", "off", "inliers", k < 2 ? " |" : "\n");
-  const auto print_fit = [](double rmse_m, double off_floor_rmse_m, double inlier_fraction) {
-    std::printf(" | %7s %7s %8s", Fixed(rmse_m * kMToMm, 2).c_str(),
-                Fixed(off_floor_rmse_m * kMToMm, 2).c_str(), Fixed(inlier_fraction, 3).c_str());
+  // Per pair: the fit before and after each mode.
+  TextTable pairs({{35, Align::kLeft, ""},
+                   {7, Align::kRight, " | "},
+                   {7},
+                   {8},
+                   {7, Align::kRight, " | "},
+                   {7},
+                   {8},
+                   {7, Align::kRight, " | "},
+                   {7},
+                   {8}});
+  pairs.AddSpans({{"pair fit (finest scale, both ways)", 1},
+                  {"before", 3},
+                  {runs[0].name, 3},
+                  {runs[1].name, 3}});
+  pairs.AddRow({"pair: RMSE mm (all, off-floor)", "all", "off", "inliers", "all", "off", "inliers",
+                "all", "off", "inliers"});
+  // A pair's fit or the pooled one (PairDiagnostics, PooledFit): RMSE, off-floor, inliers.
+  const auto add_fit = [](const auto& fit, std::vector<std::string>* row) {
+    row->insert(row->end(), {Fixed(fit.rmse_m * kMToMm, 2), Fixed(fit.off_floor_rmse_m * kMToMm, 2),
+                             Fixed(fit.inlier_fraction, 3)});
   };
   for (size_t k = 0; k < c.fit_before.size(); ++k) {
     const PairDiagnostics* fits[3] = {&c.fit_before[k], &runs[0].fit[k], &runs[1].fit[k]};
-    const std::string name = c.rig->serials[fits[0]->a] + " - " + c.rig->serials[fits[0]->b];
-    std::printf("%-35s", name.c_str());
-    for (const PairDiagnostics* f : fits)
-      print_fit(f->rmse_m, f->off_floor_rmse_m, f->inlier_fraction);
-    std::printf("\n");
+    std::vector<std::string> row = {c.rig->serials[fits[0]->a] + " - " +
+                                    c.rig->serials[fits[0]->b]};
+    for (const PairDiagnostics* f : fits) add_fit(*f, &row);
+    pairs.AddRow(row);
   }
-  if (c.fit_before.empty()) {
-    std::printf("(no candidate pairs)\n");
-  } else {
-    std::printf("%-35s", "all pairs");
+  if (!c.fit_before.empty()) {
+    std::vector<std::string> row = {"all pairs"};
     for (const std::vector<PairDiagnostics>* fits : {&c.fit_before, &runs[0].fit, &runs[1].fit}) {
-      const PooledFit f = Pool(*fits);
-      print_fit(f.rmse_m, f.off_floor_rmse_m, f.inlier_fraction);
+      add_fit(Pool(*fits), &row);
     }
-    std::printf("\n");
+    pairs.AddRow(row);
   }
+  text += "\n" + pairs.text();
+  if (c.fit_before.empty()) text += "(no candidate pairs)\n";
 
   // Against the truth.
   if (c.has_gt) {
-    std::printf("\n%-35s | %9s %9s | %9s %9s | %9s\n", "errors vs gt (gauge-free)", "rot RMS",
-                "rot max", "trans RMS", "trans max", "tilt RMS");
-    std::printf("%-35s | %9s %9s | %9s %9s | %9s\n", "", "deg", "deg", "mm", "mm", "deg");
+    TextTable errors({{35, Align::kLeft, ""},
+                      {9, Align::kRight, " | "},
+                      {9},
+                      {9, Align::kRight, " | "},
+                      {9},
+                      {9, Align::kRight, " | "}});
+    errors.AddRow(
+        {"errors vs gt (gauge-free)", "rot RMS", "rot max", "trans RMS", "trans max", "tilt RMS"});
+    errors.AddRow({"", "deg", "deg", "mm", "mm", "deg"});
     const std::pair<std::string, const RigErrors*> rows[] = {{"input", &c.errors_initial},
                                                              {"leveled", &c.errors_leveled},
                                                              {runs[0].name, &c.errors[0]},
                                                              {runs[1].name, &c.errors[1]}};
     for (const auto& [name, e] : rows) {
-      const bool pairs = !e->pairs.empty();
-      std::printf("%-35s | %9s %9s | %9s %9s | %9s\n", name.c_str(),
-                  Cell(pairs, e->rms_rotation_rad * kRadToDeg, 3).c_str(),
-                  Cell(pairs, e->max_rotation_rad * kRadToDeg, 3).c_str(),
-                  Cell(pairs, e->rms_translation_m * kMToMm, 2).c_str(),
-                  Cell(pairs, e->max_translation_m * kMToMm, 2).c_str(),
-                  Fixed(e->rms_tilt_rad * kRadToDeg, 3).c_str());
+      const bool pairs_shown = !e->pairs.empty();
+      errors.AddRow({name, FixedOrDash(pairs_shown, e->rms_rotation_rad * kRadToDeg, 3),
+                     FixedOrDash(pairs_shown, e->max_rotation_rad * kRadToDeg, 3),
+                     FixedOrDash(pairs_shown, e->rms_translation_m * kMToMm, 2),
+                     FixedOrDash(pairs_shown, e->max_translation_m * kMToMm, 2),
+                     Fixed(e->rms_tilt_rad * kRadToDeg, 3)});
     }
+    text += "\n" + errors.text();
   }
 
   // Resources and results.
-  std::printf("\n%-10s %8s %12s  %s\n", "mode", "wall s", "peak RSS MB", "result");
+  TextTable resources({{10, Align::kLeft, ""}, {8}, {12}, {0, Align::kLeft, "  "}});
+  resources.AddRow({"mode", "wall s", "peak RSS MB", "result"});
   for (const ModeRun& run : c.runs) {
-    std::printf("%-10s %8s %12s  %s\n", run.name.c_str(), Fixed(run.wall_s, 2).c_str(),
-                Fixed(run.peak_rss_mb, 0).c_str(), Result(run, c.capture->cameras.size()).c_str());
+    resources.AddRow({run.name, Fixed(run.wall_s, 2), Fixed(run.peak_rss_mb, 0),
+                      Result(run, c.capture->cameras.size())});
   }
+  text += "\n" + resources.text();
   if (c.runs[0].peak_per_mode && c.runs[1].peak_per_mode) {
-    std::printf(
-        "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
-        "this process, which holds the loaded capture (%s MB before the runs), during that "
-        "mode)\n",
-        Fixed(c.baseline_rss_mb, 0).c_str());
+    Appendf(&text,
+            "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
+            "this process, which holds the loaded capture (%s MB before the runs), during that "
+            "mode)\n",
+            Fixed(c.baseline_rss_mb, 0).c_str());
   } else {
-    std::printf(
-        "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
-        "this process since it started, loading included (%s MB before the runs): the mark "
-        "could not be reset per mode through /proc/self/clear_refs)\n",
-        Fixed(c.baseline_rss_mb, 0).c_str());
+    Appendf(&text,
+            "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
+            "this process since it started, loading included (%s MB before the runs): the mark "
+            "could not be reset per mode through /proc/self/clear_refs)\n",
+            Fixed(c.baseline_rss_mb, 0).c_str());
   }
-  std::printf("\nverdict: %s\n", c.verdict.c_str());
+  Appendf(&text, "\nverdict: %s\n", c.verdict.c_str());
+  return text;
 }
 
 Json FitJson(const std::vector<PairDiagnostics>& fits, const DiagnosticRig& rig) {
@@ -525,7 +545,7 @@ int RunCompare(const CompareArgs& a) {
   c.verdict = Verdict(c.runs[0], c.runs[1], c.has_gt ? &c.errors[0] : nullptr,
                       c.has_gt ? &c.errors[1] : nullptr);
   if (!a.json_path.empty()) WriteJsonFile(a.json_path, ComparisonJson(c));
-  PrintTables(c);
+  std::fputs(Tables(c).c_str(), stdout);
   return kExitOk;
 }
 

@@ -15,6 +15,7 @@
 #include "core/format.h"
 #include "io/atomic_file.h"
 #include "io/extrinsics_json.h"
+#include "io/text_table.h"
 
 namespace rigfit::cli {
 namespace {
@@ -69,26 +70,26 @@ Json ErrorsJson(const RigErrors& e, const EvaluateArgs& a, const CameraSets& set
 void PrintTable(const RigErrors& e, const EvaluateArgs& a) {
   std::printf("%s against %s: %zu cameras (gauge-free)\n", a.estimate_path.c_str(),
               a.ground_truth_path.c_str(), e.tilt_rad.size());
-  std::printf("\n%-35s %13s %15s\n", "pair", "rotation deg", "translation mm");
+  TextTable pairs({{35, Align::kLeft, ""}, {13}, {15}});
+  pairs.AddRow({"pair", "rotation deg", "translation mm"});
   for (const PairError& p : e.pairs) {
-    const std::string name = p.serial_i + " - " + p.serial_j;
-    std::printf("%-35s %13.3f %15.2f\n", name.c_str(), p.error.rotation_rad * kRadToDeg,
-                p.error.translation_m * kMToMm);
+    pairs.AddRow({p.serial_i + " - " + p.serial_j, Fixed(p.error.rotation_rad * kRadToDeg, 3),
+                  Fixed(p.error.translation_m * kMToMm, 2)});
   }
-  if (e.pairs.empty()) {
-    std::printf("(one camera: no pairs)\n");
-  } else {
-    std::printf("%-35s %13.3f %15.2f\n", "RMS", e.rms_rotation_rad * kRadToDeg,
-                e.rms_translation_m * kMToMm);
-    std::printf("%-35s %13.3f %15.2f\n", "max", e.max_rotation_rad * kRadToDeg,
-                e.max_translation_m * kMToMm);
+  if (!e.pairs.empty()) {
+    pairs.AddRow(
+        {"RMS", Fixed(e.rms_rotation_rad * kRadToDeg, 3), Fixed(e.rms_translation_m * kMToMm, 2)});
+    pairs.AddRow(
+        {"max", Fixed(e.max_rotation_rad * kRadToDeg, 3), Fixed(e.max_translation_m * kMToMm, 2)});
   }
-  std::printf("\n%-35s %13s\n", "camera", "tilt deg");
-  for (const auto& [serial, tilt] : e.tilt_rad) {
-    std::printf("%-35s %13.3f\n", serial.c_str(), tilt * kRadToDeg);
-  }
-  std::printf("%-35s %13.3f\n", "RMS", e.rms_tilt_rad * kRadToDeg);
-  std::printf("%-35s %13.3f\n", "max", e.max_tilt_rad * kRadToDeg);
+  std::printf("\n%s%s", pairs.text().c_str(), e.pairs.empty() ? "(one camera: no pairs)\n" : "");
+  TextTable cameras({{35, Align::kLeft, ""}, {13}});
+  cameras.AddRow({"camera", "tilt deg"});
+  for (const auto& [serial, tilt] : e.tilt_rad)
+    cameras.AddRow({serial, Fixed(tilt * kRadToDeg, 3)});
+  cameras.AddRow({"RMS", Fixed(e.rms_tilt_rad * kRadToDeg, 3)});
+  cameras.AddRow({"max", Fixed(e.max_tilt_rad * kRadToDeg, 3)});
+  std::printf("\n%s", cameras.text().c_str());
 }
 
 int RunEvaluate(const EvaluateArgs& a) {

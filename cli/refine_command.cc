@@ -24,6 +24,7 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
+#include "io/text_table.h"
 #include "report/refine_meta.h"
 #include "report/refine_report.h"
 #include "rig/refine.h"
@@ -135,30 +136,22 @@ Json TimingsJson(const Timings& t) {
           {"total", t.total_s}};
 }
 
-/// `text` centred in `width` columns: a heading over a group of columns.
-std::string Centered(const std::string& text, size_t width) {
-  if (text.size() >= width) return text;
-  const size_t left = (width - text.size()) / 2;
-  return std::string(left, ' ') + text + std::string(width - text.size() - left, ' ');
-}
-
-/// `value` with `digits` decimals, or "-" when it was not measured.
-std::string FixedOrDash(bool measured, double value, int digits) {
-  return measured ? Fixed(value, digits) : "-";
-}
-
 /// The summary the command prints (and the report's page shows).
 std::string Summary(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
                     const Timings& t) {
   std::string text;
-  constexpr char kCameraRow[] = "%-16s %7s %6s %7s %7s %7s %7s %8s %8s %6s %6s %6s  %s\n";
-  std::string groups = std::string(16, ' ') + " " + Centered("leveling", 14) + " " +
-                       Centered("registration", 15) + " " + Centered("against the rig", 15) + " " +
-                       Centered("1-sigma (joint covariance)", 38);
-  groups.erase(groups.find_last_not_of(' ') + 1);
-  Appendf(&text, "\n%s\n", groups.c_str());
-  Appendf(&text, kCameraRow, "camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg",
-          "x mm", "y mm", "z mm", "result");
+  // Leveling, registration and against the rig (deg, mm each), the 1-sigma, the result.
+  std::vector<TextColumn> columns = {{16, Align::kLeft, ""}};
+  for (size_t width : {7, 6, 7, 7, 7, 7, 8, 8, 6, 6, 6}) columns.push_back({width});
+  columns.push_back({0, Align::kLeft, "  "});
+  TextTable camera_table(columns);
+  camera_table.AddSpans({{"", 1},
+                         {"leveling", 2, Align::kCentre},
+                         {"registration", 2, Align::kCentre},
+                         {"against the rig", 2, Align::kCentre},
+                         {"1-sigma (joint covariance)", 5, Align::kCentre}});
+  camera_table.AddRow({"camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg",
+                       "x mm", "y mm", "z mm", "result"});
   int leveled = 0;
   for (const CameraReport& c : result.cameras) {
     const GroundResult& g = c.ground;
@@ -180,47 +173,48 @@ std::string Summary(const RefineResult& result, const RefineOptions& options, co
     }
     const bool registered = ChangeMeasured(result, c);
     const PoseSigma sigma = SigmaOf(c.covariance);
-    Appendf(&text, kCameraRow, c.serial.c_str(),
-            FixedOrDash(level_shown, g.correction_rotation_deg, 3).c_str(),
-            FixedOrDash(level_shown, g.correction_translation_m * 1e3, 1).c_str(),
-            FixedOrDash(registered, c.delta_rotation_deg, 3).c_str(),
-            FixedOrDash(registered, c.delta_translation_m * 1e3, 1).c_str(),
-            FixedOrDash(registered, c.own_rotation_deg, 3).c_str(),
-            FixedOrDash(registered, c.own_translation_m * 1e3, 1).c_str(),
-            FixedOrDash(c.has_covariance, sigma.yaw_deg, 3).c_str(),
-            FixedOrDash(c.has_covariance, sigma.tilt_deg, 3).c_str(),
-            FixedOrDash(c.has_covariance, sigma.x_mm, 2).c_str(),
-            FixedOrDash(c.has_covariance, sigma.y_mm, 2).c_str(),
-            FixedOrDash(c.has_covariance, sigma.z_mm, 2).c_str(), status.c_str());
+    camera_table.AddRow({c.serial, FixedOrDash(level_shown, g.correction_rotation_deg, 3),
+                         FixedOrDash(level_shown, g.correction_translation_m * 1e3, 1),
+                         FixedOrDash(registered, c.delta_rotation_deg, 3),
+                         FixedOrDash(registered, c.delta_translation_m * 1e3, 1),
+                         FixedOrDash(registered, c.own_rotation_deg, 3),
+                         FixedOrDash(registered, c.own_translation_m * 1e3, 1),
+                         FixedOrDash(c.has_covariance, sigma.yaw_deg, 3),
+                         FixedOrDash(c.has_covariance, sigma.tilt_deg, 3),
+                         FixedOrDash(c.has_covariance, sigma.x_mm, 2),
+                         FixedOrDash(c.has_covariance, sigma.y_mm, 2),
+                         FixedOrDash(c.has_covariance, sigma.z_mm, 2), status});
   }
+  text += "\n" + camera_table.text();
   if (!a.no_icp) {
     // Pairwise ICP moves b onto a; the joint mode moves both.
     const std::string link = result.mode == RefineMode::kPairwise ? " <- " : " - ";
-    Appendf(&text, "\n%-35s %7s %22s %6s  %s\n", "pair", "fitness", "RMSE before->after mm",
-            "iters", "result");
+    TextTable pair_table({{35, Align::kLeft, ""}, {7}, {22}, {6}, {0, Align::kLeft, "  "}});
+    pair_table.AddRow({"pair", "fitness", "RMSE before->after mm", "iters", "result"});
     for (const PairReport& p : result.pairs) {
-      const std::string name = p.serial_a + link + p.serial_b;
-      const std::string rmse =
-          Fixed(p.rmse_before_m * 1e3, 2) + " -> " + Fixed(p.rmse_after_m * 1e3, 2);
-      Appendf(&text, "%-35s %7s %22s %6d  %s\n", name.c_str(), Fixed(p.fitness, 3).c_str(),
-              rmse.c_str(), p.iterations,
-              p.accepted ? "accepted" : ("rejected: " + p.message).c_str());
+      pair_table.AddRow({p.serial_a + link + p.serial_b, Fixed(p.fitness, 3),
+                         Fixed(p.rmse_before_m * 1e3, 2) + " -> " + Fixed(p.rmse_after_m * 1e3, 2),
+                         std::to_string(p.iterations),
+                         p.accepted ? "accepted" : "rejected: " + p.message});
     }
-    if (result.pairs.empty()) Appendf(&text, "(no candidate pairs)\n");
+    text += "\n" + pair_table.text();
+    if (result.pairs.empty()) text += "(no candidate pairs)\n";
     if (result.surface.ran) {
       const SurfaceBundleReport& sb = result.surface;
       Appendf(&text,
               "\nsurface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the "
-              "noise model\n%-35s %22s %18s\n",
-              sb.planes, sb.pixels, sb.rounds, sb.noise_scale, "camera", "plane thickness (sigma)",
-              "noise correlation");
+              "noise model\n",
+              sb.planes, sb.pixels, sb.rounds, sb.noise_scale);
+      TextTable surface_table({{35, Align::kLeft, ""}, {22}, {18}, {0, Align::kLeft, "  "}});
+      surface_table.AddRow({"camera", "plane thickness (sigma)", "noise correlation"});
       for (const CameraReport& c : result.cameras) {
-        const std::string thickness =
-            Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2);
-        Appendf(&text, "%-35s %22s %18s%s\n", c.serial.c_str(), thickness.c_str(),
-                Fixed(c.surface_noise_correlation, 1).c_str(),
-                c.surface_fallback ? "  kept its joint pose" : "");
+        surface_table.AddRow(
+            {c.serial,
+             Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2),
+             Fixed(c.surface_noise_correlation, 1),
+             c.surface_fallback ? "kept its joint pose" : ""});
       }
+      text += surface_table.text();
     }
   }
   Appendf(&text,
