@@ -1,5 +1,6 @@
-// Correspondence search and the registration terms built from correspondences: shared by
-// the pairwise and the joint solver.
+// Correspondence search and the registration terms built from correspondences, weighed by the
+// depth noise model: shared by the pairwise and the joint solver (and the covariance of their
+// poses, rig/covariance.h).
 #pragma once
 
 #include <ceres/loss_function.h>
@@ -9,6 +10,8 @@
 #include <vector>
 
 #include "core/types.h"
+#include "residuals/gicp.h"
+#include "residuals/point_to_plane.h"
 #include "rig/options.h"
 #include "rig/preprocess.h"
 
@@ -59,6 +62,24 @@ bool StepConverged(const Vec6& step, double voxel_size, bool finest);
 /// its whole depth noise, (plane_noise_share k z^2)^2, plus min_noise_m^2.
 double PointToPlaneVariance(const CameraView& source, const CameraView& target,
                             const Correspondence& c, const IcpOptions& options);
+
+/// The noise of point p of a view (its camera frame), as the weights model it (docs/residuals.md,
+/// "Weights"): its depth error along the ray, k^2 z^2 p p^T, plus its plane-error share,
+/// (plane_noise_share k z^2)^2, isotropic; GICP puts half the residual floor into each point's
+/// noise too (`floor_share`).
+Mat3 PointNoise(const CameraView& view, const Vec3& p, const IcpOptions& options,
+                double floor_share);
+
+/// The whitened point-to-plane term of a correspondence: r is linear in n, so a normal
+/// scaled by 1 / sigma whitens it.
+PointToPlaneTerm MakePointToPlaneTerm(const CameraView& source, const CameraView& target,
+                                      const Correspondence& c, const IcpOptions& options);
+
+/// The GICP term of a correspondence: the covariance of a point is its plane-regularised
+/// shape, V diag(1, 1, eps) V^T (m^2: the in-plane freedom stays, 1 m^2 as in small_gicp; the
+/// eps along the normal is replaced by the noise model), plus PointNoise with half the floor.
+GicpTerm MakeGicpTerm(const CameraView& source, const CameraView& target, const Correspondence& c,
+                      const IcpOptions& options);
 
 /// The robust loss of the options on whitened residuals (nullptr for none).
 ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options);
@@ -120,46 +141,5 @@ OverlapStats MeasureOverlap(const CameraView& source, const CameraView& target,
 /// correspondence distance only (the grid's radius), not the coarsest one: cheaper.
 double FitRmse(const CameraView& source, const CameraView& target, const IcpOptions& options,
                int num_threads);
-
-/// Information of the given pose blocks (PoseManifold tangents, in the order given,
-/// 6 per block) from the given residual blocks: J^T J / sigma^2 with sigma^2 = sum r^2 /
-/// (m - 6 k) when scale_by_residuals, else J^T J (residuals already whitened by a known
-/// noise model); loss functions not applied; the other blocks are held at their values.
-Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
-                            const std::vector<ceres::ResidualBlockId>& residual_blocks,
-                            bool scale_by_residuals = true);
-
-/// The correspondences of one pair direction between two views.
-struct MatchedViews {
-  const CameraView* source = nullptr;
-  const CameraView* target = nullptr;
-  const std::vector<Correspondence>* matches = nullptr;
-};
-
-/// Covariance of the poses that weighted least squares over the terms of `terms`
-/// (CorrespondenceCost's terms of options.method and weights, loss not applied) estimates,
-/// when the noise is the one the weights model but belongs to the POINTS, not to the terms:
-/// each point p of a view has one error, of covariance k^2 z^2 p p^T (depth, along its ray)
-/// + (plane_noise_share k z^2)^2 I (plane error) in its camera frame, and that same error
-/// enters every term the point is in, as source or target, in every pair. The residual
-/// floor min_noise_m is independent per term (point-to-plane) or half of it per point (GICP),
-/// as in the weights. Linearised at the views' pose blocks (T_world_camera gives the GICP
-/// weights' rotations and the point-to-plane noise projection; keep the two equal):
-///   C = H^-1 (sum_p s_p C_p s_p^T + sum_t J_t^T F_t J_t + P) H^-1,
-///   H = sum_t J_t^T J_t + P,   s_p = sum over the terms t of point p of J_t^T dr_t/dp,
-/// with r_t the whitened residuals, J_t their tangent Jacobians, F_t their independent
-/// variance and P = prior_information (the gravity priors', independent of the points).
-/// For point-to-plane, whose weights are exactly that noise, C = H^-1 when every point is in
-/// one term; counting the same points twice leaves C unchanged where it halves H^-1 (both
-/// methods). `column[v]` is 6 times view v's index among the free views (its first tangent
-/// column of C), -1 for a view held fixed; C is prior_information's size. Empty when there
-/// are no terms or free views, or when H is singular (information below 1e-12 of the
-/// largest in some direction, e.g. a free view in no term). The views' points are
-/// split over up to num_threads threads; the result does not depend on it.
-Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
-                                      const std::vector<int>& column,
-                                      const std::vector<MatchedViews>& terms,
-                                      const IcpOptions& options,
-                                      const Eigen::MatrixXd& prior_information, int num_threads);
 
 }  // namespace rigfit

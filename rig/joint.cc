@@ -18,6 +18,7 @@
 #include "residuals/gravity_prior.h"
 #include "residuals/relative_pose.h"
 #include "rig/correspondences.h"
+#include "rig/covariance.h"
 #include "rig/degeneracy.h"
 #include "rig/pose_graph.h"
 

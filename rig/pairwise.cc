@@ -7,6 +7,7 @@
 
 #include "residuals/gravity_prior.h"
 #include "rig/correspondences.h"
+#include "rig/covariance.h"
 
 namespace rigfit {
 namespace {

@@ -1,0 +1,58 @@
+// The uncertainty of registered poses: the information of pose blocks from a problem's
+// residual blocks, and the covariance of the poses when the depth noise belongs to the points,
+// shared by every term a point is in (docs/residuals.md). Used by the pairwise and the joint
+// solver.
+#pragma once
+
+#include <ceres/problem.h>
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "rig/correspondences.h"
+#include "rig/options.h"
+
+namespace rigfit {
+
+/// Information of the given pose blocks (PoseManifold tangents, in the order given,
+/// 6 per block) from the given residual blocks: J^T J / sigma^2 with sigma^2 = sum r^2 /
+/// (m - 6 k) when scale_by_residuals, else J^T J (residuals already whitened by a known
+/// noise model); loss functions not applied; the other blocks are held at their values.
+Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
+                            const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                            bool scale_by_residuals = true);
+
+/// The correspondences of one pair direction between two views.
+struct MatchedViews {
+  const CameraView* source = nullptr;
+  const CameraView* target = nullptr;
+  const std::vector<Correspondence>* matches = nullptr;
+};
+
+/// Covariance of the poses that weighted least squares over the terms of `terms`
+/// (CorrespondenceCost's terms of options.method and weights, loss not applied) estimates,
+/// when the noise is the one the weights model but belongs to the POINTS, not to the terms:
+/// each point p of a view has one error, of covariance k^2 z^2 p p^T (depth, along its ray)
+/// + (plane_noise_share k z^2)^2 I (plane error) in its camera frame, and that same error
+/// enters every term the point is in, as source or target, in every pair. The residual
+/// floor min_noise_m is independent per term (point-to-plane) or half of it per point (GICP),
+/// as in the weights. Linearised at the views' pose blocks (T_world_camera gives the GICP
+/// weights' rotations and the point-to-plane noise projection; keep the two equal):
+///   C = H^-1 (sum_p s_p C_p s_p^T + sum_t J_t^T F_t J_t + P) H^-1,
+///   H = sum_t J_t^T J_t + P,   s_p = sum over the terms t of point p of J_t^T dr_t/dp,
+/// with r_t the whitened residuals, J_t their tangent Jacobians, F_t their independent
+/// variance and P = prior_information (the gravity priors', independent of the points).
+/// For point-to-plane, whose weights are exactly that noise, C = H^-1 when every point is in
+/// one term; counting the same points twice leaves C unchanged where it halves H^-1 (both
+/// methods). `column[v]` is 6 times view v's index among the free views (its first tangent
+/// column of C), -1 for a view held fixed; C is prior_information's size. Empty when there
+/// are no terms or free views, or when H is singular (information below 1e-12 of the
+/// largest in some direction, e.g. a free view in no term). The views' points are
+/// split over up to num_threads threads; the result does not depend on it.
+Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
+                                      const std::vector<int>& column,
+                                      const std::vector<MatchedViews>& terms,
+                                      const IcpOptions& options,
+                                      const Eigen::MatrixXd& prior_information, int num_threads);
+
+}  // namespace rigfit

@@ -1,0 +1,329 @@
+// rig/covariance.h: the shared-noise covariance against the inverse information where they
+// must agree and against its dense definition; a free camera in no term has none.
+#include "rig/covariance.h"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <memory>
+#include <random>
+
+#include "core/pose.h"
+#include "residuals/gicp.h"
+
+namespace rigfit {
+namespace {
+
+/// The three faces of a box corner (normals along the world axes, towards the cameras) near
+/// (0, 0, 2.5) m: per_face random points on each face.
+struct BoxCorner {
+  PointCloud points, normals;
+  BoxCorner(int per_face, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0.1, 1.0);
+    for (int face = 0; face < 3; ++face) {
+      for (int i = 0; i < per_face; ++i) {
+        Vec3 p(u(rng), u(rng), u(rng));
+        p(face) = 0.0;
+        points.push_back(p + Vec3(-0.5, -0.5, 2.5));
+        normals.push_back(-Vec3::Unit(face));
+      }
+    }
+  }
+};
+
+/// The corner as the camera at T of view `view` sees it: a finest-scale level of its points,
+/// normals and plane-shaped covariances. Point i moves by 0.001 ((view i) mod 7) m along x,
+/// so that the views' points differ (view 0's do not move).
+ScaleLevel CornerLevel(const BoxCorner& corner, const Pose& T, size_t view) {
+  ScaleLevel level;
+  level.voxel_size = 0.02;
+  level.normal_support = 0.05;
+  for (size_t i = 0; i < corner.points.size(); ++i) {
+    level.points.push_back(T.inverse() * corner.points[i] +
+                           Vec3(0.001 * ((view * i) % 7), 0.0, 0.0));
+    const Vec3 n = T.linear().transpose() * corner.normals[i];
+    level.geometry.normals.push_back(n);
+    level.geometry.covariances.push_back(Mat3::Identity() - (1.0 - 1e-3) * n * n.transpose());
+  }
+  level.geometry.planarity.assign(corner.points.size(), 1.0);
+  return level;
+}
+
+/// Two views of the three faces of a box corner (normals along the world axes), noisy depth
+/// k = 0.003 /m, from two poses; point i of one is point i of the other (correspondence
+/// i <-> i at distance 0).
+class SharedNoiseTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const BoxCorner corner(40, 5);
+    const Pose T_source =
+        PoseFromParameters(std::array<double, 7>{0.05, -0.1, 0.02, 0.99, 0.3, -0.1, 0.2}.data());
+    const Pose T_target =
+        PoseFromParameters(std::array<double, 7>{-0.03, 0.04, 0.1, 0.99, -0.2, 0.1, 0.05}.data());
+    for (size_t i = 0; i < corner.points.size(); ++i) {
+      matches_.push_back({static_cast<int>(i), static_cast<int>(i), 0.0});
+    }
+    source_ = CornerLevel(corner, T_source, 0);
+    target_ = CornerLevel(corner, T_target, 0);
+    PoseToParameters(T_source, blocks_[0].data());
+    PoseToParameters(T_target, blocks_[1].data());
+    views_ = {{&source_, T_source, blocks_[0].data(), 0.003},
+              {&target_, T_target, blocks_[1].data(), 0.003}};
+  }
+
+  /// SharedNoiseCovariance of the source pose (the target held) over `terms`.
+  Eigen::MatrixXd Shared(const std::vector<MatchedViews>& terms, const IcpOptions& options) {
+    return SharedNoiseCovariance(views_, {0, -1}, terms, options, Eigen::MatrixXd::Zero(6, 6), 2);
+  }
+
+  /// The inverse of the information of the same terms taken as independent.
+  Eigen::MatrixXd InverseInformation(const std::vector<MatchedViews>& terms,
+                                     const IcpOptions& options) {
+    const std::unique_ptr<ceres::Problem> problem = NewProblem();
+    for (auto& block : blocks_) {
+      problem->AddParameterBlock(block.data(), kPoseAmbientSize, SharedPoseManifold());
+    }
+    std::vector<ceres::ResidualBlockId> ids;
+    for (const MatchedViews& t : terms) {
+      ids.push_back(AddCorrespondenceTerms(problem.get(), options, *t.source, *t.target, *t.matches,
+                                           nullptr, TermStorage::kStacked));
+    }
+    return Information(problem.get(), {blocks_[0].data()}, ids, false).inverse();
+  }
+
+  ScaleLevel source_, target_;
+  std::array<std::array<double, kPoseAmbientSize>, 2> blocks_;
+  std::vector<CameraView> views_;
+  std::vector<Correspondence> matches_;
+};
+
+/// Largest entry of |a - b| against the largest of |b|.
+double RelativeDifference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  return (a - b).cwiseAbs().maxCoeff() / b.cwiseAbs().maxCoeff();
+}
+
+TEST_F(SharedNoiseTest, EveryPointInOneTermGivesTheInverseInformation) {
+  // Point-to-plane weights are exactly the noise the points carry: with each point in one
+  // term the sandwich collapses to the inverse of the information.
+  const std::vector<MatchedViews> one_way = {{&views_[0], &views_[1], &matches_}};
+  IcpOptions options;
+  const Eigen::MatrixXd shared = Shared(one_way, options);
+  ASSERT_EQ(shared.rows(), 6);
+  EXPECT_LT(RelativeDifference(shared, InverseInformation(one_way, options)), 1e-9);
+  // Without depth noise or plane share (points cameras; the noise is all the floor's), the
+  // points carry no noise of their own, which is no reason to lose the covariance.
+  views_[0].depth_noise = views_[1].depth_noise = 0.0;
+  const Eigen::MatrixXd floor_only = Shared(one_way, options);
+  ASSERT_EQ(floor_only.rows(), 6);
+  EXPECT_LT(RelativeDifference(floor_only, InverseInformation(one_way, options)), 1e-9);
+  // Depth noise without plane share: each point's noise is along its ray only (rank 1,
+  // factored by an eigen-decomposition, whose rounding is about 1e-8 here).
+  views_[0].depth_noise = views_[1].depth_noise = 0.003;
+  options.plane_noise_share = 0.0;
+  const Eigen::MatrixXd ray_only = Shared(one_way, options);
+  ASSERT_EQ(ray_only.rows(), 6);
+  EXPECT_LT(RelativeDifference(ray_only, InverseInformation(one_way, options)), 1e-7);
+}
+
+TEST_F(SharedNoiseTest, CountingThePointsTwiceLeavesTheCovariance) {
+  // Both directions pair the same points twice (i <-> i, the same world normal: the reverse
+  // residual is minus the forward one), and so do the same terms given twice. Independent
+  // terms would halve the covariance; the points' shared noise keeps it. The per-term
+  // floor, independent by design, is made negligible (1e-6 m against millimetres).
+  for (const RegistrationMethod method :
+       {RegistrationMethod::kPointToPlane, RegistrationMethod::kGicp}) {
+    IcpOptions options;
+    options.method = method;
+    options.min_noise_m = 1e-6;
+    const MatchedViews forward = {&views_[0], &views_[1], &matches_};
+    const MatchedViews reverse = {&views_[1], &views_[0], &matches_};
+    const Eigen::MatrixXd once = Shared({forward}, options);
+    ASSERT_EQ(once.rows(), 6);
+    EXPECT_LT(RelativeDifference(Shared({forward, reverse}, options), once), 1e-7);
+    EXPECT_LT(RelativeDifference(Shared({forward, forward}, options), once), 1e-7);
+    EXPECT_LT(RelativeDifference(InverseInformation({forward, forward}, options),
+                                 0.5 * InverseInformation({forward}, options)),
+              1e-9);
+  }
+}
+
+/// Three views of a box corner with their own depth noise, and four
+/// pair directions with different matchings, for the dense reference below.
+struct ThreeViews {
+  std::vector<ScaleLevel> levels = std::vector<ScaleLevel>(3);
+  std::array<std::array<double, kPoseAmbientSize>, 3> blocks;
+  std::vector<CameraView> views = std::vector<CameraView>(3);
+  std::vector<std::vector<Correspondence>> matches = std::vector<std::vector<Correspondence>>(4);
+  std::vector<MatchedViews> terms;
+
+  ThreeViews() {
+    const BoxCorner corner(30, 7);
+    const std::array<std::array<double, 7>, 3> poses = {{{0.05, -0.1, 0.02, 0.99, 0.3, -0.1, 0.2},
+                                                         {-0.03, 0.04, 0.1, 0.99, -0.2, 0.1, 0.05},
+                                                         {0.1, 0.02, -0.05, 0.99, 0.1, 0.3, -0.2}}};
+    const std::array<double, 3> depth_noise = {0.003, 0.002, 0.004};
+    for (size_t v = 0; v < 3; ++v) {
+      const Pose T = PoseFromParameters(poses[v].data());
+      levels[v] = CornerLevel(corner, T, v);
+      PoseToParameters(T, blocks[v].data());
+      views[v] = {&levels[v], T, blocks[v].data(), depth_noise[v]};
+    }
+    const int n = static_cast<int>(corner.points.size());
+    for (int i = 0; i < n; ++i) {
+      matches[0].push_back({i, i, 0.0});
+      matches[1].push_back({i, (i + 3) % n, 0.0});
+      if (i % 2 == 0) matches[2].push_back({i, i, 0.0});
+      matches[3].push_back({i, (i * 7) % n, 0.0});
+    }
+    terms = {{&views[0], &views[1], &matches[0]},
+             {&views[1], &views[0], &matches[1]},
+             {&views[2], &views[0], &matches[2]},
+             {&views[1], &views[2], &matches[3]}};
+  }
+};
+
+/// SharedNoiseCovariance written out densely, from its definition: every whitened residual
+/// and its derivatives with respect to the free poses (tangent) and to every point by central
+/// differences, the points' noise covariance from docs/residuals.md (section 9), then
+/// H^-1 (J^T (D Sigma D^T + F) J + P) H^-1.
+Eigen::MatrixXd DenseSharedNoiseCovariance(ThreeViews& rig, const std::vector<int>& column,
+                                           const IcpOptions& o, const Eigen::MatrixXd& P) {
+  const bool gicp = o.method == RegistrationMethod::kGicp;
+  const int rows_per_term = gicp ? 3 : 1;
+  const int n = static_cast<int>(rig.levels[0].points.size());
+  const double floor2 = o.min_noise_m * o.min_noise_m;
+  // Depth noise along the ray, the plane share isotropic, and for GICP half the floor.
+  const auto noise = [&](const CameraView& v, const Vec3& p) {
+    const double k2 = v.depth_noise * v.depth_noise;
+    return Mat3(k2 * p.z() * p.z() * p * p.transpose() +
+                (o.plane_noise_share * o.plane_noise_share * k2 * std::pow(p.z(), 4) +
+                 (gicp ? 0.5 * floor2 : 0.0)) *
+                    Mat3::Identity());
+  };
+  int rows = 0;
+  for (const MatchedViews& t : rig.terms) rows += rows_per_term * t.matches->size();
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(rows, P.rows());
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(rows, 9 * n);
+  Eigen::VectorXd F = Eigen::VectorXd::Zero(rows);
+  const auto index = [&](const CameraView* v) { return static_cast<int>(v - rig.views.data()); };
+  constexpr double h = 1e-6;
+  int row = 0;
+  for (const MatchedViews& t : rig.terms) {
+    const int s = index(t.source), g = index(t.target);
+    for (const Correspondence& c : *t.matches) {
+      const Vec3 p0 = t.source->level->points[c.source];
+      const Vec3 q0 = t.target->level->points[c.target];
+      const Vec3 n_t = t.target->level->geometry.normals[c.target];
+      const double variance = PointToPlaneVariance(*t.source, *t.target, c, o);
+      const auto covariance = [&](const CameraView& v, int i) {
+        const LocalGeometry& geometry = v.level->geometry;
+        return Mat3(geometry.covariances[i] -
+                    kGicpPlaneEpsilon * geometry.normals[i] * geometry.normals[i].transpose() +
+                    noise(v, v.level->points[i]));
+      };
+      const Mat3 L = gicp
+                         ? GicpCost::SqrtInformation(
+                               covariance(*t.source, c.source), covariance(*t.target, c.target),
+                               t.source->T_world_camera.linear(), t.target->T_world_camera.linear())
+                         : Mat3::Identity();
+      const auto residual = [&](const double* xs, const double* xt, const Vec3& p, const Vec3& q) {
+        const Pose Ts = PoseFromParameters(xs), Tt = PoseFromParameters(xt);
+        const Vec3 d = Ts * p - Tt * q;
+        Eigen::VectorXd r(rows_per_term);
+        if (gicp) {
+          r = L * d;
+        } else {
+          r(0) = (Tt.linear() * n_t).dot(d) / std::sqrt(variance);
+        }
+        return r;
+      };
+      for (int side = 0; side < 2; ++side) {
+        const int v = side == 0 ? s : g;
+        if (column[v] < 0) continue;
+        for (int k = 0; k < 6; ++k) {
+          std::array<double, 7> plus, minus;
+          double delta[6] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+          delta[k] = h;
+          SharedPoseManifold()->Plus(rig.blocks[v].data(), delta, plus.data());
+          delta[k] = -h;
+          SharedPoseManifold()->Plus(rig.blocks[v].data(), delta, minus.data());
+          const double* xs_plus = side == 0 ? plus.data() : rig.blocks[s].data();
+          const double* xt_plus = side == 0 ? rig.blocks[g].data() : plus.data();
+          const double* xs_minus = side == 0 ? minus.data() : rig.blocks[s].data();
+          const double* xt_minus = side == 0 ? rig.blocks[g].data() : minus.data();
+          J.block(row, column[v] + k, rows_per_term, 1) +=
+              (residual(xs_plus, xt_plus, p0, q0) - residual(xs_minus, xt_minus, p0, q0)) /
+              (2.0 * h);
+        }
+      }
+      const double* xs = rig.blocks[s].data();
+      const double* xt = rig.blocks[g].data();
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 e = h * Vec3::Unit(k);
+        D.block(row, 3 * (s * n + c.source) + k, rows_per_term, 1) +=
+            (residual(xs, xt, p0 + e, q0) - residual(xs, xt, p0 - e, q0)) / (2.0 * h);
+        D.block(row, 3 * (g * n + c.target) + k, rows_per_term, 1) +=
+            (residual(xs, xt, p0, q0 + e) - residual(xs, xt, p0, q0 - e)) / (2.0 * h);
+      }
+      if (!gicp) F(row) = floor2 / variance;
+      row += rows_per_term;
+    }
+  }
+  Eigen::MatrixXd Sigma = Eigen::MatrixXd::Zero(9 * n, 9 * n);
+  for (int v = 0; v < 3; ++v) {
+    for (int i = 0; i < n; ++i) {
+      Sigma.block<3, 3>(3 * (v * n + i), 3 * (v * n + i)) =
+          noise(rig.views[v], rig.levels[v].points[i]);
+    }
+  }
+  const Eigen::MatrixXd H = J.transpose() * J + P;
+  const Eigen::MatrixXd M =
+      J.transpose() * (D * Sigma * D.transpose() + Eigen::MatrixXd(F.asDiagonal())) * J + P;
+  const Eigen::MatrixXd H_inverse = H.inverse();
+  return H_inverse * M * H_inverse;
+}
+
+TEST(SharedNoiseCovariance, EqualsItsDenseDefinitionWithTwoFreeCameras) {
+  // Both methods, each camera held fixed in turn, one and two threads, a prior coupling
+  // the two free cameras: the blockwise accumulation (cross blocks, scores per free camera)
+  // against the dense formula, to the finite differences' precision.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal;
+  Eigen::MatrixXd A(12, 12);
+  for (int i = 0; i < A.size(); ++i) A(i) = normal(rng);
+  const Eigen::MatrixXd prior = 1e-2 * A * A.transpose();
+  for (const RegistrationMethod method :
+       {RegistrationMethod::kPointToPlane, RegistrationMethod::kGicp}) {
+    for (const std::vector<int>& column :
+         {std::vector<int>{-1, 0, 6}, std::vector<int>{0, -1, 6}, std::vector<int>{6, 0, -1}}) {
+      ThreeViews rig;
+      IcpOptions options;
+      options.method = method;
+      const Eigen::MatrixXd want = DenseSharedNoiseCovariance(rig, column, options, prior);
+      for (const int threads : {1, 2}) {
+        const Eigen::MatrixXd got =
+            SharedNoiseCovariance(rig.views, column, rig.terms, options, prior, threads);
+        ASSERT_EQ(got.rows(), 12);
+        EXPECT_LT(RelativeDifference(got, want), 1e-5)
+            << "method " << static_cast<int>(method) << ", columns " << column[0] << " "
+            << column[1] << " " << column[2] << ", threads " << threads;
+        EXPECT_LT(RelativeDifference(got, got.transpose()), 1e-12);
+      }
+    }
+  }
+}
+
+TEST(SharedNoiseCovariance, AFreeCameraInNoTermHasNoCovariance) {
+  // Nothing constrains camera 2: no covariance at all, rather than a 1-sigma of 0.
+  ThreeViews rig;
+  rig.terms.resize(1);  // 0 -> 1 only
+  EXPECT_EQ(SharedNoiseCovariance(rig.views, {-1, 0, 6}, rig.terms, IcpOptions(),
+                                  Eigen::MatrixXd::Zero(12, 12), 1)
+                .size(),
+            0);
+}
+
+}  // namespace
+}  // namespace rigfit
