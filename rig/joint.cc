@@ -141,206 +141,276 @@ Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& camera
   return SharedNoiseCovariance(views, column, terms, options, prior, num_threads);
 }
 
+/// RegisterJoint's problem through its outer iterations: the cameras' pose blocks, the views
+/// and correspondences of the current iteration, the Ceres problem built from them, and the
+/// result so far.
+class JointProblem {
+ public:
+  JointProblem(const std::vector<RegistrationCamera>& cameras,
+               const std::vector<CandidatePair>& pairs, int reference, const IcpOptions& options,
+               int num_threads, const Log& log)
+      : cameras_(cameras),
+        pairs_(pairs),
+        reference_(reference),
+        options_(options),
+        num_threads_(num_threads),
+        log_(log),
+        n_(cameras.size()),
+        // Held in the solve: the unobservable directions, and with hold_weak_directions the
+        // weak ones (which are then also the reported ones).
+        hold_threshold_(options.hold_weak_directions
+                            ? std::max(options.degeneracy_threshold, kUnobservableStrength)
+                            : kUnobservableStrength),
+        blocks_(n_),
+        views_(n_) {
+    result_.poses.resize(n_);
+    for (size_t i = 0; i < n_; ++i) result_.poses[i] = cameras_[i].T_world_camera;
+    result_.connected.assign(n_, false);
+    result_.pair_correspondences.assign(pairs_.size(), 0);
+    result_.covariance.assign(n_, Mat6::Zero());
+    result_.weak.assign(n_, {});
+  }
+
+  /// Coarse to fine, outer iterations at each scale until the poses stop moving; then the
+  /// poses, the weak directions and the covariance at the end.
+  JointResult Run() {
+    if (n_ == 0 || cameras_[0].pyramid == nullptr) return result_;
+    for (size_t i = 0; i < n_; ++i) {
+      PoseToParameters(cameras_[i].T_world_camera, blocks_[i].data());
+    }
+    initial_blocks_ = blocks_;  // copied into each problem, constant
+    loss_.reset(MakeCorrespondenceLoss(options_));
+    solver_options_.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    solver_options_.max_num_iterations = kSolverIterationsPerStep;
+    solver_options_.num_threads = num_threads_;
+    solver_options_.logging_type = ceres::SILENT;
+    const size_t levels = cameras_[0].pyramid->levels.size();
+    for (size_t s = 0; s < levels; ++s) {
+      const int max_iterations =
+          s < options_.max_iterations.size() ? options_.max_iterations[s] : 0;
+      for (int it = 0; it < max_iterations; ++it) {
+        const bool converged = Iterate(s, it, s + 1 == levels);
+        if (!result_.usable) return result_;
+        if (converged) break;
+      }
+    }
+    Finish();
+    return result_;
+  }
+
+ private:
+  /// One outer iteration at scale s: correspondences re-found at the current poses, the
+  /// problem built and solved for a few iterations. Whether the step converged; false with
+  /// result_.usable false when Ceres' solution is not usable.
+  bool Iterate(size_t s, int it, bool finest) {
+    const double voxel_size = cameras_[0].pyramid->levels[s].voxel_size;
+    std::vector<Pose> current(n_);
+    for (size_t i = 0; i < n_; ++i) {
+      current[i] = PoseFromParameters(blocks_[i].data());
+      views_[i] = {&cameras_[i].pyramid->levels[s], current[i], blocks_[i].data(),
+                   cameras_[i].depth_noise};
+    }
+    auto start = std::chrono::steady_clock::now();
+    FindMatches(options_.max_correspondence_distance_factor * voxel_size);
+    result_.correspondences_s += SecondsSince(start);
+    start = std::chrono::steady_clock::now();
+    const size_t total = BuildProblem();
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver_options_, problem_.get(), &summary);
+    result_.solve_s += SecondsSince(start);
+    ++result_.iterations;
+    result_.usable = summary.IsSolutionUsable();
+    if (!result_.usable) {
+      result_.message = "joint solve: " + summary.message;
+      return false;
+    }
+    double max_rotation = 0.0, max_translation = 0.0;
+    bool converged = true;
+    for (size_t i = 0; i < n_; ++i) {
+      const Vec6 step = PoseDifference(current[i], PoseFromParameters(blocks_[i].data()));
+      max_rotation = std::max(max_rotation, step.head<3>().norm());
+      max_translation = std::max(max_translation, step.tail<3>().norm());
+      converged = converged && StepConverged(step, voxel_size, finest);
+    }
+    std::ostringstream m;
+    m << "joint: voxel " << voxel_size << " iteration " << it << ": " << total
+      << " correspondences, cost " << summary.final_cost << ", step " << max_rotation * kRadToDeg
+      << " deg " << max_translation * 1e3 << " mm";
+    log_.Debug(m.str());
+    return converged;
+  }
+
+  /// The correspondences of every pair in both directions at the views, one search per task:
+  /// fewer thread starts than splitting each search.
+  void FindMatches(double max_distance) {
+    matches_.assign(2 * pairs_.size(), {});
+    ParallelFor(
+        static_cast<int>(matches_.size()), num_threads_,
+        [&](int m) {
+          const Direction d = PairDirection(pairs_, m);
+          matches_[m] = FindCorrespondences(views_[d.source], views_[d.target], max_distance,
+                                            options_.max_normal_angle_deg, 1);
+        },
+        /*min_per_thread=*/1);
+    for (size_t k = 0; k < pairs_.size(); ++k) {
+      result_.pair_correspondences[k] =
+          static_cast<int>(matches_[2 * k].size() + matches_[2 * k + 1].size());
+    }
+  }
+
+  /// A new problem over the pose blocks: the linked pairs' terms, the cameras they connect to
+  /// the reference, the holding priors and the gravity priors, the reference and unconnected
+  /// cameras constant. Returns the number of correspondences of the linked pairs.
+  size_t BuildProblem() {
+    problem_ = NewProblem();
+    for (PoseBlock& b : blocks_) {
+      problem_->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+    }
+    start_blocks_ = initial_blocks_;
+    for (PoseBlock& b : start_blocks_) {
+      problem_->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
+      problem_->SetParameterBlockConstant(b.data());
+    }
+    AddPairTerms();
+    size_t total = 0;
+    std::vector<std::pair<int, int>> links;
+    for (size_t k = 0; k < pairs_.size(); ++k) {
+      if (!Linked(k)) continue;
+      links.emplace_back(pairs_[k].a, pairs_[k].b);
+      total += result_.pair_correspondences[k];
+    }
+    result_.connected = ConnectedTo(reference_, n_, links);
+    const std::vector<std::vector<WeakDirection>> held = WeakDirections(hold_threshold_);
+    if (options_.hold_weak_directions) result_.weak = held;
+    for (size_t i = 0; i < n_; ++i) {
+      if (!result_.connected[i]) {
+        problem_->SetParameterBlockConstant(blocks_[i].data());
+        continue;
+      }
+      if (static_cast<int>(i) != reference_ && !held[i].empty()) {
+        // Hold what the data barely constrain at the start pose (not counted in the
+        // covariance, which reports what the data alone determine).
+        problem_->AddResidualBlock(
+            RelativePoseCost::Create(Pose::Identity(), EdgeInformationFromTangentInformation(
+                                                           HoldInformation(held[i], kHoldSigmaM),
+                                                           cameras_[i].T_world_camera)),
+            nullptr, start_blocks_[i].data(), blocks_[i].data());
+      }
+    }
+    AddGravityPriors(problem_.get(), cameras_, FreeCameras(result_.connected, reference_), options_,
+                     blocks_);
+    problem_->SetParameterBlockConstant(blocks_[reference_].data());
+    return total;
+  }
+
+  /// The linked pairs' terms, compressed (CompressedCost), one block per direction, built in
+  /// parallel.
+  void AddPairTerms() {
+    const std::vector<MatchedViews> terms = LinkedTerms();
+    std::vector<std::unique_ptr<ceres::CostFunction>> costs(terms.size());
+    ParallelFor(
+        static_cast<int>(terms.size()), num_threads_,
+        [&](int b) {
+          costs[b] = CorrespondenceCost(options_, *terms[b].source, *terms[b].target,
+                                        *terms[b].matches, loss_.get(), TermStorage::kCompressed);
+        },
+        /*min_per_thread=*/1);
+    for (size_t b = 0; b < costs.size(); ++b) {
+      if (costs[b] == nullptr) continue;
+      problem_->AddResidualBlock(costs[b].release(), nullptr, terms[b].source->pose_block,
+                                 terms[b].target->pose_block);
+    }
+  }
+
+  /// The end: the connected cameras' poses, and after a solve the weak directions and the
+  /// covariance.
+  void Finish() {
+    for (size_t i = 0; i < n_; ++i) {
+      if (result_.connected[i]) result_.poses[i] = PoseFromParameters(blocks_[i].data());
+    }
+    if (problem_ == nullptr) return;
+    const auto start = std::chrono::steady_clock::now();
+    // Without holding, only the end matters: the analysis runs once, at the last
+    // iteration's correspondences and poses.
+    if (!options_.hold_weak_directions) {
+      result_.weak = WeakDirections(options_.degeneracy_threshold);
+    }
+    // The covariance of the last iteration's terms and priors (not the holding ones: it
+    // reports what the data alone determine) at the final poses, each point's depth noise
+    // shared by every term it is in (SharedNoiseCovariance), the gravity priors independent.
+    const std::vector<bool> free = FreeCameras(result_.connected, reference_);
+    for (size_t i = 0; i < n_; ++i) {
+      if (free[i]) views_[i].T_world_camera = PoseFromParameters(blocks_[i].data());
+    }
+    const Eigen::MatrixXd covariance =
+        FreePoseCovariance(cameras_, blocks_, views_, free, LinkedTerms(), options_, num_threads_);
+    result_.covariance_ok = covariance.size() > 0;
+    int k = 0;  // the free cameras, in camera order
+    for (size_t i = 0; i < n_ && result_.covariance_ok; ++i) {
+      if (!free[i]) continue;
+      result_.covariance[i] = covariance.block<6, 6>(6 * k, 6 * k);
+      ++k;
+    }
+    result_.covariance_s = SecondsSince(start);
+  }
+
+  /// The directions below `threshold` of the connected cameras at the views' poses.
+  std::vector<std::vector<WeakDirection>> WeakDirections(double threshold) const {
+    const std::vector<StabilityAccumulator> stability =
+        Stability(views_, pairs_, matches_, options_, num_threads_);
+    std::vector<std::vector<WeakDirection>> weak(n_);
+    for (size_t i = 0; i < n_; ++i) {
+      if (result_.connected[i]) {
+        weak[i] = stability[i].WeakDirections(views_[i].T_world_camera.translation(), threshold);
+      }
+    }
+    return weak;
+  }
+
+  /// Whether pair k has enough correspondences to link its cameras in this iteration.
+  bool Linked(size_t k) const {
+    return static_cast<size_t>(result_.pair_correspondences[k]) >= kMinPairCorrespondences;
+  }
+
+  /// The correspondences of every linked pair, both directions (pointing into views_ and
+  /// matches_).
+  std::vector<MatchedViews> LinkedTerms() const {
+    std::vector<MatchedViews> terms;
+    for (size_t k = 0; k < pairs_.size(); ++k) {
+      if (!Linked(k)) continue;
+      for (size_t m = 2 * k; m < 2 * k + 2; ++m) {
+        const Direction d = PairDirection(pairs_, m);
+        terms.push_back({&views_[d.source], &views_[d.target], &matches_[m]});
+      }
+    }
+    return terms;
+  }
+
+  const std::vector<RegistrationCamera>& cameras_;
+  const std::vector<CandidatePair>& pairs_;
+  const int reference_;
+  const IcpOptions& options_;
+  const int num_threads_;
+  const Log& log_;
+  const size_t n_;
+  const double hold_threshold_;
+  std::unique_ptr<ceres::LossFunction> loss_;
+  ceres::Solver::Options solver_options_;
+  std::vector<PoseBlock> blocks_;
+  std::vector<PoseBlock> initial_blocks_;
+  std::vector<PoseBlock> start_blocks_;  ///< the problem's constant copy of initial_blocks_
+  std::vector<CameraView> views_;
+  std::vector<std::vector<Correspondence>> matches_;  ///< pair k: 2k a -> b, 2k + 1 b -> a
+  std::unique_ptr<ceres::Problem> problem_;
+  JointResult result_;
+};
+
 }  // namespace
 
 JointResult RegisterJoint(const std::vector<RegistrationCamera>& cameras,
                           const std::vector<CandidatePair>& pairs, int reference,
                           const IcpOptions& options, int num_threads, const Log& log) {
-  const size_t n = cameras.size();
-  JointResult result;
-  result.poses.resize(n);
-  for (size_t i = 0; i < n; ++i) result.poses[i] = cameras[i].T_world_camera;
-  result.connected.assign(n, false);
-  result.pair_correspondences.assign(pairs.size(), 0);
-  result.covariance.assign(n, Mat6::Zero());
-  result.weak.assign(n, {});
-  if (n == 0 || cameras[0].pyramid == nullptr) return result;
-  const size_t levels = cameras[0].pyramid->levels.size();
-
-  std::vector<PoseBlock> blocks(n);
-  for (size_t i = 0; i < n; ++i) PoseToParameters(cameras[i].T_world_camera, blocks[i].data());
-  const std::vector<PoseBlock> initial_blocks = blocks;  // copied into each problem, constant
-  std::vector<PoseBlock> start_blocks;
-  const std::unique_ptr<ceres::LossFunction> loss(MakeCorrespondenceLoss(options));
-  ceres::Solver::Options solver_options;
-  solver_options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  solver_options.max_num_iterations = kSolverIterationsPerStep;
-  solver_options.num_threads = num_threads;
-  solver_options.logging_type = ceres::SILENT;
-
-  std::unique_ptr<ceres::Problem> problem;
-  std::vector<CameraView> views(n);
-  std::vector<std::vector<Correspondence>> matches;
-  // The directions below `threshold` of the connected cameras at the views' poses.
-  const auto weak_directions = [&](double threshold) {
-    const std::vector<StabilityAccumulator> stability =
-        Stability(views, pairs, matches, options, num_threads);
-    std::vector<std::vector<WeakDirection>> weak(n);
-    for (size_t i = 0; i < n; ++i) {
-      if (result.connected[i]) {
-        weak[i] = stability[i].WeakDirections(views[i].T_world_camera.translation(), threshold);
-      }
-    }
-    return weak;
-  };
-  // Held in the solve: the unobservable directions, and with hold_weak_directions the weak
-  // ones (which are then also the reported ones).
-  const double hold_threshold = options.hold_weak_directions
-                                    ? std::max(options.degeneracy_threshold, kUnobservableStrength)
-                                    : kUnobservableStrength;
-  // Whether pair k has enough correspondences to link its cameras in this iteration.
-  const auto linked = [&](size_t k) {
-    return static_cast<size_t>(result.pair_correspondences[k]) >= kMinPairCorrespondences;
-  };
-  // The correspondences of every linked pair, both directions.
-  const auto linked_terms = [&] {
-    std::vector<MatchedViews> terms;
-    for (size_t k = 0; k < pairs.size(); ++k) {
-      if (!linked(k)) continue;
-      for (size_t m = 2 * k; m < 2 * k + 2; ++m) {
-        const Direction d = PairDirection(pairs, m);
-        terms.push_back({&views[d.source], &views[d.target], &matches[m]});
-      }
-    }
-    return terms;
-  };
-  // Their terms into `target`, compressed (CompressedCost), one block per direction, built
-  // in parallel.
-  const auto add_pair_terms = [&](ceres::Problem* target) {
-    const std::vector<MatchedViews> terms = linked_terms();
-    std::vector<std::unique_ptr<ceres::CostFunction>> costs(terms.size());
-    ParallelFor(
-        static_cast<int>(terms.size()), num_threads,
-        [&](int b) {
-          costs[b] = CorrespondenceCost(options, *terms[b].source, *terms[b].target,
-                                        *terms[b].matches, loss.get(), TermStorage::kCompressed);
-        },
-        /*min_per_thread=*/1);
-    for (size_t b = 0; b < costs.size(); ++b) {
-      if (costs[b] == nullptr) continue;
-      target->AddResidualBlock(costs[b].release(), nullptr, terms[b].source->pose_block,
-                               terms[b].target->pose_block);
-    }
-  };
-  for (size_t s = 0; s < levels; ++s) {
-    const double voxel_size = cameras[0].pyramid->levels[s].voxel_size;
-    const double max_distance = options.max_correspondence_distance_factor * voxel_size;
-    const int max_iterations = s < options.max_iterations.size() ? options.max_iterations[s] : 0;
-    for (int it = 0; it < max_iterations; ++it) {
-      std::vector<Pose> current(n);
-      for (size_t i = 0; i < n; ++i) {
-        current[i] = PoseFromParameters(blocks[i].data());
-        views[i] = {&cameras[i].pyramid->levels[s], current[i], blocks[i].data(),
-                    cameras[i].depth_noise};
-      }
-      auto start = std::chrono::steady_clock::now();
-      matches.assign(2 * pairs.size(), {});
-      // Every pair in both directions, one search per task: fewer thread starts than
-      // splitting each search.
-      ParallelFor(
-          static_cast<int>(matches.size()), num_threads,
-          [&](int m) {
-            const Direction d = PairDirection(pairs, m);
-            matches[m] = FindCorrespondences(views[d.source], views[d.target], max_distance,
-                                             options.max_normal_angle_deg, 1);
-          },
-          /*min_per_thread=*/1);
-      for (size_t k = 0; k < pairs.size(); ++k) {
-        result.pair_correspondences[k] =
-            static_cast<int>(matches[2 * k].size() + matches[2 * k + 1].size());
-      }
-      result.correspondences_s += SecondsSince(start);
-      start = std::chrono::steady_clock::now();
-      problem = NewProblem();
-      for (PoseBlock& b : blocks) {
-        problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
-      }
-      start_blocks = initial_blocks;
-      for (PoseBlock& b : start_blocks) {
-        problem->AddParameterBlock(b.data(), kPoseAmbientSize, SharedPoseManifold());
-        problem->SetParameterBlockConstant(b.data());
-      }
-      add_pair_terms(problem.get());
-      size_t total = 0;
-      std::vector<std::pair<int, int>> links;
-      for (size_t k = 0; k < pairs.size(); ++k) {
-        if (!linked(k)) continue;
-        links.emplace_back(pairs[k].a, pairs[k].b);
-        total += result.pair_correspondences[k];
-      }
-      result.connected = ConnectedTo(reference, n, links);
-      const std::vector<std::vector<WeakDirection>> held = weak_directions(hold_threshold);
-      if (options.hold_weak_directions) result.weak = held;
-      for (size_t i = 0; i < n; ++i) {
-        if (!result.connected[i]) {
-          problem->SetParameterBlockConstant(blocks[i].data());
-          continue;
-        }
-        if (static_cast<int>(i) != reference && !held[i].empty()) {
-          // Hold what the data barely constrain at the start pose (not counted in the
-          // covariance, which reports what the data alone determine).
-          problem->AddResidualBlock(
-              RelativePoseCost::Create(Pose::Identity(), EdgeInformationFromTangentInformation(
-                                                             HoldInformation(held[i], kHoldSigmaM),
-                                                             cameras[i].T_world_camera)),
-              nullptr, start_blocks[i].data(), blocks[i].data());
-        }
-      }
-      AddGravityPriors(problem.get(), cameras, FreeCameras(result.connected, reference), options,
-                       blocks);
-      problem->SetParameterBlockConstant(blocks[reference].data());
-      ceres::Solver::Summary summary;
-      ceres::Solve(solver_options, problem.get(), &summary);
-      result.solve_s += SecondsSince(start);
-      ++result.iterations;
-      result.usable = summary.IsSolutionUsable();
-      if (!result.usable) {
-        result.message = "joint solve: " + summary.message;
-        return result;
-      }
-      double max_rotation = 0.0, max_translation = 0.0;
-      bool converged = true;
-      for (size_t i = 0; i < n; ++i) {
-        const Vec6 step = PoseDifference(current[i], PoseFromParameters(blocks[i].data()));
-        max_rotation = std::max(max_rotation, step.head<3>().norm());
-        max_translation = std::max(max_translation, step.tail<3>().norm());
-        converged = converged && StepConverged(step, voxel_size, s + 1 == levels);
-      }
-      std::ostringstream m;
-      m << "joint: voxel " << voxel_size << " iteration " << it << ": " << total
-        << " correspondences, cost " << summary.final_cost << ", step " << max_rotation * kRadToDeg
-        << " deg " << max_translation * 1e3 << " mm";
-      log.Debug(m.str());
-      if (converged) break;
-    }
-  }
-  for (size_t i = 0; i < n; ++i) {
-    if (result.connected[i]) result.poses[i] = PoseFromParameters(blocks[i].data());
-  }
-  if (problem != nullptr) {
-    const auto start = std::chrono::steady_clock::now();
-    // Without holding, only the end matters: the analysis runs once, at the last
-    // iteration's correspondences and poses.
-    if (!options.hold_weak_directions) result.weak = weak_directions(options.degeneracy_threshold);
-    // The covariance of the last iteration's terms and priors (not the holding ones: it
-    // reports what the data alone determine) at the final poses, each point's depth noise
-    // shared by every term it is in (SharedNoiseCovariance), the gravity priors independent.
-    const std::vector<bool> free = FreeCameras(result.connected, reference);
-    for (size_t i = 0; i < n; ++i) {
-      if (free[i]) views[i].T_world_camera = PoseFromParameters(blocks[i].data());
-    }
-    const Eigen::MatrixXd covariance =
-        FreePoseCovariance(cameras, blocks, views, free, linked_terms(), options, num_threads);
-    result.covariance_ok = covariance.size() > 0;
-    int k = 0;  // the free cameras, in camera order
-    for (size_t i = 0; i < n && result.covariance_ok; ++i) {
-      if (!free[i]) continue;
-      result.covariance[i] = covariance.block<6, 6>(6 * k, 6 * k);
-      ++k;
-    }
-    result.covariance_s = SecondsSince(start);
-  }
-  return result;
+  return JointProblem(cameras, pairs, reference, options, num_threads, log).Run();
 }
 
 namespace {
