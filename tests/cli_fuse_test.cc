@@ -28,11 +28,12 @@ class CliFuseTest : public SimulatedRigSuite<CliFuseTest> {
                                          "--noise", "0", "--seed", std::to_string(kSeed)});
   }
 
+  /// `rigfit fuse` of the rig's capture at the extrinsics file `extrinsics` into the map file
+  /// `map` (paths).
   static RunResult Fuse(const std::string& extrinsics, const std::string& map,
                         std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"fuse",         "--capture",     Rig("capture.h5"),
-                                     "--extrinsics", Rig(extrinsics), "--map",
-                                     Scratch(map)};
+    std::vector<std::string> args = {
+        "fuse", "--capture", Rig("capture.h5"), "--extrinsics", extrinsics, "--map", map};
     args.insert(args.end(), extra.begin(), extra.end());
     return RunRigfit(args, root_);
   }
@@ -48,7 +49,7 @@ class CliFuseTest : public SimulatedRigSuite<CliFuseTest> {
 };
 
 TEST_F(CliFuseTest, TrueExtrinsicsGiveOneSurfaceWithNormalsAndColours) {
-  const RunResult r = Fuse("gt.json", "gt.ply");
+  const RunResult r = Fuse(Rig("gt.json"), Scratch("gt.ply"));
   ASSERT_EQ(r.exit_code, 0) << Describe(r);
   long long in = 0;
   long long map = 0;
@@ -69,8 +70,8 @@ TEST_F(CliFuseTest, TrueExtrinsicsGiveOneSurfaceWithNormalsAndColours) {
 }
 
 TEST_F(CliFuseTest, PerturbedExtrinsicsDoubleTheSurfaces) {
-  const RunResult gt = Fuse("gt.json", "gt2.ply");
-  const RunResult init = Fuse("init.json", "init.ply");
+  const RunResult gt = Fuse(Rig("gt.json"), Scratch("gt2.ply"));
+  const RunResult init = Fuse(Rig("init.json"), Scratch("init.ply"));
   ASSERT_EQ(gt.exit_code, 0) << Describe(gt);
   ASSERT_EQ(init.exit_code, 0) << Describe(init);
   long long in_gt = 0, map_gt = 0, in_init = 0, map_init = 0;
@@ -85,23 +86,24 @@ TEST_F(CliFuseTest, BadInputExitsTwoAndWritesNothing) {
   ExtrinsicsDocument gt = ReadExtrinsics(Rig("gt.json"));
   gt.poses.erase(gt.poses.begin());
   WriteExtrinsics(Scratch("two.json"), gt.poses);
-  RunResult r = Fuse("../two.json", "missing.ply");
+  RunResult r = Fuse(Scratch("two.json"), Scratch("missing.ply"));
   EXPECT_EQ(r.exit_code, 2) << Describe(r);
   EXPECT_NE(r.err.find("has no pose for camera"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(Scratch("missing.ply")));
-  r = Fuse("gt.json", "depth.ply", {"--min-depth", "3", "--max-depth", "2"});
+  r = Fuse(Rig("gt.json"), Scratch("depth.ply"), {"--min-depth", "3", "--max-depth", "2"});
   EXPECT_EQ(r.exit_code, 2) << Describe(r);
   EXPECT_FALSE(fs::exists(Scratch("depth.ply")));
-  // An existing map only with --force; an input never.
-  ASSERT_EQ(Fuse("gt.json", "once.ply").exit_code, 0);
-  r = Fuse("gt.json", "once.ply");
+  // An existing map only with --force.
+  ASSERT_EQ(Fuse(Rig("gt.json"), Scratch("once.ply")).exit_code, 0);
+  r = Fuse(Rig("gt.json"), Scratch("once.ply"));
   EXPECT_EQ(r.exit_code, 2) << Describe(r);
   EXPECT_NE(r.err.find("use --force"), std::string::npos) << r.err;
-  EXPECT_EQ(Fuse("gt.json", "once.ply", {"--force"}).exit_code, 0);
-  const std::string before = ReadText(Rig("gt.json"));
-  r = Fuse("gt.json", "rig/gt.json", {"--force"});
+  EXPECT_EQ(Fuse(Rig("gt.json"), Scratch("once.ply"), {"--force"}).exit_code, 0);
+  // An input never (a copy of gt.json: the rig is shared, read only).
+  fs::copy_file(Rig("gt.json"), Scratch("input.json"));
+  r = Fuse(Scratch("input.json"), Scratch("input.json"), {"--force"});
   EXPECT_EQ(r.exit_code, 2) << Describe(r);
-  EXPECT_EQ(ReadText(Rig("gt.json")), before);
+  EXPECT_EQ(ReadText(Scratch("input.json")), ReadText(Rig("gt.json")));
 }
 
 }  // namespace

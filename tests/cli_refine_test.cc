@@ -2,8 +2,6 @@
 // subprocess on a small rig written by `rigfit simulate`, and the tests check its exit codes,
 // its output file and what it leaves untouched.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
@@ -52,7 +50,7 @@ double MaxPoseDifference(const PoseMap& a, const PoseMap& b) {
   return worst;
 }
 
-class CliRefineTest : public ::testing::Test {
+class CliRefineTest : public SimulatedRigSuite<CliRefineTest> {
  protected:
   /// One small simulated rig shared by every test: 3 cameras, 320 x 180, noise-free depth (the
   /// solver's accuracy under noise is tests/refine_test.cc's job), and a perturbation small
@@ -60,27 +58,20 @@ class CliRefineTest : public ::testing::Test {
   /// default safety bounds (icp.max_translation_m 0.2: a 4 deg yaw of the reference would
   /// already move a camera 3 m away by 0.2 m).
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("rigfit_cli_refine_test_" + std::to_string(::getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-    const RunResult sim =
-        RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras",
-                   std::to_string(kCameras), "--width", "320", "--height", "180", "--noise", "0",
-                   "--perturb-yaw-deg", "0.5", "--perturb-xz-m", "0.02"},
-                  root_);
-    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+    SimulateRig("rigfit_cli_refine_test",
+                {"--cameras", std::to_string(kCameras), "--width", "320", "--height", "180",
+                 "--noise", "0", "--perturb-yaw-deg", "0.5", "--perturb-xz-m", "0.02"});
   }
-  static void TearDownTestSuite() { fs::remove_all(root_); }
 
   void SetUp() override {
-    ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed";
+    SimulatedRigSuite::SetUp();
     dir_ = root_ / ::testing::UnitTest::GetInstance()->current_test_info()->name();
     fs::create_directories(dir_);
   }
 
-  static std::string Capture() { return (root_ / "rig" / "capture.h5").string(); }
-  static std::string Init() { return (root_ / "rig" / "init.json").string(); }
-  static std::string Gt() { return (root_ / "rig" / "gt.json").string(); }
+  static std::string Capture() { return Rig("capture.h5"); }
+  static std::string Init() { return Rig("init.json"); }
+  static std::string Gt() { return Rig("gt.json"); }
   std::string Out() const { return (dir_ / "out.json").string(); }
 
   RunResult Refine(std::vector<std::string> extra) const {
@@ -113,13 +104,8 @@ class CliRefineTest : public ::testing::Test {
     return ReadExtrinsics(out).poses;
   }
 
-  static fs::path root_;
-  static std::string simulate_error_;
   fs::path dir_;
 };
-
-fs::path CliRefineTest::root_;
-std::string CliRefineTest::simulate_error_;
 
 TEST_F(CliRefineTest, RefinesTheRigAndPreservesUnknownKeys) {
   Json init = ReadJson(Init());

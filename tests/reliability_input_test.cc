@@ -9,7 +9,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <hdf5.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
@@ -77,22 +76,15 @@ void SetIntrinsics(hid_t file, const std::string& serial, const std::vector<doub
 /// A 4x4 row-major matrix as JSON.
 Json Matrix(const std::vector<std::vector<double>>& rows) { return Json(rows); }
 
-class ReliabilityInputTest : public ::testing::Test {
+class ReliabilityInputTest : public SimulatedRigSuite<ReliabilityInputTest> {
  protected:
   /// One tiny simulated rig (3 cameras, 64 x 36: every case fails before the solver runs).
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("rigfit_reliability_input_" + std::to_string(::getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-    const RunResult sim = RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras",
-                                     "3", "--width", "64", "--height", "36"},
-                                    root_);
-    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+    SimulateRig("rigfit_reliability_input", {"--cameras", "3", "--width", "64", "--height", "36"});
   }
-  static void TearDownTestSuite() { fs::remove_all(root_); }
 
   void SetUp() override {
-    ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed";
+    SimulatedRigSuite::SetUp();
     const std::string name = ::testing::UnitTest::GetInstance()->current_test_info()->name();
     inputs_ = root_ / (name + "_inputs");
     out_dir_ = root_ / (name + "_out");
@@ -100,8 +92,8 @@ class ReliabilityInputTest : public ::testing::Test {
     fs::create_directories(out_dir_);
   }
 
-  static std::string Capture() { return (root_ / "rig" / "capture.h5").string(); }
-  static std::string Init() { return (root_ / "rig" / "init.json").string(); }
+  static std::string Capture() { return Rig("capture.h5"); }
+  static std::string Init() { return Rig("init.json"); }
   std::string Out() const { return (out_dir_ / "out.json").string(); }
 
   /// A copy of the capture, changed through the HDF5 C API.
@@ -150,14 +142,9 @@ class ReliabilityInputTest : public ::testing::Test {
     }
   }
 
-  static fs::path root_;
-  static std::string simulate_error_;
   fs::path inputs_;
   fs::path out_dir_;
 };
-
-fs::path ReliabilityInputTest::root_;
-std::string ReliabilityInputTest::simulate_error_;
 
 // --- Files that cannot be read at all. ---------------------------------------------------------
 
@@ -404,7 +391,7 @@ TEST_F(ReliabilityInputTest, OutputThatIsADirectoryIsRefused) {
 // --- rigfit evaluate. --------------------------------------------------------------------------
 
 TEST_F(ReliabilityInputTest, EvaluateRejectsBadExtrinsicsAndBadJsonOutput) {
-  const std::string gt = (root_ / "rig" / "gt.json").string();
+  const std::string gt = Rig("gt.json");
   const std::string json = (out_dir_ / "errors.json").string();
   const std::string non_rigid = MutatedExtrinsics(
       "non_rigid.json", [](Json& j) { j[kCamera1]["T_world_camera"][0][0] = 2.0; });

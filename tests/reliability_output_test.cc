@@ -26,28 +26,15 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 using namespace cli_test;  // NOLINT: RunRigfit and friends
 
-class ReliabilityOutputTest : public ::testing::Test {
+class ReliabilityOutputTest : public SimulatedRigSuite<ReliabilityOutputTest> {
  protected:
   /// One small simulated rig with the simulator's default noise, perturbed within the bounds.
   static void SetUpTestSuite() {
-    root_ = fs::temp_directory_path() / ("rigfit_reliability_output_" + std::to_string(::getpid()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-    const RunResult sim =
-        RunRigfit({"simulate", "--out", (root_ / "rig").string(), "--cameras", "3", "--width",
-                   "160", "--height", "90", "--perturb-yaw-deg", "0.5", "--perturb-xz-m", "0.02"},
-                  root_);
-    simulate_error_ = sim.exit_code == 0 ? "" : Describe(sim);
+    SimulateRig("rigfit_reliability_output",
+                {"--cameras", "3", "--width", "160", "--height", "90", "--perturb-yaw-deg", "0.5",
+                 "--perturb-xz-m", "0.02"});
   }
-  static void TearDownTestSuite() { fs::remove_all(root_); }
-  void SetUp() override { ASSERT_EQ(simulate_error_, "") << "rigfit simulate failed"; }
-
-  static fs::path root_;
-  static std::string simulate_error_;
 };
-
-fs::path ReliabilityOutputTest::root_;
-std::string ReliabilityOutputTest::simulate_error_;
 
 TEST_F(ReliabilityOutputTest, SameOutputBytesWhateverTheThreadCount) {
   for (const std::string mode : {"joint", "pairwise"}) {
@@ -56,11 +43,10 @@ TEST_F(ReliabilityOutputTest, SameOutputBytesWhateverTheThreadCount) {
     for (const std::string threads : {"1", "2", "4"}) {
       SCOPED_TRACE(mode + " with " + threads + " threads");
       const fs::path out = root_ / (mode + "_" + threads + ".json");
-      const RunResult r =
-          RunRigfit({"refine", "--capture", (root_ / "rig" / "capture.h5").string(), "--extrinsics",
-                     (root_ / "rig" / "init.json").string(), "--out", out.string(), "--mode", mode,
-                     "--threads", threads, "--no-timings", "--quiet"},
-                    root_);
+      const RunResult r = RunRigfit(
+          {"refine", "--capture", Rig("capture.h5"), "--extrinsics", Rig("init.json"), "--out",
+           out.string(), "--mode", mode, "--threads", threads, "--no-timings", "--quiet"},
+          root_);
       // Joint refines this rig; pairwise ICP on so small a noisy band may break the safety
       // bounds (exit 3, leveled poses and every pair's ICP report written): either way the
       // outcome and every byte must not depend on the threads.
@@ -95,8 +81,8 @@ TEST_F(ReliabilityOutputTest, KilledRunLeavesThePreviousOutputIntact) {
   const pid_t child = ::fork();
   ASSERT_GE(child, 0);
   if (child == 0) {
-    const std::string capture = (root_ / "rig" / "capture.h5").string();
-    const std::string init = (root_ / "rig" / "init.json").string();
+    const std::string capture = Rig("capture.h5");
+    const std::string init = Rig("init.json");
     std::freopen(err.c_str(), "w", stderr);
     std::freopen("/dev/null", "w", stdout);
     ::execl(RIGFIT_CLI_PATH, RIGFIT_CLI_PATH, "refine", "--capture", capture.c_str(),
