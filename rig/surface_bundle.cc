@@ -334,8 +334,7 @@ std::vector<double> Thickness(const std::vector<ClusterTerm>& terms,
 }  // namespace
 
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
-                                          const IcpOptions& options, int num_threads,
-                                          const Log& log) {
+                                          const IcpOptions& options, const Log& log) {
   const size_t n = cameras.size();
   SurfaceBundleResult result;
   result.fallback.assign(n, false);
@@ -405,7 +404,10 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
     solver_options.linear_solver_type = ceres::DENSE_SCHUR;
     solver_options.linear_solver_ordering = ordering;
     solver_options.max_num_iterations = kIterationsPerRound;
-    solver_options.num_threads = num_threads;
+    // One thread: Ceres' Schur eliminator adds the chunks of a multi-threaded elimination
+    // in whatever order the threads finish, so the last digits of the poses changed from
+    // run to run; the reduced problem (a few hundred 4-dimensional blocks) is small.
+    solver_options.num_threads = 1;
     solver_options.logging_type = ceres::SILENT;
     summary = ceres::Solver::Summary{};
     ceres::Solve(solver_options, problem.get(), &summary);
@@ -489,7 +491,7 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
         pairs.emplace_back(blocks[c].data(), blocks[c].data());
     }
     ceres::Covariance::Options covariance_options;
-    covariance_options.num_threads = num_threads;
+    covariance_options.num_threads = 1;  // as the solve: the same digits whatever the threads
     ceres::Covariance covariance(covariance_options);
     result.covariance_ok = !pairs.empty() && covariance.Compute(pairs, problem.get());
     for (size_t c = 0; c < n && result.covariance_ok; ++c) {

@@ -76,9 +76,10 @@ struct SurfaceBundleResult {
   int rounds = 0;
 };
 
-/// Refines the free cameras. Never throws on bad geometry.
+/// Refines the free cameras. Never throws on bad geometry. Single-threaded, so that its
+/// digits do not depend on the threads (Ceres' multi-threaded Schur elimination sums in the
+/// order its threads finish); the problem it solves is small.
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
-                                          const IcpOptions& options, int num_threads,
-                                          const Log& log);
+                                          const IcpOptions& options, const Log& log);
 
 }  // namespace rigfit
