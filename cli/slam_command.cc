@@ -12,11 +12,11 @@
 #include "cli/map_ply.h"
 #include "cli/rgbd_common.h"
 #include "cli/stderr_log.h"
-#include "core/errors.h"
 #include "io/atomic_file.h"
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
 #include "rgbd/slam.h"
+#include "rgbd/slam_options.h"
 
 namespace rigfit::cli {
 namespace {
@@ -41,14 +41,7 @@ int RunSlamCommand(SlamArgs a) {
   }
   ApplyTrackingFlags("slam", a.prior, a.iterations, a.slam.threads, a.slam.max_frames,
                      &a.slam.prior, &a.slam.frame, &a.slam.icp);
-  const FusionOptions& fusion = a.slam.fusion;
-  if (!(fusion.max_distance_m > 0.0) ||
-      !(fusion.max_normal_angle_deg > 0.0 && fusion.max_normal_angle_deg <= 180.0)) {
-    throw InputError("slam: --fuse-distance must be > 0 and --fuse-angle in (0, 180]");
-  }
-  if (!(fusion.cover_radius_scale >= 0.0)) throw InputError("slam: --cover-radius must be >= 0");
-  if (fusion.dormant_frames < 0) throw InputError("slam: --dormant-frames must be >= 0 (0: off)");
-  if (!(a.slam.render.min_weight >= 1.0f)) throw InputError("slam: --model-weight must be >= 1");
+  CheckSlamSettings("slam", OptionSpelling::kFlag, a.slam);
   ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);

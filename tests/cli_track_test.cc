@@ -143,6 +143,9 @@ TEST_F(CliTrack, SlamRefusesBadInput) {
       {{"slam", seq, "--out", out.string(), "--model-weight", "0.5"}, "--model-weight"},
       {{"slam", seq, "--out", out.string(), "--dormant-frames", "-1"}, "--dormant-frames"},
       {{"slam", seq, "--out", out.string(), "--fuse-angle", "0"}, "--fuse-angle"},
+      {{"slam", seq, "--out", out.string(), "--cover-radius", "-1"}, "--cover-radius"},
+      {{"slam", seq, "--out", out.string(), "--model-recent", "-1"}, "--model-recent"},
+      {{"slam", seq, "--out", out.string(), "--halve", "-1"}, "--halve"},
   };
   for (const auto& [args, expected] : cases) {
     const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);
