@@ -1,4 +1,4 @@
-// What the report's pictures share (report/plots.h and the pictures to come): the text sizes and
+// What the report's pictures share (report/plots.h, report/map_view.h): the text sizes and
 // colours, tick spacing and labels, titles, legend rows, a frame and a scale bar, drawn on a
 // Canvas (report/canvas.h).
 #pragma once
