@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <utility>
@@ -125,8 +126,8 @@ MapViewAxes EstimateMapViewAxes(const std::vector<Vec3f>& positions,
       }
     }
     up = sum.normalized();
-    source = "the normal " + Fixed(100.0 * count / sampled.size(), 0) + "% of the points share (" +
-             "floors, tables)";
+    source = "the normal " + Fixed(100.0 * count / sampled.size(), 0) +
+             "% of the points share (floors, tables)";
     if (have_prior) {
       source += ", " + Fixed(std::acos(std::clamp(up.dot(prior), -1.0, 1.0)) * kRadToDeg, 0) +
                 " deg from the cameras' mean image up";
@@ -193,8 +194,9 @@ Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& over
             : 2.0 * map.radii[i] * std::abs(axes.up.dot(map.normals[i].cast<double>()));
     const int side =
         std::clamp(static_cast<int>(std::lround(footprint * px_per_m)), 1, kMaxSplatPx);
-    const int c0 = static_cast<int>(std::floor(column(p) + 0.5 - 0.5 * side)) - plot.x0;
-    const int r0 = static_cast<int>(std::floor(row(p) + 0.5 - 0.5 * side)) - plot.y0;
+    // The side x side pixels whose centres are nearest (side 1: the nearest pixel).
+    const int c0 = static_cast<int>(std::floor(column(p) + 1.0 - 0.5 * side)) - plot.x0;
+    const int r0 = static_cast<int>(std::floor(row(p) + 1.0 - 0.5 * side)) - plot.y0;
     for (int r = std::max(r0, 0); r < std::min(r0 + side, height); ++r) {
       for (int c = std::max(c0, 0); c < std::min(c0 + side, width); ++c) {
         const size_t k = static_cast<size_t>(r) * width + c;
@@ -274,7 +276,7 @@ Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& over
   if (!by_height) {
     canvas.Text(legend_x, y, "points in their colour", plot::kMuted, plot::kTextSize);
   } else if (!heights.empty()) {
-    canvas.Text(legend_x, y, "height above the lowest (m)", kBlack, plot::kTextSize);
+    canvas.Text(legend_x, y, "height (m)", kBlack, plot::kTextSize);
     y += plot::kTextHeight + 14;
     constexpr int kBarWidth = 28, kBarHeight = 300;
     for (int r = 0; r < kBarHeight; ++r) {

@@ -87,8 +87,8 @@ struct MapOverlay {
 /// seen from above, a square of side 2 r |n . up| (at least a pixel, at most 25), and where
 /// points overlap the highest along up is drawn (what is seen from above): in its colour when
 /// the map has colours, else by its height between the 1st and 99th percentiles of the drawn
-/// points (viridis, with a colour bar in metres above the lowest). The overlays are drawn over
-/// the points in order (the last on top), each path with a white rim and a disc at its start;
+/// points (viridis, with a colour bar in metres above the 1st percentile). The overlays are drawn
+/// over the points in order (the last on top), each path with a white rim and a disc at its start;
 /// a legend of their labels, and a scale bar.
 Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& overlays,
                        const MapViewAxes& axes, const std::string& title,
