@@ -33,8 +33,9 @@
 #             subset, on rigfit simulate-sequence sequences (noise-free and Kinect noise), and
 #             bench/rgbd_bench (pyramid, normal equations, both solve paths, tracking at 640x480
 #             and 320x240), median of 5 repetitions; rigfit slam --evaluate on the 7-Scenes
-#             frames at 640x480 and halved to 320x240 (--halve 1), median of 3 runs by frames/s,
-#             peak RSS from /usr/bin/time. Not niced.
+#             frames at 640x480 and halved to 320x240 (--halve 1) and on the TUM fr1/xyz subset
+#             (--no-color: 4 of its 37 depth frames have no colour image within 0.02 s), median
+#             of 3 runs by frames/s, peak RSS from /usr/bin/time. Not niced.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -446,13 +447,14 @@ for path in sys.argv[3:]:
         m = re.search(pattern, text, re.M)
         return m.group(1) if m else "-"
     rows.append((float(num(r"\(([0-9.]+) frames/s without loading\)")), num(r"ATE RMSE ([0-9.]+) mm"),
+                 num(r"RPE per frame ([0-9.]+) mm"), num(r"mm / ([0-9.]+) deg"),
                  num(r"^map (\d+) points"), "%.0f" % (int(num(r"Maximum resident set size \(kbytes\): (\d+)")) / 1024),
                  num(r"^load ([0-9.]+)")))
 rows.sort()
-fps, ate, size, rss, load = rows[len(rows) // 2]
-print("| %s | `%s` | %s | %.1f (%s) | %s | %s | %s |" % (
-    sys.argv[1], sys.argv[2] or "(defaults)", ate, fps, " / ".join("%.1f" % r[0] for r in rows),
-    size, rss, " / ".join(r[4] for r in rows)))
+fps, ate, rpe_mm, rpe_deg, size, rss, load = rows[len(rows) // 2]
+print("| %s | `%s` | %s | %s / %s | %.1f (%s) | %s | %s | %s |" % (
+    sys.argv[1], sys.argv[2] or "(defaults)", ate, rpe_mm, rpe_deg, fps,
+    " / ".join("%.1f" % r[0] for r in rows), size, rss, " / ".join(r[-1] for r in rows)))
 PY
 }
 
@@ -492,10 +494,11 @@ run_rgbd() {
     echo
     echo "#### \`rigfit slam SEQUENCE --evaluate [flags]\`"
     echo
-    echo "| sequence | flags | ATE RMSE mm | frames/s, median (all runs) | map points at the end | peak RSS MB | load before each run |"
-    echo "|---|---|---|---|---|---|---|"
+    echo "| sequence | flags | ATE RMSE mm | RPE per frame mm / deg | frames/s, median (all runs) | map points at the end | peak RSS MB | load before each run |"
+    echo "|---|---|---|---|---|---|---|---|"
     slam_row "7-Scenes kitchen, 640x480" "$kitchen" "${max[@]}"
     slam_row "7-Scenes kitchen, 320x240" "$kitchen" --halve 1 "${max[@]}"
+    slam_row "TUM fr1/xyz subset, 640x480" "$data/tum_fr1_xyz_subset" --no-color
     echo
     echo "bench/rgbd_bench: 7-Scenes frames 300 -> 301 (320x240: their level 1); tracking from"
     echo "the identity, pyramids built beforehand."

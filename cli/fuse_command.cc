@@ -1,7 +1,8 @@
 // `rigfit fuse`: every depth camera of a rig capture fused into one surfel map
 // (rgbd/surfel_map.h) at the given extrinsics, written as a PLY with normals (and colours when
-// every camera has them). Well-aligned cameras merge their overlap into one surface; a
-// misaligned rig shows doubled surfaces (and a larger map).
+// every camera has them) and, with --report, as a picture from above (report/map_view.h).
+// Well-aligned cameras merge their overlap into one surface; a misaligned rig shows doubled
+// surfaces (and a larger map).
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -10,10 +11,14 @@
 #include "cli/commands.h"
 #include "cli/map_ply.h"
 #include "core/errors.h"
+#include "core/format.h"
 #include "io/atomic_file.h"
 #include "io/capture_h5.h"
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
+#include "report/map_view.h"
+#include "report/palette.h"
+#include "report/refine_report.h"
 #include "rgbd/frame.h"
 #include "rgbd/surfel_map.h"
 #include "rig/refine.h"
@@ -25,6 +30,7 @@ struct FuseArgs {
   std::string capture_path;
   std::string extrinsics_path;
   std::string map_path;
+  std::string report_dir;  ///< empty: no report
   bool force = false;
   FrameOptions frame;
   FusionOptions fusion;
@@ -32,6 +38,7 @@ struct FuseArgs {
 
 int RunFuse(FuseArgs a) {
   CheckOutputFile(a.map_path, {a.capture_path, a.extrinsics_path}, a.force, "fuse: --map");
+  if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "fuse: --report");
   if (!(a.frame.min_depth_m >= 0.0 && a.frame.max_depth_m > a.frame.min_depth_m)) {
     throw InputError("fuse: need 0 <= --min-depth < --max-depth");
   }
@@ -63,7 +70,9 @@ int RunFuse(FuseArgs a) {
   a.fusion.cover_radius_scale = 0.0;
   a.frame.levels = 1;
   SurfelMap map;
-  std::printf("%-16s %10s %10s %10s\n", "camera", "points", "merged", "added");
+  std::vector<MapOverlay> cameras;
+  std::string summary;
+  Appendf(&summary, "%-16s %10s %10s %10s\n", "camera", "points", "merged", "added");
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
     const CameraCapture& camera = capture.cameras[i];
     RgbdFrame frame;
@@ -74,16 +83,28 @@ int RunFuse(FuseArgs a) {
     frame.intrinsics = camera.intrinsics;
     frame.depth_m = camera.depth_m;
     const FramePyramid pyramid = BuildFramePyramid(frame, a.frame);
+    const Pose& T_world_camera = extrinsics.poses.at(camera.serial);
     const FusionStats stats =
-        map.FuseFrame(pyramid.levels[0], extrinsics.poses.at(camera.serial), frame.index, a.fusion,
+        map.FuseFrame(pyramid.levels[0], T_world_camera, frame.index, a.fusion,
                       all_color ? camera.color : std::vector<std::uint8_t>{});
-    std::printf("%-16s %10d %10d %10d\n", camera.serial.c_str(), stats.input_points, stats.merged,
-                stats.added);
+    Appendf(&summary, "%-16s %10d %10d %10d\n", camera.serial.c_str(), stats.input_points,
+            stats.merged, stats.added);
+    cameras.push_back({camera.serial, CameraColor(static_cast<int>(i)), 3, {T_world_camera}, true});
   }
   WritePly(a.map_path, SurfelMapToPly(map));
-  std::printf("%zu cameras, %lld points in -> %d map points (compression %.2f%s) -> %s\n",
-              capture.cameras.size(), static_cast<long long>(map.input_points()), map.size(),
-              map.CompressionRatio(), map.has_color() ? ", with colours" : "", a.map_path.c_str());
+  Appendf(&summary, "%zu cameras, %lld points in -> %d map points (compression %.2f%s) -> %s\n",
+          capture.cameras.size(), static_cast<long long>(map.input_points()), map.size(),
+          map.CompressionRatio(), map.has_color() ? ", with colours" : "", a.map_path.c_str());
+  std::fputs(summary.c_str(), stdout);
+  if (!a.report_dir.empty()) {
+    const MapPoints points{map.positions(), map.normals(), map.colors(), map.radii()};
+    for (const std::string& file : WriteMapReport(
+             a.report_dir, "rigfit fuse report", points, cameras,
+             MapViewAxesFor(Vec3::UnitY(), Vec3::UnitX(), "world +Y, the extrinsics' up axis"),
+             summary)) {
+      std::printf("report: %s\n", file.c_str());
+    }
+  }
   return kExitOk;
 }
 
@@ -108,6 +129,10 @@ Command AddFuseCommand(CLI::App& app) {
                   "input file")
       ->required();
   sub->add_flag("--force", a.force, "Replace --map if it exists");
+  sub->add_option("--report", a.report_dir,
+                  "Also write the map seen from above with the cameras (map_top.png) and a page "
+                  "showing it with the summary (index.html) into this directory (created; its "
+                  "parent must exist)");
   sub->add_option("--min-depth", a.frame.min_depth_m, "Drop depth below this (metres)")
       ->capture_default_str();
   sub->add_option("--max-depth", a.frame.max_depth_m, "Drop depth beyond this (metres)")

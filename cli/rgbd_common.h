@@ -1,5 +1,5 @@
 // What `rigfit track` and `rigfit slam` share: the tracking flags, the --intrinsics option
-// and the --evaluate report against the sequence's ground truth.
+// and the --evaluate lines against the sequence's ground truth.
 #pragma once
 
 #include <memory>
@@ -31,10 +31,10 @@ void ApplyIntrinsicsOption(const std::vector<double>& intrinsics, const std::str
 std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
                                                  const SequenceOptions& options, const Log& log);
 
-/// Prints the ATE, the RPE per frame and the end-point drift of `estimate` against the
-/// sequence's ground truth on stdout; a warning (not an error) when the sequence has none or
-/// the two cannot be compared.
-void PrintTrajectoryEvaluation(const RgbdSequence& sequence, const Trajectory& estimate,
-                               const Log& log);
+/// The ATE, the RPE per frame and the end-point drift of `estimate` against the sequence's
+/// ground truth, as lines for stdout; empty, with a warning (not an error) to `log`, when the
+/// sequence has none or the two cannot be compared.
+std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Trajectory& estimate,
+                                     const Log& log);
 
 }  // namespace rigfit::cli

@@ -1,7 +1,8 @@
-// `rigfit slam SEQUENCE --out traj.txt [--map map.ply]`: frame-to-model dense RGB-D SLAM
-// (rgbd/slam.h): each frame tracked against the surfel map rendered at its predicted pose,
-// then fused into it; the trajectory in the TUM format, the map as a PLY with normals (and
-// colours when the sequence has registered colour).
+// `rigfit slam SEQUENCE --out traj.txt [--map map.ply] [--report DIR]`: frame-to-model dense
+// RGB-D SLAM (rgbd/slam.h): each frame tracked against the surfel map rendered at its predicted
+// pose, then fused into it; the trajectory in the TUM format, the map as a PLY with normals (and
+// colours when the sequence has registered colour) and as a picture from above
+// (report/map_view.h).
 #include <algorithm>
 #include <cstdio>
 #include <memory>
@@ -12,11 +13,16 @@
 #include "cli/map_ply.h"
 #include "cli/rgbd_common.h"
 #include "cli/stderr_log.h"
-#include "core/errors.h"
+#include "core/format.h"
 #include "io/atomic_file.h"
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
+#include "report/map_view.h"
+#include "report/palette.h"
+#include "report/refine_report.h"
+#include "report/trajectory_report.h"
 #include "rgbd/slam.h"
+#include "rgbd/slam_options.h"
 
 namespace rigfit::cli {
 namespace {
@@ -25,6 +31,7 @@ struct SlamArgs {
   std::string sequence_path;
   std::string out_path;
   std::string map_path;
+  std::string report_dir;  ///< empty: no report
   bool force = false;
   SequenceOptions sequence;
   SlamOptions slam;
@@ -35,20 +42,33 @@ struct SlamArgs {
   bool quiet = false;
 };
 
+/// The report's overlays: the sequence's ground truth over the run's time span (when it has
+/// one), then the estimated trajectory.
+std::vector<MapOverlay> TrajectoryOverlays(const RgbdSequence& sequence,
+                                           const Trajectory& estimate) {
+  constexpr double kMaxDt = 0.02;  // s, as --evaluate matches poses
+  std::vector<MapOverlay> overlays;
+  const Trajectory gt = sequence.GroundTruth();
+  MapOverlay truth{"ground truth", kGroundTruthColor, kGroundTruthWidth, {}, false};
+  for (size_t i = 0; i < gt.poses.size() && !estimate.timestamps.empty(); ++i) {
+    if (gt.timestamps[i] >= estimate.timestamps.front() - kMaxDt &&
+        gt.timestamps[i] <= estimate.timestamps.back() + kMaxDt) {
+      truth.poses.push_back(gt.poses[i]);
+    }
+  }
+  if (!truth.poses.empty()) overlays.push_back(std::move(truth));
+  overlays.push_back({"estimate", CameraColor(0), kEstimateWidth, estimate.poses, false});
+  return overlays;
+}
+
 int RunSlamCommand(SlamArgs a) {
   if (!a.map_path.empty()) {
     CheckOutputFile(a.map_path, {a.sequence_path, a.out_path}, a.force, "slam: --map");
   }
+  if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "slam: --report");
   ApplyTrackingFlags("slam", a.prior, a.iterations, a.slam.threads, a.slam.max_frames,
                      &a.slam.prior, &a.slam.frame, &a.slam.icp);
-  const FusionOptions& fusion = a.slam.fusion;
-  if (!(fusion.max_distance_m > 0.0) ||
-      !(fusion.max_normal_angle_deg > 0.0 && fusion.max_normal_angle_deg <= 180.0)) {
-    throw InputError("slam: --fuse-distance must be > 0 and --fuse-angle in (0, 180]");
-  }
-  if (!(fusion.cover_radius_scale >= 0.0)) throw InputError("slam: --cover-radius must be >= 0");
-  if (fusion.dormant_frames < 0) throw InputError("slam: --dormant-frames must be >= 0 (0: off)");
-  if (!(a.slam.render.min_weight >= 1.0f)) throw InputError("slam: --model-weight must be >= 1");
+  CheckSlamSettings("slam", OptionSpelling::kFlag, a.slam);
   ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
@@ -73,17 +93,30 @@ int RunSlamCommand(SlamArgs a) {
     matched += frame.track.matched_ratio;
   }
   const double work_s = result.preprocess_s + result.render_s + result.track_s + result.fuse_s;
-  std::printf("tracked and fused %d frames (%d failed, %d restarts) -> %s\n", frames,
-              result.failures, result.restarts, a.out_path.c_str());
-  std::printf("map %d points (largest %d, compression %.2f%s)%s%s\n", result.map.size(), largest,
-              result.map.CompressionRatio(), result.map.has_color() ? ", with colours" : "",
-              a.map_path.empty() ? "" : " -> ", a.map_path.c_str());
-  std::printf(
-      "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, rendering %.2f, "
-      "tracking %.2f, fusion %.2f (%.1f frames/s without loading)\n",
-      frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s,
-      result.render_s, result.track_s, result.fuse_s, work_s > 0.0 ? frames / work_s : 0.0);
-  if (a.evaluate) PrintTrajectoryEvaluation(*sequence, result.trajectory, log);
+  std::string summary;
+  Appendf(&summary, "tracked and fused %d frames (%d failed, %d restarts) -> %s\n", frames,
+          result.failures, result.restarts, a.out_path.c_str());
+  Appendf(&summary, "map %d points (largest %d, compression %.2f%s)%s%s\n", result.map.size(),
+          largest, result.map.CompressionRatio(), result.map.has_color() ? ", with colours" : "",
+          a.map_path.empty() ? "" : " -> ", a.map_path.c_str());
+  Appendf(&summary,
+          "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, rendering %.2f, "
+          "tracking %.2f, fusion %.2f (%.1f frames/s without loading)\n",
+          frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s,
+          result.render_s, result.track_s, result.fuse_s, work_s > 0.0 ? frames / work_s : 0.0);
+  if (a.evaluate) summary += TrajectoryEvaluationText(*sequence, result.trajectory, log);
+  std::fputs(summary.c_str(), stdout);
+  if (!a.report_dir.empty()) {
+    const SurfelMap& map = result.map;
+    const MapPoints points{map.positions(), map.normals(), map.colors(), map.radii()};
+    for (const std::string& file : WriteMapReport(
+             a.report_dir, "rigfit slam report", points,
+             TrajectoryOverlays(*sequence, result.trajectory),
+             EstimateMapViewAxes(map.positions(), map.normals(), result.trajectory.poses),
+             summary)) {
+      std::printf("report: %s\n", file.c_str());
+    }
+  }
   return kExitOk;
 }
 
@@ -98,7 +131,8 @@ Command AddSlamCommand(CLI::App& app) {
       "folder, a 7-Scenes folder, or a rig capture's burst) is tracked by projective "
       "point-to-plane ICP against the surfel map rendered at its predicted pose, then fused "
       "into the map (docs/rgbd.md); the trajectory is written in the TUM format, the map as a "
-      "PLY with normals (and colours). Exit codes: 0 done (failed frames are warned and "
+      "PLY with normals (and colours) and, with --report, as a picture from above. Exit codes: 0 "
+      "done (failed frames are warned and "
       "counted); 2 bad input or usage (nothing written).");
   sub->add_option("SEQUENCE", a.sequence_path, "Sequence folder or capture file")->required();
   sub->add_option("--out", a.out_path, "Trajectory to write (TUM format)")->required();
@@ -106,6 +140,10 @@ Command AddSlamCommand(CLI::App& app) {
                   "Surfel map to write (PLY with normals and colours); its directory must "
                   "exist, and it must not be an input file");
   sub->add_flag("--force", a.force, "Replace --map if it exists");
+  sub->add_option("--report", a.report_dir,
+                  "Also write the map seen from above with the trajectory (map_top.png) and a "
+                  "page showing it with the summary (index.html) into this directory (created; "
+                  "its parent must exist)");
   sub->add_option("--camera", a.sequence.serial,
                   "Capture file: the camera's serial (default: the first)");
   sub->add_option("--tum-camera", a.sequence.tum_camera,

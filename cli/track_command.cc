@@ -74,7 +74,9 @@ int RunTrack(TrackArgs a) {
       "(%.1f frames/s without loading)\n",
       frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s, result.track_s,
       tracked_s > 0.0 ? frames / tracked_s : 0.0);
-  if (a.evaluate) PrintTrajectoryEvaluation(*sequence, result.trajectory, log);
+  if (a.evaluate) {
+    std::fputs(TrajectoryEvaluationText(*sequence, result.trajectory, log).c_str(), stdout);
+  }
   return kExitOk;
 }
 

@@ -28,6 +28,7 @@ namespace rigfit {
 
 using Pose = Eigen::Isometry3d;
 using Vec3 = Eigen::Vector3d;
+using Vec3f = Eigen::Vector3f;  ///< maps and images (rgbd/), where float is enough
 using Mat3 = Eigen::Matrix3d;
 using Vec6 = Eigen::Matrix<double, 6, 1>;
 using Mat6 = Eigen::Matrix<double, 6, 6>;

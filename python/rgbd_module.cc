@@ -1,7 +1,7 @@
 // The RGB-D half of rigfit._rigfit (docs/python.md): sequences read by io/rgbd_sequence.h,
-// frame-to-frame tracking (rgbd/odometry.h, as `rigfit track`), TUM trajectories and their
-// errors (core/trajectory.h, as `rigfit evaluate-trajectory`). rigfit/__init__.py wraps the
-// plain values in typed objects.
+// frame-to-frame tracking (rgbd/odometry.h, as `rigfit track`), frame-to-model SLAM
+// (rgbd/slam.h, as `rigfit slam`), TUM trajectories and their errors (core/trajectory.h, as
+// `rigfit evaluate-trajectory`). rigfit/__init__.py wraps the plain values in typed objects.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -22,6 +22,9 @@
 #include "io/trajectory_tum.h"
 #include "python/convert.h"
 #include "rgbd/odometry.h"
+#include "rgbd/slam.h"
+#include "rgbd/slam_options.h"
+#include "rgbd/surfel_map.h"
 #include "rgbd/tracking_options.h"
 
 namespace rigfit::python {
@@ -241,6 +244,27 @@ py::dict SequenceDefaults() {
   return d;
 }
 
+/// The frames `source` holds: a rigfit.Sequence's, or a list of frames read into *arrays.
+const RgbdSequence& SequenceOf(const py::object& source, const std::string& command,
+                               std::unique_ptr<ArraySequence>* arrays) {
+  if (py::isinstance<FileSequence>(source)) return source.cast<const FileSequence&>().get();
+  if (py::isinstance<py::sequence>(source) && !py::isinstance<py::str>(source)) {
+    *arrays = std::make_unique<ArraySequence>(source.cast<py::sequence>());
+    return **arrays;
+  }
+  throw InputError(command + ": expected a rigfit.Sequence or a list of frames, got " +
+                   std::string(py::str(py::type::of(source).attr("__name__"))));
+}
+
+/// True when `done` of `total` frames is worth a progress line, as the CLI prints them: every
+/// tenth of the way, and at the end.
+bool IsProgressStep(int done, int total, int* last_percent) {
+  const int percent = 100 * done / total;
+  if (percent / 10 == *last_percent / 10 && done != total) return false;
+  *last_percent = percent;
+  return true;
+}
+
 /// The defaults of `rigfit track`'s flags, from the library's option structs: rigfit.track's
 /// keyword defaults.
 py::dict TrackDefaults() {
@@ -287,29 +311,17 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
   ApplyMinStep("track", OptionSpelling::kKeyword, min_step, &options.icp);
 
   std::unique_ptr<ArraySequence> arrays;
-  const RgbdSequence* sequence = nullptr;
-  if (py::isinstance<FileSequence>(source)) {
-    sequence = &source.cast<const FileSequence&>().get();
-  } else if (py::isinstance<py::sequence>(source) && !py::isinstance<py::str>(source)) {
-    arrays = std::make_unique<ArraySequence>(source.cast<py::sequence>());
-    sequence = arrays.get();
-  } else {
-    throw InputError("track: expected a rigfit.Sequence or a list of frames, got " +
-                     std::string(py::str(py::type::of(source).attr("__name__"))));
-  }
+  const RgbdSequence& sequence = SequenceOf(source, "track", &arrays);
   const Log log = PythonLog(logger);
   int last_percent = -1;
   const auto progress = [&](int done, int total) {
-    // As `rigfit track`: every tenth of the way, and at the end.
-    const int percent = 100 * done / total;
-    if (percent / 10 == last_percent / 10 && done != total) return;
-    last_percent = percent;
+    if (!IsProgressStep(done, total, &last_percent)) return;
     log.Info("track: " + std::to_string(done) + "/" + std::to_string(total) + " frames");
   };
   OdometryResult result;
   {
     py::gil_scoped_release release;
-    result = RunOdometry(*sequence, options, log, progress);
+    result = RunOdometry(sequence, options, log, progress);
   }
   py::list frames;
   for (size_t k = 0; k < result.frames.size(); ++k) {
@@ -339,6 +351,150 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
   timings["preprocess_s"] = result.preprocess_s;
   timings["track_s"] = result.track_s;
   out["timings"] = timings;
+  return out;
+}
+
+/// The defaults of `rigfit slam`'s flags beyond open_sequence's, from the library's option
+/// structs: rigfit.slam's keyword defaults.
+py::dict SlamDefaults() {
+  const SlamOptions o;
+  py::dict d;
+  d["first"] = o.first_frame;
+  d["max_frames"] = o.max_frames;
+  d["stride"] = o.stride;
+  d["halve"] = o.halvings;
+  d["iterations"] = o.icp.iterations;
+  d["prior"] = o.prior == MotionPrior::kConstantVelocity ? "constant-velocity" : "identity";
+  d["min_depth"] = o.frame.min_depth_m;
+  d["max_depth"] = o.frame.max_depth_m;
+  d["max_distance"] = o.icp.association.max_distance_m;
+  d["max_angle"] = o.icp.association.max_normal_angle_deg;
+  d["fuse_distance"] = o.fusion.max_distance_m;
+  d["fuse_angle"] = o.fusion.max_normal_angle_deg;
+  d["dormant_frames"] = o.fusion.dormant_frames;
+  d["cover_radius"] = o.fusion.cover_radius_scale;
+  d["fold"] = o.fusion.fold_overlapping;
+  d["min_stable_weight"] = o.fusion.min_stable_weight;
+  d["model_weight"] = o.render.min_weight;
+  d["model_recent"] = o.render.recent_frames;
+  d["splat"] = o.render.splat;
+  d["color"] = o.color;
+  d["threads"] = o.threads;
+  return d;
+}
+
+/// The map as numpy arrays without a copy: the map is moved into a capsule that every array
+/// holds as its base. {"points" (N, 3) float32 world metres, "normals" (N, 3) float32,
+/// "colors" (N, 3) float32 RGB in [0, 255] or None, "confidence" (N,) float32 (the weight: 1 +
+/// the merges), "radii" (N,) float32 metres, "input_points"}.
+py::dict SurfelMapToDict(SurfelMap&& map) {
+  static_assert(sizeof(Vec3f) == 3 * sizeof(float), "a Vec3f must be three packed floats");
+  auto* owner = new SurfelMap(std::move(map));
+  const py::capsule base(owner, [](void* p) { delete static_cast<SurfelMap*>(p); });
+  const py::ssize_t n = owner->size();
+  const auto rows = [&](const std::vector<Vec3f>& values) {
+    return py::array_t<float>({n, py::ssize_t{3}}, reinterpret_cast<const float*>(values.data()),
+                              base);
+  };
+  const auto column = [&](const std::vector<float>& values) {
+    return py::array_t<float>({n}, values.data(), base);
+  };
+  py::dict d;
+  d["points"] = rows(owner->positions());
+  d["normals"] = rows(owner->normals());
+  d["colors"] = owner->has_color() ? py::object(rows(owner->colors())) : py::object(py::none());
+  d["confidence"] = column(owner->weights());
+  d["radii"] = column(owner->radii());
+  d["input_points"] = owner->input_points();
+  return d;
+}
+
+py::dict Slam(const py::object& source, int first, int max_frames, int stride, int halve,
+              const std::vector<int>& iterations, const std::string& prior, double min_depth,
+              double max_depth, double max_distance, double max_angle, double fuse_distance,
+              double fuse_angle, int dormant_frames, double cover_radius, bool fold,
+              double min_stable_weight, float model_weight, int model_recent, bool splat,
+              bool color, int threads, const py::object& logger) {
+  SlamOptions options;
+  options.first_frame = first;
+  options.max_frames = max_frames;
+  options.stride = stride;
+  options.halvings = halve;
+  options.frame.min_depth_m = min_depth;
+  options.frame.max_depth_m = max_depth;
+  options.icp.association.max_distance_m = max_distance;
+  options.icp.association.max_normal_angle_deg = max_angle;
+  options.fusion.max_distance_m = fuse_distance;
+  options.fusion.max_normal_angle_deg = fuse_angle;
+  options.fusion.dormant_frames = dormant_frames;
+  options.fusion.cover_radius_scale = cover_radius;
+  options.fusion.fold_overlapping = fold;
+  options.fusion.min_stable_weight = min_stable_weight;
+  options.render.min_weight = model_weight;
+  options.render.recent_frames = model_recent;
+  options.render.splat = splat;
+  options.color = color;
+  options.threads = threads;
+  ApplyTrackingSettings("slam", OptionSpelling::kKeyword, prior, iterations, threads, max_frames,
+                        &options.prior, &options.frame, &options.icp);
+  CheckSlamSettings("slam", OptionSpelling::kKeyword, options);
+
+  std::unique_ptr<ArraySequence> arrays;
+  const RgbdSequence& sequence = SequenceOf(source, "slam", &arrays);
+  const Log log = PythonLog(logger);
+  int last_percent = -1;
+  const auto progress = [&](int done, int total, const SlamFrame& frame) {
+    if (!IsProgressStep(done, total, &last_percent)) return;
+    log.Info("slam: " + std::to_string(done) + "/" + std::to_string(total) + " frames, map " +
+             std::to_string(frame.map_size) + " points");
+  };
+  SlamResult result;
+  {
+    py::gil_scoped_release release;
+    result = RunSlam(sequence, options, log, progress);
+  }
+  py::list frames;
+  std::vector<int> map_sizes;
+  for (size_t k = 0; k < result.frames.size(); ++k) {
+    const SlamFrame& f = result.frames[k];
+    py::dict d;
+    d["index"] = f.index;
+    d["timestamp"] = result.trajectory.timestamps[k];
+    d["success"] = f.track.success;
+    d["message"] = f.track.message;
+    d["iterations"] = f.track.iterations;
+    d["correspondences"] = f.track.correspondences;
+    d["matched_ratio"] = f.track.matched_ratio;
+    d["rmse_m"] = f.track.rmse_m;
+    d["weak_directions"] = f.track.weak_directions;
+    d["model_pixels"] = f.model_pixels;
+    d["input_points"] = f.fusion.input_points;
+    d["merged"] = f.fusion.merged;
+    d["added"] = f.fusion.added;
+    d["covered"] = f.fusion.covered;
+    d["folded"] = f.fusion.folded;
+    d["removed"] = f.fusion.removed;
+    d["map_size"] = f.map_size;
+    frames.append(d);
+    map_sizes.push_back(f.map_size);
+  }
+  py::dict out;
+  const py::tuple trajectory = TrajectoryToTuple(result.trajectory);
+  out["timestamps"] = trajectory[0];
+  out["poses"] = trajectory[1];
+  out["frames"] = frames;
+  const auto n = static_cast<py::ssize_t>(map_sizes.size());
+  out["map_sizes"] = VectorToNumpy(std::move(map_sizes), {n});
+  out["failures"] = result.failures;
+  out["restarts"] = result.restarts;
+  py::dict timings;
+  timings["load_s"] = result.load_s;
+  timings["preprocess_s"] = result.preprocess_s;
+  timings["render_s"] = result.render_s;
+  timings["track_s"] = result.track_s;
+  timings["fuse_s"] = result.fuse_s;
+  out["timings"] = timings;
+  out["map"] = SurfelMapToDict(std::move(result.map));
   return out;
 }
 
@@ -397,6 +553,14 @@ void AddRgbdFunctions(py::module_& m) {
         py::arg("stride"), py::arg("iterations"), py::arg("prior"), py::arg("keyframes"),
         py::arg("min_depth"), py::arg("max_depth"), py::arg("bilateral"), py::arg("max_distance"),
         py::arg("max_angle"), py::arg("depth_weights"), py::arg("huber"), py::arg("min_step"),
+        py::arg("threads"), py::arg("logger"));
+  m.def("slam_defaults", &SlamDefaults);
+  m.def("slam", &Slam, py::arg("source"), py::arg("first"), py::arg("max_frames"),
+        py::arg("stride"), py::arg("halve"), py::arg("iterations"), py::arg("prior"),
+        py::arg("min_depth"), py::arg("max_depth"), py::arg("max_distance"), py::arg("max_angle"),
+        py::arg("fuse_distance"), py::arg("fuse_angle"), py::arg("dormant_frames"),
+        py::arg("cover_radius"), py::arg("fold"), py::arg("min_stable_weight"),
+        py::arg("model_weight"), py::arg("model_recent"), py::arg("splat"), py::arg("color"),
         py::arg("threads"), py::arg("logger"));
   m.def("evaluate_trajectory", &EvaluateTrajectoryErrors, py::arg("est_timestamps"),
         py::arg("est_poses"), py::arg("gt_timestamps"), py::arg("gt_poses"), py::arg("max_dt"),

@@ -6,67 +6,25 @@
 
 #include "core/format.h"
 #include "report/canvas.h"
+#include "report/plot_parts.h"
 #include "rig/region.h"
 
 namespace rigfit {
 namespace {
 
-constexpr Rgb kGrid{225, 225, 225};
-constexpr Rgb kAxis{60, 60, 60};
-constexpr Rgb kMuted{90, 90, 90};
-constexpr double kTitleSize = 26.0;  ///< font size, pixels per em
-constexpr double kTextSize = 18.0;
-/// The rows one line of text takes in a layout.
-constexpr int kTitleHeight = 30;
-constexpr int kTextHeight = 20;
-
-/// A tick spacing of 1, 2 or 5 times a power of ten giving at most max_ticks intervals
-/// over span.
-double NiceStep(double span, int max_ticks) {
-  const double raw = span / max_ticks;
-  const double magnitude = std::pow(10.0, std::floor(std::log10(raw)));
-  for (double m : {1.0, 2.0, 5.0}) {
-    if (m * magnitude >= raw) return m * magnitude;
-  }
-  return 10.0 * magnitude;
-}
-
-/// A tick value with as many decimals as the step needs.
-std::string TickLabel(double value, double step) {
-  const int digits = std::max(0, static_cast<int>(std::ceil(-std::log10(step) - 1e-9)));
-  return Fixed(std::abs(value) < 0.5 * step ? 0.0 : value, digits);
-}
-
-/// The multiples of step in [lo, hi].
-std::vector<double> Ticks(double lo, double hi, double step) {
-  std::vector<double> ticks;
-  for (double k = std::ceil(lo / step - 1e-9); k * step <= hi + 1e-9 * step; k += 1.0) {
-    ticks.push_back(k * step);
-  }
-  return ticks;
-}
-
-/// A pixel rectangle [x0, x1) x [y0, y1).
-struct Rect {
-  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-};
-
-void DrawFrame(Canvas* canvas, const Rect& r, const Rgb& color) {
-  canvas->Line(r.x0, r.y0, r.x1 - 1, r.y0, color);
-  canvas->Line(r.x0, r.y1 - 1, r.x1 - 1, r.y1 - 1, color);
-  canvas->Line(r.x0, r.y0, r.x0, r.y1 - 1, color);
-  canvas->Line(r.x1 - 1, r.y0, r.x1 - 1, r.y1 - 1, color);
-}
-
-void DrawTitles(Canvas* canvas, const std::string& title, const std::string& subtitle) {
-  canvas->Text(20, 16, title, kBlack, kTitleSize, true);
-  canvas->Text(20, 24 + kTitleHeight, subtitle, kMuted, kTextSize);
-}
-
-/// Text of kTextSize with its capitals centred on row y.
-void TextCentredOn(Canvas* canvas, double x, double y, const std::string& text, const Rgb& color) {
-  canvas->Text(x, y - 0.5 * Canvas::kCapHeight * kTextSize, text, color, kTextSize);
-}
+using plot::DrawFrame;
+using plot::DrawTitles;
+using plot::kAxis;
+using plot::kGrid;
+using plot::kMuted;
+using plot::kTextHeight;
+using plot::kTextSize;
+using plot::LegendRow;
+using plot::NiceStep;
+using plot::Rect;
+using plot::TextCentredOn;
+using plot::TickLabel;
+using plot::Ticks;
 
 /// The grid line and tick label of value `label` at column c, under the plot.
 void XTick(Canvas* canvas, const Rect& plot, int c, const std::string& label) {
@@ -86,14 +44,6 @@ void AxisLabels(Canvas* canvas, const Rect& plot, const std::string& x_label,
   canvas->Text(0.5 * (plot.x0 + plot.x1 - canvas->TextWidth(x_label, kTextSize)),
                plot.y1 + 16 + kTextHeight, x_label, kBlack, kTextSize);
   canvas->Text(10, plot.y0 - 8 - kTextHeight, y_label, kBlack, kTextSize);
-}
-
-/// A legend swatch and its text, one row at (x, y); returns the next row's y.
-int LegendRow(Canvas* canvas, int x, int y, const Rgb& color, const std::string& text) {
-  const int size = kTextHeight + 2;
-  canvas->FillRect(x, y, x + size, y + size, color);
-  TextCentredOn(canvas, x + size + 10, y + 0.5 * size, text, kBlack);
-  return y + size + 10;
 }
 
 }  // namespace
@@ -200,16 +150,7 @@ Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow&
   }
   DrawFrame(&canvas, plot, kAxis);
 
-  // Scale bar in the lower left corner of the plot.
-  const double bar_m = NiceStep(span_x, 5);
-  const int bar_px = static_cast<int>(std::lround(bar_m * px_per_m));
-  const int bar_x = plot.x0 + 20, bar_y = plot.y1 - 24;
-  canvas.FillRect(bar_x, bar_y, bar_x + bar_px, bar_y + 5, kBlack);
-  for (int end : {bar_x, bar_x + bar_px - 2})
-    canvas.FillRect(end, bar_y - 8, end + 2, bar_y + 5, kBlack);
-  const std::string bar_label = TickLabel(bar_m, bar_m) + " m";
-  canvas.Text(bar_x + 0.5 * (bar_px - canvas.TextWidth(bar_label, kTextSize)),
-              bar_y - 12 - kTextHeight, bar_label, kBlack, kTextSize);
+  plot::DrawScaleBar(&canvas, plot, px_per_m, span_x);
 
   // Legend.
   const int legend_x = kTopDownWidth - kLegendWidth + 10;

@@ -15,10 +15,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr Rgb kGroundTruthColor{120, 120, 120};
-constexpr int kGroundTruthWidth = 7;  // pixels: the estimate (3) on top shows a grey rim
-constexpr int kEstimateWidth = 3;
-
 /// v signed so that its largest component is positive.
 Vec3 Signed(const Vec3& v) {
   int k = 0;

@@ -15,6 +15,12 @@ namespace rigfit {
 inline constexpr const char* kTrajectoryPlanFile = "trajectory_plan.png";
 inline constexpr const char* kTrajectoryAteFile = "trajectory_ate.png";
 
+/// How every picture draws a ground truth (wide, grey) and an estimate (narrow, in
+/// CameraColor(0), on top): where the two coincide the grey shows as a rim.
+inline constexpr Rgb kGroundTruthColor{120, 120, 120};
+inline constexpr int kGroundTruthWidth = 7;  ///< pixels
+inline constexpr int kEstimateWidth = 3;
+
 /// The plane a trajectory is seen in: through the mean of its positions, spanned by their
 /// first two principal axes (the direction of largest spread to the right, the second one
 /// up, each signed so that its largest component is positive). The view is along the axis

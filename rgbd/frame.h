@@ -13,8 +13,6 @@
 
 namespace rigfit {
 
-using Vec3f = Eigen::Vector3f;
-
 struct FrameOptions {
   /// Depth outside [min_depth_m, max_depth_m] is dropped (truncation: Kinect-type sensors'
   /// noise grows with z^2, and far depth is where the sensor is least reliable).

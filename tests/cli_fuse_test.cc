@@ -11,6 +11,10 @@
 #include "cli_test_util.h"
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
+#include "io/png.h"
+#include "report/image.h"
+#include "report/map_view.h"
+#include "report/palette.h"
 #include "sim/simulate_rig.h"
 
 namespace rigfit {
@@ -79,6 +83,36 @@ TEST_F(CliFuseTest, PerturbedExtrinsicsDoubleTheSurfaces) {
   ParseSummary(init.out, &in_init, &map_init);
   EXPECT_EQ(in_gt, in_init);
   EXPECT_GT(map_init, map_gt);
+}
+
+// --report: the map from above (report/map_view.h), +Y up, the cameras in their colours.
+TEST_F(CliFuseTest, ReportDrawsTheMapFromAboveWithTheCameras) {
+  const RunResult r = Fuse("gt.json", "report.ply", {"--report", Scratch("report")});
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  EXPECT_NE(r.out.find("report: " + Scratch("report/map_top.png")), std::string::npos) << r.out;
+  const Image image = ReadPng(Scratch("report/map_top.png"));
+  ASSERT_EQ(image.width, kMapViewWidth);
+  ASSERT_EQ(image.height, kMapViewHeight);
+  // Each camera is a disc of its colour; the map fills a tenth of the plot at least.
+  std::vector<int> camera_pixels(3, 0);
+  int drawn = 0;
+  for (int y = 110; y < kMapViewHeight - 20; ++y) {
+    for (int x = 20; x < kMapViewWidth - 300; ++x) {
+      const Rgb c = image.At(x, y);
+      drawn += c != kWhite ? 1 : 0;
+      for (int k = 0; k < 3; ++k) camera_pixels[k] += c == CameraColor(k) ? 1 : 0;
+    }
+  }
+  for (int k = 0; k < 3; ++k) EXPECT_GT(camera_pixels[k], 50) << k;
+  EXPECT_GT(drawn, (kMapViewWidth - 320) * (kMapViewHeight - 130) / 10);
+  const std::string page = ReadText(Scratch("report/index.html"));
+  EXPECT_NE(page.find("map points (compression"), std::string::npos);  // the summary
+  EXPECT_NE(page.find("world +Y, the extrinsics&#39; up axis"), std::string::npos);
+  // A report directory whose parent is missing: refused before anything is written.
+  const RunResult bad = Fuse("gt.json", "bad_report.ply", {"--report", Scratch("missing/report")});
+  EXPECT_EQ(bad.exit_code, 2) << Describe(bad);
+  EXPECT_NE(bad.err.find("fuse: --report"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(Scratch("bad_report.ply")));
 }
 
 TEST_F(CliFuseTest, BadInputExitsTwoAndWritesNothing) {

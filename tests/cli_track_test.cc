@@ -11,7 +11,12 @@
 #include "cli_test_util.h"
 #include "core/trajectory.h"
 #include "io/ply.h"
+#include "io/png.h"
 #include "io/trajectory_tum.h"
+#include "report/html.h"
+#include "report/image.h"
+#include "report/map_view.h"
+#include "report/palette.h"
 #include "sim/simulate_sequence.h"
 
 namespace rigfit {
@@ -109,13 +114,15 @@ TEST_F(CliTrack, RefusesBadInputNamingIt) {
 }
 
 // `rigfit slam` (frame-to-model) on the same sequence: the trajectory to the millimetre, the
-// map written as a PLY with normals and not overwritten without --force.
+// map written as a PLY with normals and not overwritten without --force, and drawn from above
+// with the trajectory (--report).
 TEST_F(CliTrack, SlamTracksAndWritesTheMap) {
   const fs::path out = *dir_ / "slam.txt";
   const fs::path map = *dir_ / "map.ply";
+  const fs::path report = *dir_ / "slam_report";
   const std::vector<std::string> args = {
-      "slam",       (*dir_ / "seq").string(), "--out",      out.string(), "--map",
-      map.string(), "--intrinsics",           Intrinsics(), "--evaluate"};
+      "slam",     (*dir_ / "seq").string(), "--out",        out.string(), "--map",     map.string(),
+      "--report", report.string(),          "--intrinsics", Intrinsics(), "--evaluate"};
   const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);
   ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
   EXPECT_NE(r.out.find("tracked and fused 24 frames (0 failed"), std::string::npos) << r.out;
@@ -128,6 +135,25 @@ TEST_F(CliTrack, SlamTracksAndWritesTheMap) {
   const PlyCloud cloud = ReadPly(map.string());
   EXPECT_GT(cloud.points.size(), 1000u);
   EXPECT_EQ(cloud.normals.size(), cloud.points.size());
+  // The picture: its size, the map's points coloured by height (no colour in the sequence)
+  // over a tenth of the plot at least, the estimate drawn over them.
+  EXPECT_NE(r.out.find("report: " + (report / kMapTopFile).string()), std::string::npos) << r.out;
+  const Image image = ReadPng((report / kMapTopFile).string());
+  ASSERT_EQ(image.width, kMapViewWidth);
+  ASSERT_EQ(image.height, kMapViewHeight);
+  int drawn = 0, estimate_pixels = 0;
+  for (int y = 110; y < kMapViewHeight - 20; ++y) {
+    for (int x = 20; x < kMapViewWidth - 300; ++x) {
+      drawn += image.At(x, y) != kWhite ? 1 : 0;
+      estimate_pixels += image.At(x, y) == CameraColor(0) ? 1 : 0;
+    }
+  }
+  EXPECT_GT(drawn, (kMapViewWidth - 320) * (kMapViewHeight - 130) / 10);
+  EXPECT_GT(estimate_pixels, 100);
+  const std::string page = cli_test::ReadText((report / kReportIndexFile).string());
+  EXPECT_NE(page.find("tracked and fused 24 frames"), std::string::npos);
+  EXPECT_NE(page.find("ATE RMSE"), std::string::npos);
+  EXPECT_NE(page.find("up axis (the normal"), std::string::npos) << page;
   // Again without --force: refused, exit 2.
   const cli_test::RunResult again = cli_test::RunRigfit(args, *dir_);
   EXPECT_EQ(again.exit_code, 2);
@@ -143,6 +169,11 @@ TEST_F(CliTrack, SlamRefusesBadInput) {
       {{"slam", seq, "--out", out.string(), "--model-weight", "0.5"}, "--model-weight"},
       {{"slam", seq, "--out", out.string(), "--dormant-frames", "-1"}, "--dormant-frames"},
       {{"slam", seq, "--out", out.string(), "--fuse-angle", "0"}, "--fuse-angle"},
+      {{"slam", seq, "--out", out.string(), "--cover-radius", "-1"}, "--cover-radius"},
+      {{"slam", seq, "--out", out.string(), "--model-recent", "-1"}, "--model-recent"},
+      {{"slam", seq, "--out", out.string(), "--halve", "-1"}, "--halve"},
+      {{"slam", seq, "--out", out.string(), "--report", (*dir_ / "no" / "report").string()},
+       "slam: --report"},
   };
   for (const auto& [args, expected] : cases) {
     const cli_test::RunResult r = cli_test::RunRigfit(args, *dir_);

@@ -1,10 +1,10 @@
 """rigfit from Python: refine the extrinsics of a depth-camera rig, simulate one, and read,
-track and evaluate RGB-D sequences (docs/python.md).
+track, map (SLAM) and evaluate RGB-D sequences (docs/python.md).
 
 The same library calls as the CLI: ``refine`` on the same capture, initial extrinsics and
 options gives ``rigfit refine``'s poses bit for bit and exactly the ``_meta`` report the CLI
 writes (without ``timings_s``); ``simulate`` is ``rigfit simulate``, ``track`` is ``rigfit
-track``. Nothing is written to disk unless asked. Bad input raises ``ValueError`` with the
+track``, ``slam`` is ``rigfit slam``. Nothing is written to disk unless asked. Bad input raises ``ValueError`` with the
 library's message. Progress and warnings go to the logger ``"rigfit"``.
 """
 
@@ -26,7 +26,8 @@ if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
 
 __all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "load_capture", "save_capture", "load_extrinsics",
            "save_extrinsics", "evaluate", "simulate", "Frame", "Sequence", "open_sequence", "TrackedFrame",
-           "Trajectory", "track", "evaluate_trajectory", "load_trajectory", "save_trajectory"]
+           "Trajectory", "track", "SlamFrame", "SurfelMap", "SlamResult", "slam", "evaluate_trajectory",
+           "load_trajectory", "save_trajectory"]
 
 logger = logging.getLogger("rigfit")
 
@@ -211,10 +212,11 @@ def save_extrinsics(path: Union[str, os.PathLike], extrinsics: Extrinsics,
 
 
 # The keyword defaults below are the library's own (SimOptions, SequenceOptions, the tracking
-# options), read once from the compiled module, so that they cannot drift from the CLI's.
+# and SLAM options), read once from the compiled module, so that they cannot drift from the CLI's.
 _SIM = _rigfit.simulate_defaults()
 _SEQ = _rigfit.sequence_defaults()
 _TRACK = _rigfit.track_defaults()
+_SLAM = _rigfit.slam_defaults()
 
 
 def simulate(
@@ -323,6 +325,73 @@ class Trajectory:
         return len(self.timestamps)
 
 
+@dataclass
+class SlamFrame:
+    """How one frame of ``slam`` went (rgbd/slam.h SlamFrame): its tracking against the
+    rendered model (as ``TrackedFrame``), the model's valid pixels, what fusion did
+    (rgbd/surfel_map.h FusionStats; zeros for a failed frame, which is not fused) and the map
+    size after it."""
+
+    index: int
+    timestamp: float
+    success: bool
+    message: str
+    iterations: int
+    correspondences: int
+    matched_ratio: float
+    rmse_m: float
+    weak_directions: int
+    model_pixels: int
+    input_points: int
+    merged: int
+    added: int
+    covered: int
+    folded: int
+    removed: int
+    map_size: int
+
+
+@dataclass
+class SurfelMap:
+    """The surfel map of ``slam`` (rgbd/surfel_map.h), one row per point.
+
+    The arrays are the library's own buffers (no copy; they share one owner, freed when the
+    last of them goes). ``points`` (N, 3) float32 world metres, ``normals`` (N, 3) float32
+    unit, ``colors`` (N, 3) float32 RGB averages in [0, 255] or None (no registered colour, or
+    ``color=False``), ``confidence`` (N,) float32 (the weight: 1 + the merges), ``radii`` (N,)
+    float32 metres; ``input_points``: valid pixels of every frame fused (the concatenated
+    input, for the compression ratio).
+    """
+
+    points: "np.ndarray"
+    normals: "np.ndarray"
+    colors: Optional["np.ndarray"]
+    confidence: "np.ndarray"
+    radii: "np.ndarray"
+    input_points: int
+
+    def __len__(self) -> int:
+        return len(self.points)
+
+    @property
+    def compression(self) -> float:
+        """``input_points / len(self)`` (0 for an empty map), as ``rigfit slam`` prints it."""
+        return self.input_points / len(self) if len(self) else 0.0
+
+
+@dataclass
+class SlamResult(Trajectory):
+    """What ``slam`` returns: the trajectory (a ``Trajectory``: ``save_trajectory`` and
+    ``evaluate_trajectory`` take it) with a ``SlamFrame`` per pose in ``frames``, the final
+    ``map`` (since the last restart) and ``map_sizes`` ((N,) int32, the map size after each
+    frame). ``timings`` (seconds): ``load_s``, ``preprocess_s``, ``render_s``, ``track_s``,
+    ``fuse_s``."""
+
+    frames: List[SlamFrame] = field(default_factory=list)
+    map: Optional[SurfelMap] = None
+    map_sizes: Optional["np.ndarray"] = None
+
+
 def _frame(raw: Mapping[str, Any]) -> Frame:
     return Frame(index=raw["index"], timestamp=raw["timestamp"], depth=raw["depth"], K=raw["K"],
                  color=raw["color"], T_world_camera=raw["T_world_camera"], source=raw["source"])
@@ -402,12 +471,12 @@ def open_sequence(
     return Sequence(native)
 
 
-#: A frame for ``track``: a ``Frame``, or a dict {"depth", "K", ["depth_scale", "timestamp",
-#: "T_world_camera"]} as ``refine``'s cameras take depth.
+#: A frame for ``track`` and ``slam``: a ``Frame``, or a dict {"depth", "K", ["depth_scale",
+#: "timestamp", "T_world_camera"]} as ``refine``'s cameras take depth.
 FrameLike = Union[Frame, Mapping[str, Any]]
 
 
-def _frame_dict(frame: FrameLike) -> Dict[str, Any]:
+def _frame_dict(frame: FrameLike, command: str) -> Dict[str, Any]:
     if isinstance(frame, Frame):  # its arrays as they are: nothing copied here
         d = {"depth": frame.depth, "K": frame.K, "timestamp": frame.timestamp}
         if frame.T_world_camera is not None:
@@ -415,7 +484,19 @@ def _frame_dict(frame: FrameLike) -> Dict[str, Any]:
         return d
     if isinstance(frame, Mapping):
         return dict(frame)
-    raise TypeError(f"track: a frame must be a rigfit.Frame or a dict, got {type(frame).__name__}")
+    raise TypeError(f"{command}: a frame must be a rigfit.Frame or a dict, got "
+                    f"{type(frame).__name__}")
+
+
+def _frames_source(frames: Union[Sequence, _Seq[FrameLike]], command: str) -> Any:
+    """What ``_rigfit.track`` and ``_rigfit.slam`` take: a sequence's native object, or the
+    frames as dicts."""
+    if isinstance(frames, Sequence):
+        return frames._native
+    if isinstance(frames, (str, bytes, os.PathLike)):
+        raise TypeError(f"{command}: expected a rigfit.Sequence or a list of frames; open a path "
+                        "with rigfit.open_sequence(path)")
+    return [_frame_dict(f, command) for f in frames]
 
 
 def track(
@@ -460,15 +541,8 @@ def track(
     Raises:
         ValueError: options out of range, a bad frame, an unreadable image.
     """
-    if isinstance(frames, Sequence):
-        source: Any = frames._native
-    elif isinstance(frames, (str, bytes, os.PathLike)):
-        raise TypeError("track: expected a rigfit.Sequence or a list of frames; open a path "
-                        "with rigfit.open_sequence(path)")
-    else:
-        source = [_frame_dict(f) for f in frames]
     raw = _rigfit.track(
-        source, operator.index(first), operator.index(max_frames), operator.index(stride),
+        _frames_source(frames, "track"), operator.index(first), operator.index(max_frames), operator.index(stride),
         [operator.index(n) for n in iterations], str(prior), bool(keyframes), float(min_depth),
         float(max_depth), bool(bilateral), float(max_distance), float(max_angle),
         bool(depth_weights), float(huber), float(min_step), operator.index(threads), logger)
@@ -476,6 +550,68 @@ def track(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
         restarts=raw["restarts"], timings=dict(raw["timings"]))
+
+
+def slam(
+    frames: Union[Sequence, _Seq[FrameLike]],
+    *,
+    first: int = _SLAM["first"],
+    max_frames: int = _SLAM["max_frames"],
+    stride: int = _SLAM["stride"],
+    halve: int = _SLAM["halve"],
+    iterations: _Seq[int] = tuple(_SLAM["iterations"]),
+    prior: str = _SLAM["prior"],
+    min_depth: float = _SLAM["min_depth"],
+    max_depth: float = _SLAM["max_depth"],
+    max_distance: float = _SLAM["max_distance"],
+    max_angle: float = _SLAM["max_angle"],
+    fuse_distance: float = _SLAM["fuse_distance"],
+    fuse_angle: float = _SLAM["fuse_angle"],
+    dormant_frames: int = _SLAM["dormant_frames"],
+    cover_radius: float = _SLAM["cover_radius"],
+    fold: bool = _SLAM["fold"],
+    min_stable_weight: float = _SLAM["min_stable_weight"],
+    model_weight: float = _SLAM["model_weight"],
+    model_recent: int = _SLAM["model_recent"],
+    splat: bool = _SLAM["splat"],
+    color: bool = _SLAM["color"],
+    threads: int = _SLAM["threads"],
+) -> SlamResult:
+    """Frame-to-model dense RGB-D SLAM, as ``rigfit slam`` (rgbd/slam.h, docs/rgbd.md section 6).
+
+    Each frame is tracked by projective point-to-plane ICP against the surfel map rendered at its
+    predicted pose, then fused into the map. ``frames`` as for ``track``: a ``Sequence`` (its
+    registered colour is fused when ``color``), or a list of ``Frame`` objects or dicts (depth
+    only: their colour is not read). The first frame's pose is its ``T_world_camera`` when it has
+    one, else the identity.
+
+    The keywords are the CLI's flags (``--fuse-distance`` is ``fuse_distance``, ``--no-color``
+    is ``color=False``, ...), with the same defaults and checks (``ApplyTrackingSettings`` and
+    ``CheckSlamSettings``, called by both): ``first``, ``max_frames`` (0: all), ``stride`` pick
+    the frames, ``halve`` halves their resolution that many times first; tracking as ``track``
+    (``iterations``, ``prior``, ``min_depth``, ``max_depth``, ``max_distance``, ``max_angle``);
+    fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg) gates, ``dormant_frames`` and
+    ``min_stable_weight`` (dormant removal; 0 frames: off), ``cover_radius`` (the coverage
+    rule; 0: off), ``fold``; the model: ``model_weight``, ``model_recent``, ``splat``;
+    ``threads``. Runs without the GIL; progress (every tenth, with the map size) and warnings go
+    to the logger ``"rigfit"``. A failed frame keeps its prediction and is not fused.
+
+    Raises:
+        ValueError: options out of range, a bad frame, an unreadable image, a sequence whose
+            colour is missing on a later frame (``color=False`` fuses depth only).
+    """
+    raw = _rigfit.slam(
+        _frames_source(frames, "slam"), operator.index(first), operator.index(max_frames),
+        operator.index(stride), operator.index(halve), [operator.index(n) for n in iterations],
+        str(prior), float(min_depth), float(max_depth), float(max_distance), float(max_angle),
+        float(fuse_distance), float(fuse_angle), operator.index(dormant_frames),
+        float(cover_radius), bool(fold), float(min_stable_weight), float(model_weight),
+        operator.index(model_recent), bool(splat), bool(color), operator.index(threads), logger)
+    return SlamResult(
+        timestamps=raw["timestamps"], poses=raw["poses"],
+        frames=[SlamFrame(**f) for f in raw["frames"]], failures=raw["failures"],
+        restarts=raw["restarts"], timings=dict(raw["timings"]), map=SurfelMap(**raw["map"]),
+        map_sizes=raw["map_sizes"])
 
 
 TrajectoryLike = Union[Trajectory, Tuple["np.ndarray", "np.ndarray"]]
