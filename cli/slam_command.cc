@@ -94,8 +94,12 @@ int RunSlamCommand(SlamArgs a) {
   }
   const double work_s = result.preprocess_s + result.render_s + result.track_s + result.fuse_s;
   std::string summary;
-  Appendf(&summary, "tracked and fused %d frames (%d failed, %d restarts) -> %s\n", frames,
-          result.failures, result.restarts, a.out_path.c_str());
+  Appendf(&summary, "tracked and fused %d frames (%d failed, %d restarts%s) -> %s\n", frames,
+          result.failures, result.restarts,
+          result.without_color > 0
+              ? (", " + std::to_string(result.without_color) + " without colour not fused").c_str()
+              : "",
+          a.out_path.c_str());
   Appendf(&summary, "map %d points (largest %d, compression %.2f%s)%s%s\n", result.map.size(),
           largest, result.map.CompressionRatio(), result.map.has_color() ? ", with colours" : "",
           a.map_path.empty() ? "" : " -> ", a.map_path.c_str());

@@ -191,9 +191,8 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
     result.preprocess_s += SecondsSince(start);
     if (k == 0) use_color = options.color && !frame.color.empty();
     const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
-    if (use_color && frame.color.size() != 3 * pixels) {
-      throw InputError("slam: " + frame.source +
-                       ": no colour image of the depth's size, while the first frame had one");
+    if (use_color && !frame.color.empty() && frame.color.size() != 3 * pixels) {
+      throw InputError("slam: " + frame.source + ": a colour image not of the depth's size");
     }
     const std::vector<std::uint8_t> no_color;
     const std::vector<std::uint8_t>& color = use_color ? frame.color : no_color;
@@ -244,6 +243,14 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
           fuse = true;
         }
       }
+    }
+    if (fuse && use_color && frame.color.empty()) {
+      // A coloured map takes no colourless points (TUM: a depth image without a colour
+      // image within the association's time window): tracked, not fused.
+      fuse = false;
+      ++result.without_color;
+      log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
+                  "): no colour image while the map is coloured; tracked, not fused");
     }
     if (fuse) {
       start = std::chrono::steady_clock::now();

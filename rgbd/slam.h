@@ -64,7 +64,8 @@ struct SlamOptions {
   /// After this many failed frames in a row the map is dropped and restarted from the
   /// current frame at its predicted pose (counted in SlamResult::restarts).
   int restart_after_failures = 5;
-  /// Fuse the sequence's registered colour when its first frame has one.
+  /// Fuse the sequence's registered colour when its first frame has one (a later frame
+  /// without colour is then tracked but not fused: SlamResult::without_color).
   bool color = true;
   /// Frames [first_frame, first_frame + max_frames) with the given stride; max_frames 0 = all.
   int first_frame = 0;
@@ -92,6 +93,9 @@ struct SlamResult {
   SurfelMap map;     ///< the final map (since the last restart)
   int failures = 0;  ///< frames whose tracking failed (their pose is the prediction)
   int restarts = 0;
+  /// Frames tracked but not fused because they had no colour image while the map (from a
+  /// first frame with colour) is coloured.
+  int without_color = 0;
   double load_s = 0.0;
   double preprocess_s = 0.0;
   double render_s = 0.0;  ///< rendering the model and its pyramid

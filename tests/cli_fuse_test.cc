@@ -87,7 +87,7 @@ TEST_F(CliFuseTest, PerturbedExtrinsicsDoubleTheSurfaces) {
 
 // --report: the map from above (report/map_view.h), +Y up, the cameras in their colours.
 TEST_F(CliFuseTest, ReportDrawsTheMapFromAboveWithTheCameras) {
-  const RunResult r = Fuse("gt.json", "report.ply", {"--report", Scratch("report")});
+  const RunResult r = Fuse(Rig("gt.json"), Scratch("report.ply"), {"--report", Scratch("report")});
   ASSERT_EQ(r.exit_code, 0) << Describe(r);
   EXPECT_NE(r.out.find("report: " + Scratch("report/map_top.png")), std::string::npos) << r.out;
   const Image image = ReadPng(Scratch("report/map_top.png"));
@@ -109,7 +109,8 @@ TEST_F(CliFuseTest, ReportDrawsTheMapFromAboveWithTheCameras) {
   EXPECT_NE(page.find("map points (compression"), std::string::npos);  // the summary
   EXPECT_NE(page.find("world +Y, the extrinsics&#39; up axis"), std::string::npos);
   // A report directory whose parent is missing: refused before anything is written.
-  const RunResult bad = Fuse("gt.json", "bad_report.ply", {"--report", Scratch("missing/report")});
+  const RunResult bad =
+      Fuse(Rig("gt.json"), Scratch("bad_report.ply"), {"--report", Scratch("missing/report")});
   EXPECT_EQ(bad.exit_code, 2) << Describe(bad);
   EXPECT_NE(bad.err.find("fuse: --report"), std::string::npos) << bad.err;
   EXPECT_FALSE(fs::exists(Scratch("bad_report.ply")));

@@ -247,6 +247,40 @@ TEST(RgbdSlam, AHalvedSequenceIsTrackedAtHalfTheResolution) {
   EXPECT_GT(result.map.input_points(), 5 * 160 * 120);
 }
 
+// Grey colour on every frame but one (as TUM, whose depth images sometimes have no colour
+// image close enough in time).
+class ColoredSequence final : public RgbdSequence {
+ public:
+  ColoredSequence(const RgbdSequence& base, int without) : base_(base), without_(without) {}
+  int size() const override { return base_.size(); }
+  RgbdFrame Frame(int index) const override {
+    RgbdFrame frame = base_.Frame(index);
+    if (index != without_) frame.color.assign(3 * frame.depth_m.size(), 128);
+    return frame;
+  }
+  Trajectory GroundTruth() const override { return base_.GroundTruth(); }
+  std::string Describe() const override { return "coloured"; }
+
+ private:
+  const RgbdSequence& base_;
+  int without_;
+};
+
+TEST(RgbdSlam, AFrameWithoutColourInAColouredMapIsTrackedNotFused) {
+  const Scene scene = TestRoom();
+  const RenderedSequence rendered(scene, Walk(8), 160, 120, 0.0);
+  const ColoredSequence sequence(rendered, 4);
+  const SlamResult result = RunSlam(sequence, SlamOptions{});
+  EXPECT_EQ(result.failures, 0);
+  EXPECT_EQ(result.without_color, 1);
+  ASSERT_EQ(result.frames.size(), 8u);
+  EXPECT_TRUE(result.frames[4].track.success);
+  EXPECT_EQ(result.frames[4].map_size, result.frames[3].map_size);
+  EXPECT_TRUE(result.map.has_color());
+  const TrajectoryErrors e = EvaluateTrajectory(result.trajectory, sequence.GroundTruth(), 0.02, 1);
+  EXPECT_LT(e.ate_rmse_m, 1e-3);
+}
+
 TEST(RgbdSlam, RefusesBadOptions) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(2), 80, 60, 0.0);
