@@ -78,27 +78,6 @@ TEST(SurfaceBundle, MeasuresTheNoisesCorrelationAndWeighsItsPixelsByIt) {
   }
 }
 
-TEST(SurfaceBundle, SamePosesToTheLastBitWhateverTheThreadsAndTheRun) {
-  // Ceres' multi-threaded Schur elimination adds its chunks in the order the threads finish:
-  // with it the last digits of the poses changed from run to run.
-  SimOptions sim;
-  sim.width = 320;
-  sim.height = 180;
-  const SimulatedRig rig = SimulateRig(sim);
-  RefineOptions options;
-  options.icp.method = RegistrationMethod::kSurfaceBundle;
-  const RefineResult reference = Refine(rig.capture, rig.init, options, true, 1, Log{});
-  ASSERT_TRUE(reference.success) << reference.message;
-  ASSERT_TRUE(reference.surface.ran);
-  for (int run = 0; run < 3; ++run) {
-    SCOPED_TRACE(run);
-    const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
-    for (const auto& [serial, pose] : reference.refined) {
-      EXPECT_EQ(result.refined.at(serial).matrix(), pose.matrix()) << serial;
-    }
-  }
-}
-
 TEST(PlaneSegmentation, FindsTheSimulatorsFacesOnANoiseFreeCapture) {
   const SimulatedRig rig = NoiseFreeRig(4);
   RegionOptions every_pixel;
