@@ -173,18 +173,18 @@ def test_track_list_of_frames_equals_sequence(kitchen, tracked, caplog):
     assert "track: 10/10 frames" in [r.getMessage() for r in caplog.records]
 
 
-@need_cli
-def test_track_defaults_and_names_are_the_clis():
-    text = subprocess.run([CLI, "track", "--help"], capture_output=True, text=True,
+def assert_defaults_and_names_are_the_clis(command, function, switches):
+    """The keywords of `function` are the flags of `rigfit COMMAND` with their defaults;
+    `switches`: the --NAME/--no-NAME flags and their defaults."""
+    text = subprocess.run([CLI, command, "--help"], capture_output=True, text=True,
                           check=True).stdout
     shown = {m.group(1).replace("-", "_"): m.group(2)
              for m in re.finditer(r"--([a-z-]+) [A-Z]+=(\S+)", text)}
-    params = inspect.signature(rigfit.track).parameters
-    switches = {"keyframes", "bilateral", "depth_weights"}
-    assert set(params) - {"frames"} - switches == set(shown)
-    for name in switches:
+    params = inspect.signature(function).parameters
+    assert set(params) - {"frames"} - set(switches) == set(shown)
+    for name, default in switches.items():
         assert f"--{name.replace('_', '-')},--no-{name.replace('_', '-')}" in text
-        assert params[name].default is True
+        assert params[name].default is default
     for name, value in shown.items():
         default = params[name].default
         if name == "iterations":
@@ -193,6 +193,12 @@ def test_track_defaults_and_names_are_the_clis():
             assert value == default
         else:
             assert float(value) == default, name
+
+
+@need_cli
+def test_track_defaults_and_names_are_the_clis():
+    assert_defaults_and_names_are_the_clis(
+        "track", rigfit.track, {"keyframes": True, "bilateral": True, "depth_weights": True})
 
 
 @need_cli
@@ -286,24 +292,8 @@ def test_slam_list_of_frames_equals_sequence(kitchen, slammed, caplog):
 
 @need_cli
 def test_slam_defaults_and_names_are_the_clis():
-    text = subprocess.run([CLI, "slam", "--help"], capture_output=True, text=True,
-                          check=True).stdout
-    shown = {m.group(1).replace("-", "_"): m.group(2)
-             for m in re.finditer(r"--([a-z-]+) [A-Z]+=(\S+)", text)}
-    params = inspect.signature(rigfit.slam).parameters
-    switches = {"fold": False, "splat": False, "color": True}
-    assert set(params) - {"frames"} - set(switches) == set(shown)
-    for name, default in switches.items():
-        assert f"--{name},--no-{name}" in text
-        assert params[name].default is default
-    for name, value in shown.items():
-        default = params[name].default
-        if name == "iterations":
-            assert value == "[" + ",".join(map(str, default)) + "]"
-        elif name == "prior":
-            assert value == default
-        else:
-            assert float(value) == default, name
+    assert_defaults_and_names_are_the_clis(
+        "slam", rigfit.slam, {"fold": False, "splat": False, "color": True})
 
 
 @need_cli
