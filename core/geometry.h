@@ -2,6 +2,9 @@
 // gauge-free pose errors used by tests, benchmarks and `rigfit evaluate`.
 #pragma once
 
+#include <cmath>
+#include <limits>
+
 #include "core/types.h"
 
 namespace rigfit {
@@ -23,6 +26,14 @@ PointCloud UnprojectDepth(const CameraCapture& camera, const UnprojectOptions& o
 /// The camera's points in its own frame: unprojected depth, or its `points` as given
 /// (filtered by the same range limits, measured as distance along z).
 PointCloud CameraPoints(const CameraCapture& camera, const UnprojectOptions& options);
+
+/// Where the ray origin + s ray meets the plane n^T x + d = 0: s (the depth, for a ray a = p / z
+/// of a camera at origin); infinity when the ray runs parallel to the plane (|n^T ray| < 1e-9).
+inline double RayPlaneDepth(const Vec3& origin, const Vec3& ray, const Vec3& n, double d) {
+  const double denominator = n.dot(ray);
+  return std::abs(denominator) < 1e-9 ? std::numeric_limits<double>::infinity()
+                                      : -(n.dot(origin) + d) / denominator;
+}
 
 /// T * p for every point.
 PointCloud Transform(const Pose& T, const PointCloud& points);

@@ -9,6 +9,8 @@
 #include <numeric>
 #include <tuple>
 
+#include "core/geometry.h"
+
 namespace rigfit {
 namespace {
 
@@ -122,12 +124,8 @@ class Segmenter {
     const SegmentPoint& s = points_[i];
     if (!(s.depth > 0.0)) return false;
     const Vec3 centre = s.world - s.depth * s.ray_world;
-    const auto depth_on = [&](const PlaneFit& f) {
-      const double denominator = f.normal.dot(s.ray_world);
-      return std::abs(denominator) < 1e-9 ? std::numeric_limits<double>::infinity()
-                                          : -(f.normal.dot(centre) + f.offset) / denominator;
-    };
-    const double difference = depth_on(a) - depth_on(b);
+    const double difference = RayPlaneDepth(centre, s.ray_world, a.normal, a.offset) -
+                              RayPlaneDepth(centre, s.ray_world, b.normal, b.offset);
     const double gate = options_.gate_sigmas;
     return difference * difference <= gate * gate * (s.sigma_z * s.sigma_z + base_variance_);
   }

@@ -16,6 +16,7 @@
 #include <memory>
 
 #include "core/format.h"
+#include "core/geometry.h"
 #include "residuals/gravity_prior.h"
 #include "residuals/plane_cluster.h"
 #include "rig/correspondences.h"
@@ -257,10 +258,8 @@ void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
     for (const int i : t.pixels) {
       const Vec3& p = camera.points[i];
       const Vec3 ray = T.linear() * (p / p.z());
-      const double denominator = n.dot(ray);
-      if (std::abs(denominator) < 1e-9) continue;
-      const double z = -(n.dot(T.translation()) + d) / denominator;  // predicted depth
-      if (z <= 0.0) continue;
+      const double z = RayPlaneDepth(T.translation(), ray, n, d);  // predicted depth
+      if (!std::isfinite(z) || z <= 0.0) continue;
       const double y = T.translation().y() + z * ray.y();
       // The segmentation's vertical sigma of the pixel (PlaneSegmentationOptions).
       const double along = camera.depth_noise * z * z * ray.y();
