@@ -195,7 +195,7 @@ int main(int argc, char** argv) {
           [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f, std::vector<int>* l) {
             LabelFaces(truth.scene, T, p, f, l);
           },
-          2000, sim.seed, threads);
+          2000, sim.seed);
       if (s.ok) {
         std::printf(
             "       surface-model bound: %.4f deg %.2f mm tilt %.4f deg; error / it: %.2f %.2f\n",

@@ -64,7 +64,7 @@ void PrintBound(const SimulateArgs& a) {
       [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f, std::vector<int>* l) {
         LabelFaces(truth.scene, T, p, f, l);
       },
-      kBoundSamples, a.sim.seed, 2);
+      kBoundSamples, a.sim.seed);
   const std::string noise =
       "noise " + Fixed(a.sim.noise, 4) + ", " + std::to_string(kBoundSamples) + " draws";
   if (s.ok) {

@@ -4,6 +4,8 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <stdexcept>
 #include <type_traits>
 
 #include "core/parallel.h"
@@ -72,6 +74,61 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
   const double dof = static_cast<double>(residuals.size()) - J.num_cols;
   if (dof <= 0.0 || sum_sq <= 0.0) return JtJ;
   return JtJ / (sum_sq / dof);
+}
+
+Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
+                                       const std::vector<double*>& nuisance) {
+  if (poses.empty()) return {};
+  std::vector<double*> blocks = poses;
+  blocks.insert(blocks.end(), nuisance.begin(), nuisance.end());
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  problem->GetResidualBlocks(&residual_blocks);
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
+  const int p = 6 * static_cast<int>(poses.size());
+  // Nuisance block j holds the columns [start[j], start[j + 1]).
+  std::vector<int> start(nuisance.size() + 1, p);
+  std::vector<int> block_of(J.num_cols - p);
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    start[j + 1] = start[j] + problem->ParameterBlockTangentSize(nuisance[j]);
+    std::fill(block_of.begin() + (start[j] - p), block_of.begin() + (start[j + 1] - p), j);
+  }
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
+  std::vector<Eigen::MatrixXd> B(nuisance.size()), D(nuisance.size());
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    B[j] = Eigen::MatrixXd::Zero(p, start[j + 1] - start[j]);
+    D[j] = Eigen::MatrixXd::Zero(start[j + 1] - start[j], start[j + 1] - start[j]);
+  }
+  for (int row = 0; row < J.num_rows; ++row) {
+    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+      const int ca = J.cols[a];
+      for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
+        const int cb = J.cols[b];
+        const double v = J.values[a] * J.values[b];
+        if (cb < p) {
+          if (ca < p) A(ca, cb) += v;  // ca >= p: the transpose of B's entry below
+        } else if (ca < p) {
+          const int j = block_of[cb - p];
+          B[j](ca, cb - start[j]) += v;
+        } else {
+          const int j = block_of[ca - p];
+          if (block_of[cb - p] != j) {
+            throw std::logic_error(
+                "MarginalPoseCovariance: a residual block holds two nuisance blocks");
+          }
+          D[j](ca - start[j], cb - start[j]) += v;
+        }
+      }
+    }
+  }
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    if (D[j].isZero(0.0) && B[j].isZero(0.0)) continue;  // in no residual block
+    const Eigen::MatrixXd D_inverse = InverseOrEmpty(D[j]);
+    if (D_inverse.size() == 0) return {};
+    A -= B[j] * D_inverse * B[j].transpose();
+  }
+  return InverseOrEmpty(A);
 }
 
 namespace {

@@ -22,6 +22,20 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
                             const std::vector<ceres::ResidualBlockId>& residual_blocks,
                             bool scale_by_residuals = true);
 
+/// Covariance of the pose blocks `poses` (PoseManifold tangents, 6 each, in the order given)
+/// with the blocks `nuisance` marginalised (their own manifolds' tangents), from every
+/// residual block of the problem, whose residuals are whitened (no scale, loss functions not
+/// applied): the inverse of the Schur complement A - sum_j B_j D_j^-1 B_j^T of J^T J. No
+/// residual block may hold two nuisance blocks (their information is then block diagonal, as
+/// the planes' of the surface bundle): std::logic_error otherwise. A nuisance block in no
+/// residual block is left out (as ceres::Covariance does); empty when one is constrained in
+/// some directions only, or the poses are not constrained (an eigenvalue at most 1e-12 of the
+/// largest). The
+/// blocks' order is the one given, not their addresses (ceres::Covariance sorts the blocks by
+/// address, so its last digits depended on where the heap put them).
+Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
+                                       const std::vector<double*>& nuisance);
+
 /// The correspondences of one pair direction between two views.
 struct MatchedViews {
   const CameraView* source = nullptr;

@@ -1,6 +1,5 @@
 #include "rig/crlb.h"
 
-#include <ceres/covariance.h>
 #include <ceres/manifold.h>
 #include <ceres/product_manifold.h>
 #include <ceres/sphere_manifold.h>
@@ -16,6 +15,7 @@
 #include "core/pose.h"
 #include "residuals/plane_cluster.h"
 #include "rig/correspondences.h"
+#include "rig/covariance.h"
 #include "rig/joint.h"
 #include "rig/refine.h"
 #include "rig/region.h"
@@ -122,8 +122,7 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,
-                                            double depth_noise, int samples, std::uint64_t seed,
-                                            int num_threads) {
+                                            double depth_noise, int samples, std::uint64_t seed) {
   CramerRaoBound bound;
   bound.reference = reference;
   const size_t n = cameras.size();
@@ -153,7 +152,7 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
   ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
   ceres::SubsetManifold floor_manifold(4, {0, 1, 2});
   std::unique_ptr<ceres::Problem> problem = NewProblem();
-  std::vector<const double*> free_blocks;
+  std::vector<double*> free_blocks;
   for (size_t c = 0; c < n; ++c) {
     PoseToParameters(T_true.at(cameras[c].serial), poses[c].data());
     problem->AddParameterBlock(poses[c].data(), kPoseAmbientSize, SharedPoseManifold());
@@ -188,24 +187,15 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
                                 poses[c].data(), planes[f].data());
     }
   }
-  ceres::Covariance::Options options;
-  options.num_threads = num_threads;
-  ceres::Covariance covariance(options);
-  std::vector<std::pair<const double*, const double*>> pairs;
-  for (size_t a = 0; a < free_blocks.size(); ++a) {
-    for (size_t b = a; b < free_blocks.size(); ++b)
-      pairs.emplace_back(free_blocks[a], free_blocks[b]);
+  std::vector<double*> plane_blocks;
+  for (size_t f = 0; f < faces.size(); ++f) {
+    if (used[f]) plane_blocks.push_back(planes[f].data());
   }
-  if (!covariance.Compute(pairs, problem.get())) {
+  bound.covariance = MarginalPoseCovariance(problem.get(), free_blocks, plane_blocks);
+  if (bound.covariance.size() == 0) {
     bound.message = "the information is singular: some camera or face is not constrained";
     return bound;
   }
-  bound.covariance.resize(6 * free_blocks.size(), 6 * free_blocks.size());
-  if (!covariance.GetCovarianceMatrixInTangentSpace(free_blocks, bound.covariance.data())) {
-    bound.message = "the covariance could not be read";
-    return bound;
-  }
-  // GetCovarianceMatrixInTangentSpace writes row-major; the matrix is symmetric.
   bound.rms = SampleErrors(bound.covariance, bound.serials, T_true, samples, seed);
   bound.samples = samples;
   bound.ok = true;
@@ -214,8 +204,7 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
 
 CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
                                       const RefineOptions& options, double depth_noise,
-                                      const FaceLabeler& label, int samples, std::uint64_t seed,
-                                      int num_threads) {
+                                      const FaceLabeler& label, int samples, std::uint64_t seed) {
   RegionOptions every_pixel = options.region;
   every_pixel.pixel_stride = 1;
   std::vector<FacePixels> cameras;
@@ -230,8 +219,8 @@ CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMa
   const std::string reference = options.icp.reference.empty() && !noise_free.cameras.empty()
                                     ? noise_free.cameras.front().serial
                                     : options.icp.reference;
-  return ComputeSurfaceCramerRaoBound(cameras, faces, T_true, reference, depth_noise, samples, seed,
-                                      num_threads);
+  return ComputeSurfaceCramerRaoBound(cameras, faces, T_true, reference, depth_noise, samples,
+                                      seed);
 }
 
 }  // namespace rigfit

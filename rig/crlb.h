@@ -77,14 +77,14 @@ struct FacePixels {
 /// AND every face seen by two cameras or more (3 parameters each: the normal on the sphere and
 /// the offset; the floor's offset only: its normal +Y is known, leveling defines up), the faces
 /// eliminated: the poses' block of the inverse
-/// Fisher information, which ceres::Covariance computes from the plane-cluster Jacobians
-/// (residuals/plane_cluster.h) at the truth. No gravity prior (it is no measurement). Errors
-/// sampled like ComputeCramerRaoBound's. Never throws on bad geometry: ok false with a message.
+/// Fisher information, from the plane-cluster Jacobians (residuals/plane_cluster.h) at the
+/// truth, the faces eliminated by Schur complement (MarginalPoseCovariance, rig/covariance.h). No
+/// gravity prior (it is no measurement). Errors sampled like ComputeCramerRaoBound's. Never throws
+/// on bad geometry: ok false with a message.
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,
-                                            double depth_noise, int samples, std::uint64_t seed,
-                                            int num_threads);
+                                            double depth_noise, int samples, std::uint64_t seed);
 
 /// Labels points (camera frame, at T_world_camera) with the faces they lie on, appending new
 /// faces to `faces` (e.g. the simulator's LabelFaces, sim/scene.h).
@@ -96,7 +96,6 @@ using FaceLabeler = std::function<void(const Pose& T_world_camera, const PointCl
 /// `label`; the reference is options.icp.reference or the first serial.
 CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
                                       const RefineOptions& options, double depth_noise,
-                                      const FaceLabeler& label, int samples, std::uint64_t seed,
-                                      int num_threads);
+                                      const FaceLabeler& label, int samples, std::uint64_t seed);
 
 }  // namespace rigfit

@@ -1,7 +1,6 @@
 #include "rig/surface_bundle.h"
 
 #include <ceres/autodiff_cost_function.h>
-#include <ceres/covariance.h>
 #include <ceres/manifold.h>
 #include <ceres/ordered_groups.h>
 #include <ceres/product_manifold.h>
@@ -20,6 +19,7 @@
 #include "residuals/gravity_prior.h"
 #include "residuals/plane_cluster.h"
 #include "rig/correspondences.h"
+#include "rig/covariance.h"
 #include "rig/plane_segmentation.h"
 
 namespace rigfit {
@@ -484,20 +484,20 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
     for (const double cost : costs) total += cost;
     const int dof = result.pixels - parameters;
     result.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
-    std::vector<std::pair<const double*, const double*>> pairs;
+    std::vector<double*> free_poses, plane_blocks;
+    std::vector<size_t> free_cameras;
     for (size_t c = 0; c < n; ++c) {
-      if (cameras[c].free && !result.fallback[c])
-        pairs.emplace_back(blocks[c].data(), blocks[c].data());
-    }
-    ceres::Covariance::Options covariance_options;
-    covariance_options.num_threads = 1;  // as the solve: the same digits whatever the threads
-    ceres::Covariance covariance(covariance_options);
-    result.covariance_ok = !pairs.empty() && covariance.Compute(pairs, problem.get());
-    for (size_t c = 0; c < n && result.covariance_ok; ++c) {
       if (!cameras[c].free || result.fallback[c]) continue;
-      Eigen::Matrix<double, 6, 6, Eigen::RowMajor> block;
-      covariance.GetCovarianceBlockInTangentSpace(blocks[c].data(), blocks[c].data(), block.data());
-      result.covariance[c] = block * (result.noise_scale * result.noise_scale);
+      free_poses.push_back(blocks[c].data());
+      free_cameras.push_back(c);
+    }
+    for (PlaneBlock& plane : planes) plane_blocks.push_back(plane.x.data());
+    const Eigen::MatrixXd covariance =
+        MarginalPoseCovariance(problem.get(), free_poses, plane_blocks);
+    result.covariance_ok = covariance.size() > 0;
+    for (size_t k = 0; k < free_cameras.size() && result.covariance_ok; ++k) {
+      result.covariance[free_cameras[k]] =
+          covariance.block<6, 6>(6 * k, 6 * k) * (result.noise_scale * result.noise_scale);
     }
   };
   statistics();

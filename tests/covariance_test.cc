@@ -1,16 +1,23 @@
 // rig/covariance.h: the shared-noise covariance against the inverse information where they
-// must agree and against its dense definition; a free camera in no term has none.
+// must agree and against its dense definition; a free camera in no term has none. The
+// poses' covariance with planes marginalised against ceres::Covariance.
 #include "rig/covariance.h"
 
+#include <ceres/covariance.h>
+#include <ceres/manifold.h>
+#include <ceres/product_manifold.h>
+#include <ceres/sphere_manifold.h>
 #include <gtest/gtest.h>
 
 #include <array>
 #include <cmath>
 #include <memory>
 #include <random>
+#include <stdexcept>
 
 #include "core/pose.h"
 #include "residuals/gicp.h"
+#include "residuals/plane_cluster.h"
 
 namespace rigfit {
 namespace {
@@ -323,6 +330,132 @@ TEST(SharedNoiseCovariance, AFreeCameraInNoTermHasNoCovariance) {
                                   Eigen::MatrixXd::Zero(12, 12), 1)
                 .size(),
             0);
+}
+
+/// A residual tying two planes' offsets (not a plane-cluster term).
+struct TiedPlanes {
+  template <typename T>
+  bool operator()(const T* a, const T* b, T* r) const {
+    r[0] = a[3] - b[3];
+    return true;
+  }
+};
+
+/// Three cameras around a room corner (a floor, two walls and an oblique face), every camera
+/// seeing every plane: poses and planes as parameter blocks of plane-cluster terms.
+struct PlaneBundle {
+  std::array<std::array<double, kPoseAmbientSize>, 3> poses;
+  std::array<Vec4, 4> planes;
+  ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
+  ceres::SubsetManifold floor_manifold{4, {0, 1, 2}};
+  std::unique_ptr<ceres::Problem> problem = NewProblem();
+
+  PlaneBundle() {
+    const Vec3 normals[4] = {Vec3::UnitY(), Vec3::UnitX(), Vec3::UnitZ(),
+                             Vec3(1.0, 0.3, 1.0).normalized()};
+    const double offsets[4] = {0.0, -3.0, -4.0, -4.5};
+    for (int j = 0; j < 4; ++j) planes[j] << normals[j], offsets[j];
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-1.5, 1.5);
+    // Each camera looks at the corner (2.5, 0.5, 3.5) from its own place.
+    const Vec3 corner(2.5, 0.5, 3.5);
+    for (int c = 0; c < 3; ++c) {
+      Pose T = Pose::Identity();
+      T.translation() = Vec3(0.4 * c, 1.5 - 0.2 * c, 0.3 * c - 0.2);
+      const Vec3 z = (corner - T.translation()).normalized();
+      const Vec3 x = Vec3::UnitY().cross(z).normalized();
+      T.linear().col(0) = x;
+      T.linear().col(1) = z.cross(x);
+      T.linear().col(2) = z;
+      PoseToParameters(T, poses[c].data());
+      problem->AddParameterBlock(poses[c].data(), kPoseAmbientSize, SharedPoseManifold());
+    }
+    problem->SetParameterBlockConstant(poses[0].data());
+    for (int j = 0; j < 4; ++j) {
+      problem->AddParameterBlock(
+          planes[j].data(), 4,
+          j == 0 ? static_cast<ceres::Manifold*>(&floor_manifold) : &plane_manifold);
+    }
+    for (int c = 0; c < 3; ++c) {
+      const Pose T = PoseFromParameters(poses[c].data());
+      for (int j = 0; j < 4; ++j) {
+        // Points of plane j around the corner's foot on it, in the camera frame.
+        const Vec3 n = normals[j];
+        const Vec3 foot = corner - n * (n.dot(corner) + offsets[j]);
+        const Vec3 e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+        PlaneCluster cluster;
+        for (int i = 0; i < 40; ++i) {
+          const Vec3 p = T.inverse() * (foot + u(rng) * e1 + u(rng) * e2);
+          if (p.z() > 0.2) cluster.AddRay(p, 1.0 / p.z(), 0.002);
+        }
+        problem->AddResidualBlock(PlaneClusterCost::Create(cluster, true), nullptr, poses[c].data(),
+                                  planes[j].data());
+      }
+    }
+  }
+};
+
+TEST(MarginalPoseCovariance, EqualsCeresCovarianceOfThePoses) {
+  constexpr double kRelativeTolerance = 1e-8;
+  PlaneBundle bundle;
+  std::vector<double*> free_poses = {bundle.poses[1].data(), bundle.poses[2].data()};
+  std::vector<double*> planes;
+  for (Vec4& plane : bundle.planes) planes.push_back(plane.data());
+  const Eigen::MatrixXd C = MarginalPoseCovariance(bundle.problem.get(), free_poses, planes);
+  ASSERT_EQ(C.rows(), 12);
+
+  ceres::Covariance::Options options;
+  options.algorithm_type = ceres::DENSE_SVD;
+  ceres::Covariance covariance(options);
+  const std::vector<std::pair<const double*, const double*>> pairs = {
+      {free_poses[0], free_poses[0]},
+      {free_poses[0], free_poses[1]},
+      {free_poses[1], free_poses[1]}};
+  ASSERT_TRUE(covariance.Compute(pairs, bundle.problem.get()));
+  Eigen::Matrix<double, 12, 12, Eigen::RowMajor> expected;
+  ASSERT_TRUE(covariance.GetCovarianceMatrixInTangentSpace({free_poses[0], free_poses[1]},
+                                                           expected.data()));
+  EXPECT_LE((C - expected).norm(), kRelativeTolerance * expected.norm()) << "ours\n"
+                                                                         << C << "\nceres\n"
+                                                                         << expected;
+  // The order given, not the blocks' addresses: the poses swapped swap the blocks.
+  const Eigen::MatrixXd swapped =
+      MarginalPoseCovariance(bundle.problem.get(), {free_poses[1], free_poses[0]}, planes);
+  EXPECT_LE((swapped.block(0, 0, 6, 6) - C.block(6, 6, 6, 6)).norm(),
+            kRelativeTolerance * expected.norm());
+}
+
+TEST(MarginalPoseCovariance, APlaneInNoTermIsLeftOutAndAHalfSeenOneGivesNone) {
+  PlaneBundle bundle;
+  std::vector<double*> planes;
+  for (Vec4& plane : bundle.planes) planes.push_back(plane.data());
+  const std::vector<double*> poses = {bundle.poses[1].data()};
+  const Eigen::MatrixXd C = MarginalPoseCovariance(bundle.problem.get(), poses, planes);
+  ASSERT_EQ(C.rows(), 6);
+
+  Vec4 alone(0.0, 0.0, 1.0, -9.0);  // in no residual block
+  bundle.problem->AddParameterBlock(alone.data(), 4, &bundle.plane_manifold);
+  planes.push_back(alone.data());
+  EXPECT_EQ(MarginalPoseCovariance(bundle.problem.get(), poses, planes), C);
+
+  // One pixel on a plane fixes one of its three directions.
+  PlaneCluster one;
+  one.AddRay(Vec3(0.1, 0.2, 5.0), 1.0 / 5.0, 0.002);
+  bundle.problem->AddResidualBlock(PlaneClusterCost::Create(one, true), nullptr,
+                                   bundle.poses[1].data(), alone.data());
+  EXPECT_EQ(MarginalPoseCovariance(bundle.problem.get(), poses, planes).size(), 0);
+}
+
+TEST(MarginalPoseCovariance, RefusesTermsTyingTwoNuisanceBlocks) {
+  PlaneBundle bundle;
+  // Two planes tied by one residual: their information is no longer block diagonal.
+  bundle.problem->AddResidualBlock(
+      new ceres::AutoDiffCostFunction<TiedPlanes, 1, 4, 4>(new TiedPlanes), nullptr,
+      bundle.planes[1].data(), bundle.planes[2].data());
+  std::vector<double*> planes;
+  for (Vec4& plane : bundle.planes) planes.push_back(plane.data());
+  EXPECT_THROW(MarginalPoseCovariance(bundle.problem.get(), {bundle.poses[1].data()}, planes),
+               std::logic_error);
 }
 
 }  // namespace

@@ -117,8 +117,8 @@ TEST(SurfaceCramerRaoBound, PoseBlockOfTheSchurComplementEqualsTheDenseInverse) 
     c.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, RegionOptions{});
     LabelFaces(rig.scene, T, c.points, &faces, &c.faces);
   }
-  const CramerRaoBound bound = ComputeSurfaceCramerRaoBound(
-      cameras, faces, rig.gt, cameras.front().serial, kNoise, 10, 1, 1);
+  const CramerRaoBound bound =
+      ComputeSurfaceCramerRaoBound(cameras, faces, rig.gt, cameras.front().serial, kNoise, 10, 1);
   ASSERT_TRUE(bound.ok) << bound.message;
 
   // The faces the bound uses: at least 3 pixels in each of at least two cameras.
