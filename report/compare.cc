@@ -22,6 +22,8 @@ using Json = nlohmann::json;
 constexpr double kMToMm = 1e3;
 /// Two numbers closer than this fraction of the larger one are called even in the verdict.
 constexpr double kEvenFraction = 0.05;
+/// The most decimals a number of the verdict is written with.
+constexpr int kMaxVerdictDigits = 6;
 
 /// Runs Refine once, as `rigfit refine` would with icp.mode `mode` and icp.method `method`.
 /// Its peak resident memory is the process's high-water mark, reset before the run
@@ -206,10 +208,18 @@ std::string CompareVerdict(const CompareResult& c) {
     return Join(out, " and ");
   };
   // "<what> 13.11 mm (pairwise), 9.20 mm (joint), ..."
+  // With 3 significant digits at least, so that numbers the verdict tells apart print apart.
   const auto numbers = [&applied](const Metric& m) {
+    int digits = m.digits;
+    for (double v : m.values) {
+      if (std::abs(v) > 0.0) {
+        digits = std::max(digits, 2 - static_cast<int>(std::floor(std::log10(std::abs(v)))));
+      }
+    }
+    digits = std::min(digits, kMaxVerdictDigits);
     std::vector<std::string> parts;
     for (size_t r = 0; r < m.values.size(); ++r) {
-      parts.push_back(Fixed(m.values[r], m.digits) + m.unit + " (" + applied[r]->name + ")");
+      parts.push_back(Fixed(m.values[r], digits) + m.unit + " (" + applied[r]->name + ")");
     }
     return m.what + " " + Join(parts, ", ");
   };

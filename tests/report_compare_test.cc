@@ -58,6 +58,20 @@ TEST(CompareVerdictTest, RunsWithinFivePercentOfTheBestTie) {
   EXPECT_NE(v.find("; even: RMS relative rotation error"), std::string::npos) << v;
 }
 
+TEST(CompareVerdictTest, SmallNumbersPrintWithThreeSignificantDigits) {
+  // 0.0006, 0.0008 and 0.0012 deg differ by more than 5%: written apart, not all as 0.001.
+  const std::string v =
+      CompareVerdict(WithErrors({{0.03, 0.0006}, {0.04, 0.0008}, {0.0612, 0.0012}}));
+  EXPECT_NE(v.find("RMS relative translation error 0.0300 mm (pairwise), 0.0400 mm (joint), "
+                   "0.0612 mm (surface_bundle)"),
+            std::string::npos)
+      << v;
+  EXPECT_NE(v.find("RMS relative rotation error 0.000600 deg (pairwise), 0.000800 deg (joint), "
+                   "0.001200 deg (surface_bundle)"),
+            std::string::npos)
+      << v;
+}
+
 TEST(CompareVerdictTest, MeasuresThatDisagreeAreMixed) {
   const std::string v = CompareVerdict(WithErrors({{10.0, 0.3}, {20.0, 0.1}, {30.0, 0.5}}));
   EXPECT_TRUE(StartsWith(v,
