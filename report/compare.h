@@ -68,13 +68,13 @@ struct CompareResult {
   std::string verdict;
 };
 
-/// Runs the three refinements of `capture` from `initial` with `options` (icp.mode and, but
-/// for gicp, icp.method are set per run): pairwise and joint with the configured method, or
+/// Runs the three refinements of `capture` from `initial`, each with `options` but icp.mode
+/// and icp.method, which each run sets: pairwise and joint with the configured method, or
 /// point_to_plane when it is surface_bundle, then joint with surface_bundle. `gt` (may be
 /// null) adds the gauge-free errors; it must hold every camera of the capture. Progress goes
-/// to `log`, each run's prefixed with its name. Calls CheckRefineInput; throws InputError on
-/// inputs that do not match (a capture of one camera, a camera missing from `gt`), never on
-/// bad geometry: a run that was not applied says so.
+/// to `log`, each run's prefixed with its name. Throws InputError on inputs that do not match
+/// (CheckCompareInput, then Refine's CheckRefineInput), never on bad geometry: a run that was
+/// not applied says so.
 CompareResult Compare(const RigCapture& capture, const PoseMap& initial,
                       const RefineOptions& options, const PoseMap* gt, int num_threads,
                       const Log& log);
