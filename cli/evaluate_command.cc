@@ -16,6 +16,7 @@
 #include "io/atomic_file.h"
 #include "io/extrinsics_json.h"
 #include "io/text_table.h"
+#include "report/compare.h"
 
 namespace rigfit::cli {
 namespace {

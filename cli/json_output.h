@@ -5,16 +5,10 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "core/evaluate.h"
-
 namespace rigfit::cli {
 
 /// Writes `json` (indent 2, a final newline) to path, atomically (io/atomic_file.h).
 /// Throws InputError naming the file when it cannot be written.
 void WriteJsonFile(const std::string& path, const nlohmann::json& json);
-
-/// The summary of gauge-free errors: {"rotation_deg": {"rms", "max"}, "translation_mm":
-/// {...}, "tilt_deg": {...}}; rotation and translation are null without camera pairs.
-nlohmann::json RigErrorsSummaryJson(const RigErrors& errors);
 
 }  // namespace rigfit::cli

@@ -32,4 +32,7 @@ nlohmann::json ConfigToJson(const RefineOptions& options);
 /// InputError listing the valid names for another.
 RegistrationMethod RegistrationMethodNamed(const std::string& name);
 
+/// The config name of a method (icp.method), the inverse of RegistrationMethodNamed.
+std::string RegistrationMethodName(RegistrationMethod method);
+
 }  // namespace rigfit

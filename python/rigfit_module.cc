@@ -1,9 +1,9 @@
 // rigfit._rigfit: the compiled half of the Python module (docs/python.md). Converts numpy
 // arrays and dicts to the library's plain structs (core/types.h, rig/options.h; python/convert.h),
-// runs the same library calls as `rigfit refine` (cli/refine_command.cc) and `rigfit simulate`
-// and hands back plain Python values; rigfit/__init__.py wraps them in typed objects. The RGB-D
-// part (sequences, tracking, trajectories) is python/rgbd_module.cc. InputError becomes
-// ValueError.
+// runs the same library calls as `rigfit refine` (cli/refine_command.cc), `rigfit compare`
+// (report/compare.h) and `rigfit simulate` and hands back plain Python values; rigfit/__init__.py
+// wraps them in typed objects. The RGB-D part (sequences, tracking, trajectories) is
+// python/rgbd_module.cc. InputError becomes ValueError.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -26,6 +26,7 @@
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
 #include "python/convert.h"
+#include "report/compare.h"
 #include "report/refine_meta.h"
 #include "rig/options.h"
 #include "rig/refine.h"
@@ -126,11 +127,16 @@ RigCapture CaptureOf(const py::dict& cameras) {
   return capture;
 }
 
-/// The options of a run: config (YAML text from a dict, or a path, or the defaults) with the
-/// keyword overrides applied, as `rigfit refine` applies its flags.
-RefineOptions OptionsOf(const std::string& config_yaml, const std::string& config_path,
-                        const std::string& mode, const std::string& method,
-                        const std::string& reference, bool level_ground) {
+/// The options of a run of `command` (refine, compare): config (YAML text from a dict, or a
+/// path, or the defaults) with the keyword overrides applied, as `rigfit refine` applies its
+/// flags; the number of worker threads checked.
+RefineOptions OptionsOf(const std::string& command, const std::string& config_yaml,
+                        const std::string& config_path, const std::string& mode,
+                        const std::string& method, const std::string& reference, bool level_ground,
+                        int threads) {
+  if (threads < 1 || threads > 256) {
+    throw InputError(command + ": threads must be in [1, 256], got " + std::to_string(threads));
+  }
   RefineOptions options;
   if (!config_path.empty()) {
     options = LoadConfig(config_path);
@@ -148,7 +154,7 @@ RefineOptions OptionsOf(const std::string& config_yaml, const std::string& confi
   if (!level_ground) options.ground.enabled = false;
   const std::vector<std::string> problems = OptionProblems(options);
   if (!problems.empty()) {
-    std::string text = "refine: invalid options (config with keyword overrides):";
+    std::string text = command + ": invalid options (config with keyword overrides):";
     for (const std::string& p : problems) text += "\n  " + p;
     throw InputError(text);
   }
@@ -230,11 +236,8 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
                    const std::string& config_yaml, const std::string& config_path,
                    const std::string& mode, const std::string& method, const std::string& reference,
                    bool level_ground, int threads, const py::object& logger) {
-  if (threads < 1 || threads > 256) {
-    throw InputError("refine: threads must be in [1, 256], got " + std::to_string(threads));
-  }
   const RefineOptions options =
-      OptionsOf(config_yaml, config_path, mode, method, reference, level_ground);
+      OptionsOf("refine", config_yaml, config_path, mode, method, reference, level_ground, threads);
   const RigCapture capture = CaptureOf(cameras);
   const PoseMap initial = PosesOf(extrinsics, "extrinsics");
   CheckRefineInput(
@@ -266,6 +269,48 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
   out["cameras"] = CameraReports(result);
   out["pairs"] = PairReports(result);
   out["meta_json"] = meta.dump();
+  return out;
+}
+
+/// `rigfit compare` on arrays: the three runs (report/compare.h), their JSON document (as
+/// `--json` writes it, sources null) and the text the CLI prints.
+py::dict RunCompare(const py::dict& cameras, const py::dict& extrinsics,
+                    const std::string& config_yaml, const std::string& config_path,
+                    const py::object& ground_truth, const std::string& reference, bool level_ground,
+                    int threads, const py::object& logger) {
+  const RefineOptions options =
+      OptionsOf("compare", config_yaml, config_path, "", "", reference, level_ground, threads);
+  const RigCapture capture = CaptureOf(cameras);
+  const PoseMap initial = PosesOf(extrinsics, "extrinsics");
+  CheckRefineInput(
+      capture, initial, options,
+      {"compare", "cameras", "extrinsics", reference.empty() ? "icp.reference" : "reference"});
+  PoseMap gt;
+  if (!ground_truth.is_none()) {
+    if (!py::isinstance<py::dict>(ground_truth)) {
+      throw InputError("compare: ground_truth must be a dict serial -> (4, 4) or None");
+    }
+    gt = PosesOf(py::reinterpret_borrow<py::dict>(ground_truth), "ground_truth");
+  }
+  const PoseMap* truth = ground_truth.is_none() ? nullptr : &gt;
+  const CompareSources sources = {"", "", "", config_path};
+  CheckCompareInput(capture, truth, {"cameras", "extrinsics", "ground_truth", ""});
+  std::vector<std::string> warnings = CaptureWarnings(capture, "cameras");
+  const Log log = PythonLog(logger);
+  for (const std::string& w : warnings) log.Warning(w);
+
+  CompareResult result;
+  {
+    py::gil_scoped_release release;
+    result = Compare(capture, initial, options, truth, threads, log);
+  }
+  Json document = CompareToJson(result, sources);
+  for (const std::string& path : ReplaceNonFinite(document, "compare")) {
+    log.Warning(path + " was not finite and is written as null");
+  }
+  py::dict out;
+  out["json"] = document.dump();
+  out["text"] = CompareText(result, sources);
   return out;
 }
 
@@ -444,6 +489,9 @@ PYBIND11_MODULE(_rigfit, m) {
   });
   m.def("refine", &RunRefine, py::arg("cameras"), py::arg("extrinsics"), py::arg("config_yaml"),
         py::arg("config_path"), py::arg("mode"), py::arg("method"), py::arg("reference"),
+        py::arg("level_ground"), py::arg("threads"), py::arg("logger"));
+  m.def("compare", &RunCompare, py::arg("cameras"), py::arg("extrinsics"), py::arg("config_yaml"),
+        py::arg("config_path"), py::arg("ground_truth"), py::arg("reference"),
         py::arg("level_ground"), py::arg("threads"), py::arg("logger"));
   m.def("load_capture", &LoadCapture, py::arg("path"), py::arg("logger"));
   m.def("evaluate", &Evaluate, py::arg("estimated"), py::arg("ground_truth"));

@@ -1,10 +1,13 @@
 // End-to-end tests of `rigfit compare`: the built executable (RIGFIT_CLI_PATH) on a small
-// rig written by `rigfit simulate`. Its joint errors must be those `rigfit evaluate` gives
-// for the output of `rigfit refine` (joint is the default mode) on the same input.
+// rig written by `rigfit simulate`. Three runs (pairwise, joint, surface_bundle); the joint
+// errors must be those `rigfit evaluate` gives for the output of `rigfit refine` (joint is
+// the default mode) on the same input.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdio>
 #include <filesystem>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -29,21 +32,40 @@ class CliCompareTest : public SimulatedRigSuite<CliCompareTest> {
   }
 };
 
-TEST_F(CliCompareTest, BothModesSideBySideAndJointAgreesWithEvaluate) {
+/// The runs of `rigfit compare`, in the order it prints them.
+const char* const kRuns[] = {"pairwise", "joint", "surface_bundle"};
+
+TEST_F(CliCompareTest, ThreeRunsSideBySideAndJointAgreesWithEvaluate) {
   const RunResult r =
       RunRigfit({"compare", "--capture", Rig("capture.h5"), "--extrinsics", Rig("init.json"),
                  "--gt", Rig("gt.json"), "--json", Scratch("compare.json"), "--quiet"},
                 root_);
   ASSERT_EQ(r.exit_code, 0) << Describe(r);
-  for (const char* text : {"pairwise", "joint", "change", "error vs gt", "joint 1-sigma",
-                           "all pairs", "peak RSS MB", "verdict: "}) {
+  for (const char* text :
+       {"pairwise", "joint", "surface_bundle", "change", "error vs gt", "joint 1-sigma",
+        "plane thickness (sigma)", "surface bundle: ", "all pairs", "peak RSS MB",
+        "verdict: ", "pairwise (pairwise ICP + pose graph, point_to_plane)"}) {
     EXPECT_NE(r.out.find(text), std::string::npos) << text << "\n" << r.out;
   }
+  // The errors table has a row per run.
+  for (const char* run : kRuns) {
+    EXPECT_NE(
+        r.out.find("\n" + std::string(run) + std::string(36 - std::string(run).size(), ' ') + "|"),
+        std::string::npos)
+        << run << "\n"
+        << r.out;
+  }
   const Json compare = Json::parse(ReadText(Scratch("compare.json")));
-  for (const char* mode : {"pairwise", "joint"}) {
-    SCOPED_TRACE(mode);
-    const Json& m = compare["modes"][mode];
+  EXPECT_EQ(compare["runs"], Json(std::vector<std::string>(std::begin(kRuns), std::end(kRuns))));
+  EXPECT_EQ(compare["modes"].size(), 3u);
+  EXPECT_EQ(compare["method"], "point_to_plane");
+  for (const char* run : kRuns) {
+    SCOPED_TRACE(run);
+    const Json& m = compare["modes"][run];
     EXPECT_EQ(m["success"], true) << m["message"];
+    EXPECT_EQ(m["mode"], run == std::string("pairwise") ? "pairwise" : "joint");
+    EXPECT_EQ(m["method"],
+              run == std::string("surface_bundle") ? "surface_bundle" : "point_to_plane");
     EXPECT_EQ(m["cameras"].size(), 3u);
     EXPECT_GT(m["wall_s"].get<double>(), 0.0);
     EXPECT_GT(m["peak_rss_mb"].get<double>(), 0.0);
@@ -69,6 +91,25 @@ TEST_F(CliCompareTest, BothModesSideBySideAndJointAgreesWithEvaluate) {
     with_sigma += camera.contains("sigma") ? 1 : 0;
   }
   EXPECT_EQ(with_sigma, 2);
+  // The surface bundle reports its planes and every camera's plane thickness before and after
+  // (in sigmas of the noise model); the other runs do not.
+  const Json& bundle = compare["modes"]["surface_bundle"];
+  EXPECT_EQ(bundle["surface"]["ran"], true);
+  EXPECT_GT(bundle["surface"]["planes"].get<int>(), 0);
+  for (const auto& [serial, camera] : bundle["cameras"].items()) {
+    SCOPED_TRACE(serial);
+    ASSERT_TRUE(camera.contains("surface"));
+    EXPECT_GT(camera["surface"]["thickness_before"].get<double>(), 0.0);
+    EXPECT_GT(camera["surface"]["thickness_after"].get<double>(), 0.0);
+    EXPECT_TRUE(camera["surface"]["fallback"].is_boolean());
+    char cell[64];
+    std::snprintf(cell, sizeof(cell), "%.2f -> %.2f",
+                  camera["surface"]["thickness_before"].get<double>(),
+                  camera["surface"]["thickness_after"].get<double>());
+    EXPECT_NE(r.out.find(cell), std::string::npos) << cell << "\n" << r.out;
+  }
+  EXPECT_FALSE(compare["modes"]["joint"].contains("surface"));
+  EXPECT_FALSE(compare["modes"]["joint"]["cameras"].begin()->contains("surface"));
 
   // `rigfit refine` (joint) + `rigfit evaluate` on its output give the same errors.
   const RunResult refine = RunRigfit({"refine", "--capture", Rig("capture.h5"), "--extrinsics",
@@ -98,7 +139,28 @@ TEST_F(CliCompareTest, WithoutGroundTruthJudgesByTheFit) {
   EXPECT_NE(r.out.find("RMS off-floor pair residual"), std::string::npos) << r.out;
   const Json compare = Json::parse(ReadText(Scratch("nogt.json")));
   EXPECT_TRUE(compare["ground_truth"].is_null());
-  EXPECT_TRUE(compare["modes"]["joint"]["errors"].is_null());
+  for (const char* run : kRuns) EXPECT_TRUE(compare["modes"][run]["errors"].is_null()) << run;
+}
+
+TEST_F(CliCompareTest, SurfaceBundleConfigRunsPairwiseAndJointWithPointToPlane) {
+  // icp.method surface_bundle needs joint mode: the pairwise run once failed validation. The
+  // pairwise and joint runs now use point_to_plane; the third run is the surface bundle.
+  std::ofstream(Scratch("surface.yaml")) << "icp:\n  method: surface_bundle\n";
+  const RunResult r =
+      RunRigfit({"compare", "--capture", Rig("capture.h5"), "--extrinsics", Rig("init.json"),
+                 "--config", Scratch("surface.yaml"), "--json", Scratch("surface.json"), "--quiet"},
+                root_);
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  EXPECT_NE(r.out.find("joint (joint registration, point_to_plane)"), std::string::npos) << r.out;
+  const Json compare = Json::parse(ReadText(Scratch("surface.json")));
+  EXPECT_EQ(compare["method"], "point_to_plane");
+  EXPECT_EQ(compare["config"], Scratch("surface.yaml"));
+  for (const char* run : kRuns) {
+    EXPECT_EQ(compare["modes"][run]["success"], true) << run << compare["modes"][run]["message"];
+  }
+  EXPECT_EQ(compare["modes"]["pairwise"]["method"], "point_to_plane");
+  EXPECT_EQ(compare["modes"]["joint"]["method"], "point_to_plane");
+  EXPECT_EQ(compare["modes"]["surface_bundle"]["method"], "surface_bundle");
 }
 
 TEST_F(CliCompareTest, JsonOntoAnInputIsRefused) {

@@ -3,7 +3,7 @@ track, map (SLAM) and evaluate RGB-D sequences (docs/python.md).
 
 The same library calls as the CLI: ``refine`` on the same capture, initial extrinsics and
 options gives ``rigfit refine``'s poses bit for bit and exactly the ``_meta`` report the CLI
-writes (without ``timings_s``); ``simulate`` is ``rigfit simulate``, ``track`` is ``rigfit
+writes (without ``timings_s``); ``compare`` is ``rigfit compare``; ``simulate`` is ``rigfit simulate``, ``track`` is ``rigfit
 track``, ``slam`` is ``rigfit slam``. Nothing is written to disk unless asked. Bad input raises ``ValueError`` with the
 library's message. Progress and warnings go to the logger ``"rigfit"``.
 """
@@ -24,7 +24,7 @@ from . import _rigfit
 if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
-__all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "load_capture", "save_capture", "load_extrinsics",
+__all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "CompareResult", "compare", "load_capture", "save_capture", "load_extrinsics",
            "save_extrinsics", "evaluate", "simulate", "Frame", "Sequence", "open_sequence", "TrackedFrame",
            "Trajectory", "track", "SlamFrame", "SurfelMap", "SlamResult", "slam", "evaluate_trajectory",
            "load_trajectory", "save_trajectory"]
@@ -163,6 +163,61 @@ def refine(
         pairs=[PairReport(**p) for p in raw["pairs"]],
         meta=json.loads(raw["meta_json"]),
     )
+
+
+@dataclass
+class CompareResult:
+    """What ``compare`` returns.
+
+    Attributes:
+        document: the JSON document ``rigfit compare --json`` writes, as a dict: ``runs``
+            (``["pairwise", "joint", "surface_bundle"]``), ``modes`` (per run: ``mode``,
+            ``method``, ``success``, ``cameras`` with change, error, ``sigma`` and
+            ``surface`` thickness, ``fit``, ``errors``, ``wall_s``, ``peak_rss_mb``),
+            ``before``, ``verdict``; ``capture``, ``extrinsics`` and ``ground_truth`` are
+            None (no files), ``config`` the path when one was given.
+        text: the tables ``rigfit compare`` prints.
+        verdict: ``document["verdict"]``: the best run and the numbers behind it.
+    """
+
+    document: Dict[str, Any]
+    text: str
+    verdict: str
+
+
+def compare(
+    cameras: Cameras,
+    extrinsics: Extrinsics,
+    config: Union[None, Mapping[str, Any], str, os.PathLike] = None,
+    *,
+    ground_truth: Optional[Extrinsics] = None,
+    reference: Optional[str] = None,
+    level_ground: bool = True,
+    threads: int = 2,
+) -> CompareResult:
+    """Runs the three ways to refine a rig on the same input, as ``rigfit compare``.
+
+    pairwise (pairwise ICP + pose graph) and joint (joint registration), both with
+    point_to_plane or, when the config sets it, gicp; and surface_bundle (joint
+    point_to_plane, then the surface bundle). ``icp.mode`` of the config is ignored.
+
+    Args:
+        cameras, extrinsics, config, reference, level_ground, threads: as ``refine`` takes
+            them (checked the same way).
+        ground_truth: serial -> (4, 4) true T_world_camera, one per camera, or None; adds
+            each run's gauge-free errors and judges the runs by them.
+
+    Raises:
+        ValueError: bad input (as ``refine``; a single camera; a camera missing from
+            ``ground_truth``), with the message.
+    """
+    yaml_text, path = _config_text(config)
+    raw = _rigfit.compare(
+        dict(cameras), dict(extrinsics), yaml_text, path,
+        None if ground_truth is None else dict(ground_truth), reference or "",
+        bool(level_ground), int(threads), logger)
+    document = json.loads(raw["json"])
+    return CompareResult(document=document, text=raw["text"], verdict=document["verdict"])
 
 
 def load_capture(path: Union[str, os.PathLike]) -> Dict[str, Dict[str, "np.ndarray"]]:

@@ -273,6 +273,59 @@ def test_evaluate_equals_cli(rig, tmp_path):
         rigfit.evaluate({}, rigfit.load_extrinsics(d / "gt.json"))
 
 
+def test_compare_equals_cli(rig, tmp_path):
+    """rigfit.compare runs the CLI's three runs: the same document (but the sources and the
+    measured time and memory), the same tables."""
+    d, _ = rig
+    out = tmp_path / "compare.json"
+    done = subprocess.run([CLI, "compare", "--capture", str(d / "capture.h5"), "--extrinsics",
+                           str(d / "init.json"), "--gt", str(d / "gt.json"), "--json", str(out),
+                           "-q"], check=True, stdout=subprocess.PIPE, text=True)
+    with open(out) as f:
+        expected = json.load(f)
+    got = rigfit.compare(rigfit.load_capture(d / "capture.h5"),
+                         rigfit.load_extrinsics(d / "init.json"),
+                         ground_truth=rigfit.load_extrinsics(d / "gt.json"))
+    doc = got.document
+    assert sorted(doc) == sorted(expected)
+    assert doc["runs"] == expected["runs"] == ["pairwise", "joint", "surface_bundle"]
+    assert doc["capture"] is None and doc["ground_truth"] is None
+    assert doc["verdict"] == got.verdict and got.verdict
+    assert "verdict: " + got.verdict in got.text
+    for name in doc["runs"]:
+        run, cli = doc["modes"][name], expected["modes"][name]
+        assert run["success"] == cli["success"], name
+        assert (run["mode"], run["method"]) == (cli["mode"], cli["method"]), name
+        assert run["errors"]["translation_mm"]["rms"] is not None, name
+        for serial, camera in run["cameras"].items():
+            assert np.allclose(camera["T_world_camera"],
+                               cli["cameras"][serial]["T_world_camera"], atol=1e-6), (name, serial)
+    bundle = doc["modes"]["surface_bundle"]
+    assert bundle["surface"]["ran"]
+    assert all(c["surface"]["thickness_before"] > 0 for c in bundle["cameras"].values())
+    # The CLI's tables but the header's capture name and the measured wall time and memory.
+    def tables(text):
+        return text[text.index("pair fit"):text.index("run  ")]
+    assert tables(got.text) == tables(done.stdout)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"ground_truth": {"a": np.eye(4)}}, "compare: ground_truth has no pose for camera b"),
+    ({"reference": "zz"}, "reference"),
+    ({"threads": 0}, "compare: threads must be in"),
+    ({"config": {"icp": {"mode": "both"}}}, "mode"),
+])
+def test_compare_checks_raise_value_error(kwargs, message):
+    cameras = {"a": one_camera(), "b": one_camera()}
+    with pytest.raises(ValueError, match=message):
+        rigfit.compare(cameras, {"a": np.eye(4), "b": np.eye(4)}, **kwargs)
+
+
+def test_compare_of_one_camera_raises_value_error():
+    with pytest.raises(ValueError, match="compare: cameras holds one camera"):
+        rigfit.compare({"a": one_camera()}, {"a": np.eye(4)})
+
+
 def test_save_capture_round_trip(rig, tmp_path):
     d, _ = rig
     cameras = rigfit.load_capture(d / "capture.h5")

@@ -1,0 +1,644 @@
+#include "report/compare.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iterator>
+#include <stdexcept>
+
+#include "core/errors.h"
+#include "core/format.h"
+#include "core/peak_memory.h"
+#include "core/stopwatch.h"
+#include "io/config_yaml.h"
+#include "io/extrinsics_json.h"
+#include "io/text_table.h"
+
+namespace rigfit {
+namespace {
+
+using Json = nlohmann::json;
+
+constexpr double kMToMm = 1e3;
+/// Two numbers closer than this fraction of the larger one are called even in the verdict.
+constexpr double kEvenFraction = 0.05;
+/// The most decimals a number of the verdict is written with.
+constexpr int kMaxVerdictDigits = 6;
+
+/// Runs Refine once, as `rigfit refine` would with icp.mode `mode` and icp.method `method`.
+/// Its peak resident memory is the process's high-water mark, reset before the run
+/// (core/peak_memory.h): the capture already loaded counts in it, memory an earlier run freed
+/// does not.
+CompareRun RunOne(const std::string& name, RefineMode mode, RegistrationMethod method,
+                  const RigCapture& capture, const PoseMap& initial, RefineOptions options,
+                  int num_threads, const Log& log) {
+  CompareRun run;
+  run.name = name;
+  run.mode = options.icp.mode = mode;
+  run.method = options.icp.method = method;
+  const Log run_log{[&log, name](LogLevel level, const std::string& message) {
+    if (log.sink) log.sink(level, name + ": " + message);
+  }};
+  const PeakMemory memory;
+  const auto start = std::chrono::steady_clock::now();
+  RefineResult result;
+  try {
+    result = Refine(capture, initial, options, true, num_threads, run_log);
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw std::runtime_error("compare: " + name + ": " + e.what());
+  }
+  run.wall_s = SecondsSince(start);
+  run.peak_rss_mb = memory.PeakMb();
+  run.peak_per_run = memory.reset();
+  run.success = result.success;
+  run.message = result.message;
+  run.warnings = result.warnings;
+  run.output = result.success ? result.refined : result.leveled;
+  run.cameras = result.cameras;
+  run.surface = result.surface;
+  return run;
+}
+
+// --- What the tables and the JSON show.
+
+/// All pairs pooled: RMS residual (all and off the floor) and inlier fraction.
+struct PooledFit {
+  double rmse_m = 0.0;
+  double off_floor_rmse_m = 0.0;
+  double inlier_fraction = 0.0;
+  int correspondences = 0;
+  int off_floor_correspondences = 0;
+};
+
+PooledFit Pool(const std::vector<PairDiagnostics>& pairs) {
+  PooledFit pooled;
+  double sum_squares = 0.0, off_floor_sum_squares = 0.0;
+  int points = 0;
+  for (const PairDiagnostics& p : pairs) {
+    sum_squares += p.rmse_m * p.rmse_m * p.correspondences;
+    off_floor_sum_squares += p.off_floor_rmse_m * p.off_floor_rmse_m * p.off_floor_correspondences;
+    pooled.correspondences += p.correspondences;
+    pooled.off_floor_correspondences += p.off_floor_correspondences;
+    points += p.points;
+  }
+  if (pooled.correspondences > 0) pooled.rmse_m = std::sqrt(sum_squares / pooled.correspondences);
+  if (pooled.off_floor_correspondences > 0) {
+    pooled.off_floor_rmse_m = std::sqrt(off_floor_sum_squares / pooled.off_floor_correspondences);
+  }
+  if (points > 0) pooled.inlier_fraction = static_cast<double>(pooled.correspondences) / points;
+  return pooled;
+}
+
+/// The change a run made to a camera, from the leveled pose.
+struct Change {
+  double rotation_deg = 0.0;
+  double translation_mm = 0.0;
+};
+
+Change ChangeOf(const PoseMap& leveled, const PoseMap& output, const std::string& serial) {
+  const Vec6 d = PoseDifference(leveled.at(serial), output.at(serial));
+  return {d.head<3>().norm() * kRadToDeg, d.tail<3>().norm() * kMToMm};
+}
+
+/// A camera's gauge-free error: its pose relative to the reference camera against the
+/// truth (the pair (reference, camera) of EvaluateRig), and its tilt.
+struct CameraError {
+  bool has_relative = false;  ///< false for the reference itself
+  double rotation_deg = 0.0;
+  double translation_mm = 0.0;
+  double tilt_deg = 0.0;
+};
+
+CameraError CameraErrorOf(const RigErrors& e, const std::string& serial,
+                          const std::string& reference) {
+  CameraError out;
+  for (const PairError& p : e.pairs) {
+    if ((p.serial_i == reference && p.serial_j == serial) ||
+        (p.serial_j == reference && p.serial_i == serial)) {
+      out = {true, p.error.rotation_rad * kRadToDeg, p.error.translation_m * kMToMm, 0.0};
+    }
+  }
+  for (const auto& [s, tilt] : e.tilt_rad) {
+    if (s == serial) out.tilt_deg = tilt * kRadToDeg;
+  }
+  return out;
+}
+
+/// What a run did, in one phrase.
+std::string Outcome(const CompareRun& run) {
+  if (!run.success) return "not applied: " + run.message;
+  int refined = 0, kept = 0;
+  for (const CameraReport& c : run.cameras) {
+    refined += !c.reference && c.accepted ? 1 : 0;
+    kept += c.surface_fallback ? 1 : 0;
+  }
+  std::string text = "refined " + std::to_string(refined) + " of " +
+                     std::to_string(run.cameras.size() - 1) + " non-reference cameras";
+  if (kept > 0) text += ", " + std::to_string(kept) + " kept their joint pose";
+  return text;
+}
+
+/// How the runs are measured in the verdict: one number per applied run.
+struct Metric {
+  std::string what;
+  std::vector<double> values;  ///< per applied run
+  int digits = 2;
+  std::string unit;
+  bool higher_is_better = false;
+};
+
+/// The runs (indices into `applied`) within kEvenFraction of the metric's best value.
+std::vector<size_t> Best(const Metric& m) {
+  double best = m.values[0];
+  for (double v : m.values) best = m.higher_is_better ? std::max(best, v) : std::min(best, v);
+  std::vector<size_t> out;
+  for (size_t r = 0; r < m.values.size(); ++r) {
+    const double v = m.values[r];
+    if (std::abs(v - best) <= kEvenFraction * std::max(std::abs(v), std::abs(best))) {
+      out.push_back(r);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string CompareVerdict(const CompareResult& c) {
+  std::vector<const CompareRun*> applied;
+  std::vector<std::string> not_applied;
+  for (const CompareRun& run : c.runs) {
+    if (run.success) {
+      applied.push_back(&run);
+    } else {
+      not_applied.push_back(run.name + " (" + run.message + ")");
+    }
+  }
+  const std::string not_applied_note =
+      not_applied.empty() ? "" : "; not applied: " + Join(not_applied, ", ");
+  if (applied.empty()) return "no run refined the rig" + not_applied_note;
+  if (applied.size() == 1) return applied[0]->name + ": the only run applied" + not_applied_note;
+
+  std::vector<Metric> metrics;
+  std::string basis;
+  if (c.has_gt) {
+    basis = "against the ground truth";
+    metrics = {{"RMS relative translation error", {}, 2, " mm", false},
+               {"RMS relative rotation error", {}, 3, " deg", false}};
+    for (const CompareRun* run : applied) {
+      metrics[0].values.push_back(run->errors.rms_translation_m * kMToMm);
+      metrics[1].values.push_back(run->errors.rms_rotation_rad * kRadToDeg);
+    }
+  } else {
+    basis = "no ground truth: judged by the fit of the pairs";
+    metrics = {{"RMS off-floor pair residual", {}, 2, " mm", false},
+               {"RMS pair residual", {}, 2, " mm", false},
+               {"inlier fraction", {}, 3, "", true}};
+    for (const CompareRun* run : applied) {
+      const PooledFit f = Pool(run->fit);
+      metrics[0].values.push_back(f.off_floor_rmse_m * kMToMm);
+      metrics[1].values.push_back(f.rmse_m * kMToMm);
+      metrics[2].values.push_back(f.inlier_fraction);
+    }
+  }
+  const auto names = [&applied](const std::vector<size_t>& runs) {
+    std::vector<std::string> out;
+    for (size_t r : runs) out.push_back(applied[r]->name);
+    return Join(out, " and ");
+  };
+  // "<what> 13.11 mm (pairwise), 9.20 mm (joint), ..."
+  // With 3 significant digits at least, so that numbers the verdict tells apart print apart.
+  const auto numbers = [&applied](const Metric& m) {
+    int digits = m.digits;
+    for (double v : m.values) {
+      if (std::abs(v) > 0.0) {
+        digits = std::max(digits, 2 - static_cast<int>(std::floor(std::log10(std::abs(v)))));
+      }
+    }
+    digits = std::min(digits, kMaxVerdictDigits);
+    std::vector<std::string> parts;
+    for (size_t r = 0; r < m.values.size(); ++r) {
+      parts.push_back(Fixed(m.values[r], digits) + m.unit + " (" + applied[r]->name + ")");
+    }
+    return m.what + " " + Join(parts, ", ");
+  };
+
+  std::vector<std::string> decided, even, mixed;
+  std::vector<size_t> best_on_all(applied.size());
+  for (size_t r = 0; r < applied.size(); ++r) best_on_all[r] = r;
+  for (const Metric& m : metrics) {
+    const std::vector<size_t> best = Best(m);
+    if (best.size() == applied.size()) {
+      even.push_back(numbers(m));
+      continue;
+    }
+    decided.push_back(numbers(m));
+    mixed.push_back(names(best) + " best on " + numbers(m));
+    std::vector<size_t> kept;
+    std::set_intersection(best_on_all.begin(), best_on_all.end(), best.begin(), best.end(),
+                          std::back_inserter(kept));
+    best_on_all = kept;
+  }
+  const std::string within = Fixed(kEvenFraction * 100.0, 0) + "%";
+  if (decided.empty()) {
+    return "no clear winner (" + basis + ", within " + within + "): " + Join(even, "; ") +
+           not_applied_note;
+  }
+  if (best_on_all.empty()) return "mixed (" + basis + "): " + Join(mixed, "; ") + not_applied_note;
+  const std::string even_note = even.empty() ? "" : "; even: " + Join(even, "; ");
+  const std::string winner =
+      best_on_all.size() == 1 ? names(best_on_all) + " is best"
+                              : names(best_on_all) + " are even (within " + within + ") and best";
+  return winner + " (" + basis + "): " + Join(decided, "; ") + even_note + not_applied_note;
+}
+
+namespace {
+
+const CompareRun* RunNamed(const CompareResult& c, const std::string& name) {
+  for (const CompareRun& run : c.runs) {
+    if (run.name == name) return &run;
+  }
+  return nullptr;
+}
+
+/// A name for an input in the text: its source, or `fallback` when not given.
+std::string NameOr(const std::string& name, const std::string& fallback) {
+  return name.empty() ? fallback : name;
+}
+
+/// Per camera: each run's change (and error against the truth).
+std::string CameraTable(const CompareResult& c) {
+  std::vector<TextColumn> columns = {{16, Align::kLeft, ""}};
+  std::vector<TextSpan> runs = {{"", 1}}, parts = {{"", 1}};
+  std::vector<std::string> units = {"camera"};
+  for (const CompareRun& run : c.runs) {
+    columns.insert(columns.end(), {{6, Align::kRight, " | "}, {7}});
+    parts.push_back({"change", 2});
+    units.insert(units.end(), {"deg", "mm"});
+    if (c.has_gt) {
+      columns.insert(columns.end(), {{6}, {7}, {6}});
+      parts.push_back({"error vs gt", 3});
+      units.insert(units.end(), {"deg", "mm", "tilt"});
+    }
+    runs.push_back({run.name, c.has_gt ? 5 : 2});
+  }
+  TextTable table(columns);
+  table.AddSpans(runs);
+  table.AddSpans(parts);
+  table.AddRow(units);
+  for (const std::string& serial : c.serials) {
+    std::vector<std::string> row = {serial};
+    for (const CompareRun& run : c.runs) {
+      const Change change = ChangeOf(c.leveled, run.output, serial);
+      row.insert(row.end(), {Fixed(change.rotation_deg, 3), Fixed(change.translation_mm, 1)});
+      if (c.has_gt) {
+        const CameraError e = CameraErrorOf(run.errors, serial, c.reference);
+        row.insert(row.end(),
+                   {FixedOrDash(e.has_relative, e.rotation_deg, 3),
+                    FixedOrDash(e.has_relative, e.translation_mm, 1), Fixed(e.tilt_deg, 3)});
+      }
+    }
+    table.AddRow(row);
+  }
+  return table.text();
+}
+
+/// Per camera: the joint run's 1-sigma and the surface bundle's plane thickness.
+std::string UncertaintyTable(const CompareResult& c) {
+  const CompareRun* joint = RunNamed(c, "joint");
+  const CompareRun* surface = RunNamed(c, "surface_bundle");
+  const bool bundled = surface != nullptr && surface->surface.ran;
+  std::string text;
+  if (bundled) {
+    const SurfaceBundleReport& sb = surface->surface;
+    Appendf(&text,
+            "surface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the noise "
+            "model\n",
+            sb.planes, sb.pixels, sb.rounds, sb.noise_scale);
+  }
+  TextTable table({{16, Align::kLeft, ""},
+                   {7, Align::kRight, " | "},
+                   {8},
+                   {6},
+                   {6},
+                   {6},
+                   {23, Align::kRight, " | "},
+                   {17},
+                   {0, Align::kLeft, "  "}});
+  table.AddSpans({{"", 1}, {"joint 1-sigma", 5}, {"surface bundle", 3}});
+  table.AddRow({"camera", "yaw deg", "tilt deg", "x mm", "y mm", "z mm", "plane thickness (sigma)",
+                "noise correlation", ""});
+  for (size_t i = 0; i < c.serials.size(); ++i) {
+    std::vector<std::string> row = {c.serials[i]};
+    const CameraReport* j = joint != nullptr ? &joint->cameras[i] : nullptr;
+    const bool shown = j != nullptr && j->has_covariance;
+    const PoseSigma s = shown ? SigmaOf(j->covariance) : PoseSigma{};
+    row.insert(row.end(), {FixedOrDash(shown, s.yaw_deg, 3), FixedOrDash(shown, s.tilt_deg, 3),
+                           FixedOrDash(shown, s.x_mm, 2), FixedOrDash(shown, s.y_mm, 2),
+                           FixedOrDash(shown, s.z_mm, 2)});
+    const CameraReport* b = bundled ? &surface->cameras[i] : nullptr;
+    row.insert(row.end(), {b == nullptr ? "-"
+                                        : Fixed(b->surface_thickness_before, 2) + " -> " +
+                                              Fixed(b->surface_thickness_after, 2),
+                           FixedOrDash(b != nullptr, b ? b->surface_noise_correlation : 0.0, 1)});
+    std::vector<std::string> notes;
+    if (j != nullptr && j->reference) notes.push_back("(reference)");
+    if (b != nullptr && b->surface_fallback) notes.push_back("kept its joint pose");
+    row.push_back(Join(notes, ", "));
+    table.AddRow(row);
+  }
+  text += table.text();
+  if (surface != nullptr && !bundled) text += "(the surface bundle did not run)\n";
+  return text;
+}
+
+/// Per pair: the fit before and after each run, and all pairs pooled.
+std::string FitTable(const CompareResult& c) {
+  std::vector<TextColumn> columns = {{35, Align::kLeft, ""}};
+  std::vector<TextSpan> spans = {{"pair fit (finest scale, both ways)", 1}, {"before", 3}};
+  std::vector<std::string> heads = {"pair: RMSE mm (all, off-floor)"};
+  std::vector<const std::vector<PairDiagnostics>*> fits = {&c.fit_before};
+  for (const CompareRun& run : c.runs) {
+    spans.push_back({run.name, 3});
+    fits.push_back(&run.fit);
+  }
+  for (size_t f = 0; f < fits.size(); ++f) {
+    columns.insert(columns.end(), {{7, Align::kRight, " | "}, {7}, {8}});
+    heads.insert(heads.end(), {"all", "off", "inliers"});
+  }
+  TextTable table(columns);
+  table.AddSpans(spans);
+  table.AddRow(heads);
+  // A pair's fit or the pooled one (PairDiagnostics, PooledFit): RMSE, off-floor, inliers.
+  const auto add_fit = [](const auto& fit, std::vector<std::string>* row) {
+    row->insert(row->end(), {Fixed(fit.rmse_m * kMToMm, 2), Fixed(fit.off_floor_rmse_m * kMToMm, 2),
+                             Fixed(fit.inlier_fraction, 3)});
+  };
+  for (size_t k = 0; k < c.fit_before.size(); ++k) {
+    const PairDiagnostics& pair = c.fit_before[k];
+    std::vector<std::string> row = {c.pair_serials[pair.a] + " - " + c.pair_serials[pair.b]};
+    for (const std::vector<PairDiagnostics>* fit : fits) add_fit((*fit)[k], &row);
+    table.AddRow(row);
+  }
+  if (c.fit_before.empty()) return table.text() + "(no candidate pairs)\n";
+  std::vector<std::string> row = {"all pairs"};
+  for (const std::vector<PairDiagnostics>* fit : fits) add_fit(Pool(*fit), &row);
+  table.AddRow(row);
+  return table.text();
+}
+
+/// RMS and max over camera pairs of the gauge-free errors: input, leveled, each run.
+std::string ErrorTable(const CompareResult& c) {
+  TextTable table({{35, Align::kLeft, ""},
+                   {9, Align::kRight, " | "},
+                   {9},
+                   {9, Align::kRight, " | "},
+                   {9},
+                   {9, Align::kRight, " | "}});
+  table.AddRow(
+      {"errors vs gt (gauge-free)", "rot RMS", "rot max", "trans RMS", "trans max", "tilt RMS"});
+  table.AddRow({"", "deg", "deg", "mm", "mm", "deg"});
+  std::vector<std::pair<std::string, const RigErrors*>> rows = {{"input", &c.errors_initial},
+                                                                {"leveled", &c.errors_leveled}};
+  for (const CompareRun& run : c.runs) rows.emplace_back(run.name, &run.errors);
+  for (const auto& [name, e] : rows) {
+    const bool pairs_shown = !e->pairs.empty();
+    table.AddRow({name, FixedOrDash(pairs_shown, e->rms_rotation_rad * kRadToDeg, 3),
+                  FixedOrDash(pairs_shown, e->max_rotation_rad * kRadToDeg, 3),
+                  FixedOrDash(pairs_shown, e->rms_translation_m * kMToMm, 2),
+                  FixedOrDash(pairs_shown, e->max_translation_m * kMToMm, 2),
+                  Fixed(e->rms_tilt_rad * kRadToDeg, 3)});
+  }
+  return table.text();
+}
+
+/// Each run's method, wall time, peak memory and outcome, and what the numbers cover.
+std::string ResourceTable(const CompareResult& c) {
+  TextTable table(
+      {{16, Align::kLeft, ""}, {14, Align::kLeft, "  "}, {8}, {12}, {0, Align::kLeft, "  "}});
+  table.AddRow({"run", "method", "wall s", "peak RSS MB", "result"});
+  bool per_run = true;
+  for (const CompareRun& run : c.runs) {
+    table.AddRow({run.name, RegistrationMethodName(run.method), Fixed(run.wall_s, 2),
+                  Fixed(run.peak_rss_mb, 0), Outcome(run)});
+    per_run = per_run && run.peak_per_run;
+  }
+  std::string text = table.text();
+  const std::string baseline = Fixed(c.baseline_rss_mb, 0);
+  if (per_run) {
+    Appendf(&text,
+            "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
+            "this process, which holds the loaded capture (%s MB before the runs), during that "
+            "run)\n",
+            baseline.c_str());
+  } else {
+    Appendf(&text,
+            "(wall s: the refinement alone, loading excluded; peak RSS: the high-water mark of "
+            "this process since it started, loading included (%s MB before the runs): the mark "
+            "could not be reset per run through /proc/self/clear_refs)\n",
+            baseline.c_str());
+  }
+  return text;
+}
+
+Json FitJson(const std::vector<PairDiagnostics>& fits, const std::vector<std::string>& serials) {
+  Json pairs = Json::array();
+  for (const PairDiagnostics& f : fits) {
+    pairs.push_back({{"serial_a", serials[f.a]},
+                     {"serial_b", serials[f.b]},
+                     {"rmse_mm", f.rmse_m * kMToMm},
+                     {"off_floor_rmse_mm", f.off_floor_rmse_m * kMToMm},
+                     {"inlier_fraction", f.inlier_fraction},
+                     {"correspondences", f.correspondences},
+                     {"off_floor_correspondences", f.off_floor_correspondences}});
+  }
+  const PooledFit all = Pool(fits);
+  return {{"pairs", pairs},
+          {"all_pairs",
+           {{"rmse_mm", all.rmse_m * kMToMm},
+            {"off_floor_rmse_mm", all.off_floor_rmse_m * kMToMm},
+            {"inlier_fraction", all.inlier_fraction},
+            {"correspondences", all.correspondences},
+            {"off_floor_correspondences", all.off_floor_correspondences}}}};
+}
+
+Json CameraJson(const CompareResult& c, const CompareRun& run, size_t i) {
+  const std::string& serial = c.serials[i];
+  const CameraReport& outcome = run.cameras[i];
+  const Change change = ChangeOf(c.leveled, run.output, serial);
+  Json camera = {{"reference", outcome.reference},
+                 {"accepted", outcome.accepted},
+                 {"message", outcome.message},
+                 {"change_rotation_deg", change.rotation_deg},
+                 {"change_translation_mm", change.translation_mm},
+                 {"T_world_camera", PoseToJson(run.output.at(serial))}};
+  if (c.has_gt) {
+    const CameraError e = CameraErrorOf(run.errors, serial, c.reference);
+    camera["error"] = {
+        {"rotation_to_reference_deg", e.has_relative ? Json(e.rotation_deg) : Json()},
+        {"translation_to_reference_mm", e.has_relative ? Json(e.translation_mm) : Json()},
+        {"tilt_deg", e.tilt_deg}};
+  }
+  if (outcome.has_covariance) {
+    const PoseSigma s = SigmaOf(outcome.covariance);
+    camera["sigma"] = {{"yaw_deg", s.yaw_deg},
+                       {"tilt_deg", s.tilt_deg},
+                       {"x_mm", s.x_mm},
+                       {"y_mm", s.y_mm},
+                       {"z_mm", s.z_mm}};
+  }
+  if (run.surface.ran) {
+    camera["surface"] = {{"thickness_before", outcome.surface_thickness_before},
+                         {"thickness_after", outcome.surface_thickness_after},
+                         {"fallback", outcome.surface_fallback},
+                         {"noise_correlation", outcome.surface_noise_correlation}};
+  }
+  return camera;
+}
+
+Json RunJson(const CompareResult& c, const CompareRun& run) {
+  Json cameras = Json::object();
+  for (size_t i = 0; i < c.serials.size(); ++i) cameras[c.serials[i]] = CameraJson(c, run, i);
+  RefineOptions options;
+  options.icp.mode = run.mode;
+  Json out = {{"mode", ConfigToJson(options)["icp"]["mode"]},
+              {"method", RegistrationMethodName(run.method)},
+              {"success", run.success},
+              {"message", run.message},
+              {"warnings", run.warnings},
+              {"wall_s", run.wall_s},
+              {"peak_rss_mb", run.peak_rss_mb},
+              {"peak_rss_per_mode", run.peak_per_run},
+              {"cameras", cameras},
+              {"fit", FitJson(run.fit, c.pair_serials)},
+              {"errors", c.has_gt ? RigErrorsSummaryJson(run.errors) : Json()}};
+  if (run.method == RegistrationMethod::kSurfaceBundle) {
+    const SurfaceBundleReport& sb = run.surface;
+    out["surface"] = {{"ran", sb.ran},
+                      {"planes", sb.planes},
+                      {"pixels", sb.pixels},
+                      {"rounds", sb.rounds},
+                      {"noise_scale", sb.noise_scale}};
+  }
+  return out;
+}
+
+/// {"rms": ..., "max": ...}, null for both when there is nothing to summarise.
+Json RmsMax(bool defined, double rms, double max) {
+  if (!defined) return {{"rms", nullptr}, {"max", nullptr}};
+  return {{"rms", rms}, {"max", max}};
+}
+
+Json NullIfEmpty(const std::string& text) { return text.empty() ? Json() : Json(text); }
+
+}  // namespace
+
+void CheckCompareInput(const RigCapture& capture, const PoseMap* gt, const CompareSources& names) {
+  if (capture.cameras.size() < 2) {
+    throw InputError("compare: " + NameOr(names.capture, "the capture") +
+                     " holds one camera: nothing to register");
+  }
+  if (gt == nullptr) return;
+  for (const CameraCapture& camera : capture.cameras) {
+    if (gt->count(camera.serial) == 0) {
+      throw InputError("compare: " + NameOr(names.ground_truth, "the ground truth") +
+                       " has no pose for camera " + camera.serial + " of the capture");
+    }
+  }
+}
+
+CompareResult Compare(const RigCapture& capture, const PoseMap& initial,
+                      const RefineOptions& options, const PoseMap* gt, int num_threads,
+                      const Log& log) {
+  CheckCompareInput(capture, gt, {});
+  CompareResult c;
+  c.method = options.icp.method == RegistrationMethod::kSurfaceBundle
+                 ? RegistrationMethod::kPointToPlane
+                 : options.icp.method;
+  for (const CameraCapture& camera : capture.cameras) c.serials.push_back(camera.serial);
+  c.initial = initial;
+  c.baseline_rss_mb = CurrentRssMb();
+  c.runs.push_back(RunOne("pairwise", RefineMode::kPairwise, c.method, capture, initial, options,
+                          num_threads, log));
+  c.runs.push_back(
+      RunOne("joint", RefineMode::kJoint, c.method, capture, initial, options, num_threads, log));
+  c.runs.push_back(RunOne("surface_bundle", RefineMode::kJoint, RegistrationMethod::kSurfaceBundle,
+                          capture, initial, options, num_threads, log));
+
+  // The shared start: leveling alone, as every run ran it.
+  const RefineResult leveling = Refine(capture, initial, options, false, num_threads, Log{});
+  c.leveled = leveling.leveled;
+  c.reference = leveling.reference;
+  const DiagnosticRig rig = PrepareDiagnostics(capture, leveling, options, num_threads);
+  c.pair_serials = rig.serials;
+  c.fit_before = Diagnose(rig, c.leveled, options.icp, num_threads);
+  for (CompareRun& run : c.runs) run.fit = Diagnose(rig, run.output, options.icp, num_threads);
+  c.has_gt = gt != nullptr;
+  if (c.has_gt) {
+    PoseMap truth;  // the capture's cameras only
+    for (const std::string& serial : c.serials) truth[serial] = gt->at(serial);
+    c.errors_initial = EvaluateRig(c.initial, truth);
+    c.errors_leveled = EvaluateRig(c.leveled, truth);
+    for (CompareRun& run : c.runs) run.errors = EvaluateRig(run.output, truth);
+  }
+  c.verdict = CompareVerdict(c);
+  return c;
+}
+
+Json CompareToJson(const CompareResult& c, const CompareSources& sources) {
+  Json modes = Json::object();
+  Json runs = Json::array();
+  for (const CompareRun& run : c.runs) {
+    modes[run.name] = RunJson(c, run);
+    runs.push_back(run.name);
+  }
+  return {{"capture", NullIfEmpty(sources.capture)},
+          {"extrinsics", NullIfEmpty(sources.extrinsics)},
+          {"ground_truth", c.has_gt ? NullIfEmpty(sources.ground_truth) : Json()},
+          {"config", NullIfEmpty(sources.config)},
+          {"method", RegistrationMethodName(c.method)},
+          {"reference", c.reference},
+          {"runs", runs},
+          {"before",
+           {{"fit", FitJson(c.fit_before, c.pair_serials)},
+            {"errors_input", c.has_gt ? RigErrorsSummaryJson(c.errors_initial) : Json()},
+            {"errors_leveled", c.has_gt ? RigErrorsSummaryJson(c.errors_leveled) : Json()}}},
+          {"modes", modes},
+          {"baseline_rss_mb", c.baseline_rss_mb},
+          {"verdict", c.verdict}};
+}
+
+std::string CompareText(const CompareResult& c, const CompareSources& sources) {
+  std::string text;
+  const std::string method = RegistrationMethodName(c.method);
+  const std::string capture = sources.capture.empty() ? "" : sources.capture + ", ";
+  Appendf(&text, "\ncompare: %s%zu cameras, reference %s\n", capture.c_str(), c.serials.size(),
+          c.reference.c_str());
+  Appendf(&text,
+          "Three runs: pairwise (pairwise ICP + pose graph, %s), joint (joint registration, "
+          "%s), surface_bundle (joint point_to_plane, then the surface bundle). All start from "
+          "the same leveled poses; \"change\" is each run's move from there%s.\n",
+          method.c_str(), method.c_str(),
+          c.has_gt ? ", \"error\" the camera's pose relative to the reference against the truth "
+                     "(and its tilt)"
+                   : "");
+  text += "\n" + CameraTable(c);
+  text += "\n" + UncertaintyTable(c);
+  text += "\n" + FitTable(c);
+  if (c.has_gt) text += "\n" + ErrorTable(c);
+  text += "\n" + ResourceTable(c);
+  Appendf(&text, "\nverdict: %s\n", c.verdict.c_str());
+  return text;
+}
+
+Json RigErrorsSummaryJson(const RigErrors& e) {
+  const bool has_pairs = !e.pairs.empty();
+  return {{"rotation_deg",
+           RmsMax(has_pairs, e.rms_rotation_rad * kRadToDeg, e.max_rotation_rad * kRadToDeg)},
+          {"translation_mm",
+           RmsMax(has_pairs, e.rms_translation_m * kMToMm, e.max_translation_m * kMToMm)},
+          {"tilt_deg", RmsMax(true, e.rms_tilt_rad * kRadToDeg, e.max_tilt_rad * kRadToDeg)}};
+}
+
+}  // namespace rigfit
