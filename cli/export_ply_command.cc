@@ -14,6 +14,7 @@
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
+#include "io/text_table.h"
 #include "report/palette.h"
 #include "rig/refine.h"
 #include "rig/region.h"
@@ -55,7 +56,8 @@ int RunExport(const ExportArgs& a) {
   RegionOptions region = options.region;
   if (a.stride_option->count() > 0) region.pixel_stride = a.stride;
   PlyCloud cloud;
-  std::printf("%-16s %8s %10s\n", "camera", "colour", "points");
+  TextTable table({{16, Align::kLeft, ""}, {8}, {10}});
+  table.AddRow({"camera", "colour", "points"});
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
     const CameraCapture& camera = capture.cameras[i];
     const Pose& T_world_camera = extrinsics.poses.at(camera.serial);
@@ -66,8 +68,9 @@ int RunExport(const ExportArgs& a) {
       cloud.points.push_back(T_world_camera * p);
       cloud.colors.push_back({color.r, color.g, color.b});
     }
-    std::printf("%-16s %8s %10zu\n", camera.serial.c_str(), HexColor(color).c_str(), points.size());
+    table.AddRow({camera.serial, HexColor(color), std::to_string(points.size())});
   }
+  std::fputs(table.text().c_str(), stdout);
   WritePly(a.out_path, cloud);
   std::printf("%zu points (%s) -> %s\n", cloud.points.size(),
               a.band ? "near-floor band" : "whole clouds", a.out_path.c_str());

@@ -16,6 +16,7 @@
 #include "io/capture_h5.h"
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
+#include "io/text_table.h"
 #include "report/map_view.h"
 #include "report/palette.h"
 #include "report/refine_report.h"
@@ -71,8 +72,8 @@ int RunFuse(FuseArgs a) {
   a.frame.levels = 1;
   SurfelMap map;
   std::vector<MapOverlay> cameras;
-  std::string summary;
-  Appendf(&summary, "%-16s %10s %10s %10s\n", "camera", "points", "merged", "added");
+  TextTable table({{16, Align::kLeft, ""}, {10}, {10}, {10}});
+  table.AddRow({"camera", "points", "merged", "added"});
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
     const CameraCapture& camera = capture.cameras[i];
     RgbdFrame frame;
@@ -87,11 +88,12 @@ int RunFuse(FuseArgs a) {
     const FusionStats stats =
         map.FuseFrame(pyramid.levels[0], T_world_camera, frame.index, a.fusion,
                       all_color ? camera.color : std::vector<std::uint8_t>{});
-    Appendf(&summary, "%-16s %10d %10d %10d\n", camera.serial.c_str(), stats.input_points,
-            stats.merged, stats.added);
+    table.AddRow({camera.serial, std::to_string(stats.input_points), std::to_string(stats.merged),
+                  std::to_string(stats.added)});
     cameras.push_back({camera.serial, CameraColor(static_cast<int>(i)), 3, {T_world_camera}, true});
   }
   WritePly(a.map_path, SurfelMapToPly(map));
+  std::string summary = table.text();
   Appendf(&summary, "%zu cameras, %lld points in -> %d map points (compression %.2f%s) -> %s\n",
           capture.cameras.size(), static_cast<long long>(map.input_points()), map.size(),
           map.CompressionRatio(), map.has_color() ? ", with colours" : "", a.map_path.c_str());

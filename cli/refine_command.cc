@@ -327,7 +327,7 @@ Command AddRefineCommand(CLI::App& app) {
       ->required();
   sub->add_option("--config", a.config_path,
                   "Options (YAML, docs/config.md); the flags below override it");
-  // Defaults in the help come from rig/options.h, the single source of truth.
+  // Defaults in the help come from options/refine_options.h, the single source of truth.
   const Json defaults = ConfigToJson(RefineOptions{})["icp"];
   a.mode_option =
       sub->add_option("--mode", a.mode,

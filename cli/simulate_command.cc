@@ -1,5 +1,6 @@
 // `rigfit simulate`: writes an example rig (capture, true and perturbed extrinsics) to try
 // rigfit without hardware and to benchmark it against ground truth.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
+#include "io/text_table.h"
 #include "rig/crlb.h"
 #include "sim/simulate_rig.h"
 
@@ -88,13 +90,17 @@ void PrintBound(const SimulateArgs& a) {
       "at the true poses, normals known, a point counted once per term; " +
           noise + ")",
       b.rms);
-  std::printf("  1-sigma against reference %s:   yaw deg  tilt deg     x mm     y mm     z mm\n",
-              b.reference.c_str());
+  // The first column as wide as its heading, which names the reference camera.
+  const std::string heading = "  1-sigma against reference " + b.reference + ":";
+  TextTable sigmas(
+      {{std::max<size_t>(32, heading.size()), Align::kLeft, ""}, {9}, {9}, {8}, {8}, {8}});
+  sigmas.AddRow({heading, "yaw deg", "tilt deg", "x mm", "y mm", "z mm"});
   for (size_t k = 0; k < b.serials.size(); ++k) {
     const PoseSigma sigma = SigmaOf(b.covariance.block<6, 6>(6 * k, 6 * k));
-    std::printf("  %-30s %9.4f %9.4f %8.2f %8.2f %8.2f\n", b.serials[k].c_str(), sigma.yaw_deg,
-                sigma.tilt_deg, sigma.x_mm, sigma.y_mm, sigma.z_mm);
+    sigmas.AddRow({"  " + b.serials[k], Fixed(sigma.yaw_deg, 4), Fixed(sigma.tilt_deg, 4),
+                   Fixed(sigma.x_mm, 2), Fixed(sigma.y_mm, 2), Fixed(sigma.z_mm, 2)});
   }
+  std::fputs(sigmas.text().c_str(), stdout);
   if (b.estimator_ok) {
     PrintSampled(
         "rigfit's joint estimator under its own noise model (depth noise plus "

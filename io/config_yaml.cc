@@ -24,7 +24,7 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // The schema: one table of every key, driving parsing, ConfigToYaml and ConfigToJson alike, so
 // the three can never disagree. Field pointers point into the RefineOptions being read/written.
-// Every member of the structs in rig/options.h must have its row here, in struct order.
+// Every member of the structs in options/refine_options.h must have its row here, in struct order.
 
 template <typename E>
 using EnumNames = std::vector<std::pair<E, std::string>>;

@@ -1,11 +1,11 @@
 // The YAML config of `rigfit refine`: sections ground:, region:, icp: whose keys are exactly
-// the member names of the structs in rig/options.h (docs/config.md lists every key).
+// the member names of the structs in options/refine_options.h (docs/config.md lists every key).
 #pragma once
 
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "rig/options.h"
+#include "options/refine_options.h"
 
 namespace rigfit {
 

@@ -1,9 +1,17 @@
 // rigfit._rigfit: the compiled half of the Python module (docs/python.md). Converts numpy
-// arrays and dicts to the library's plain structs (core/types.h, rig/options.h; python/convert.h),
+<<<<<<< HEAD
+// arrays and dicts to the library's plain structs (core/types.h, options/refine_options.h; python/convert.h),
 // runs the same library calls as `rigfit refine` (cli/refine_command.cc), `rigfit compare`
 // (report/compare.h) and `rigfit simulate` and hands back plain Python values; rigfit/__init__.py
 // wraps them in typed objects. The RGB-D part (sequences, tracking, trajectories) is
 // python/rgbd_module.cc. InputError becomes ValueError.
+=======
+// arrays and dicts to the library's plain structs (core/types.h, options/refine_options.h;
+// python/convert.h), runs the same library calls as `rigfit refine` (cli/refine_command.cc) and
+// `rigfit simulate` and hands back plain Python values; rigfit/__init__.py wraps them in typed
+// objects. The RGB-D part (sequences, tracking, trajectories) is python/rgbd_module.cc. InputError
+// becomes ValueError.
+>>>>>>> house
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -25,10 +33,10 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
+#include "options/refine_options.h"
 #include "python/convert.h"
 #include "report/compare.h"
 #include "report/refine_meta.h"
-#include "rig/options.h"
 #include "rig/refine.h"
 #include "sim/simulate_rig.h"
 

@@ -12,9 +12,9 @@
 
 #include "core/evaluate.h"
 #include "core/types.h"
+#include "options/refine_options.h"
 #include "registration/log.h"
 #include "rig/diagnostics.h"
-#include "rig/options.h"
 #include "rig/refine.h"
 
 namespace rigfit {

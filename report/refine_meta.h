@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "rig/options.h"
+#include "options/refine_options.h"
 #include "rig/refine.h"
 
 namespace rigfit {

@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "core/types.h"
-#include "rig/options.h"
+#include "options/refine_options.h"
 #include "rig/refine.h"
 
 namespace rigfit {

@@ -10,9 +10,9 @@
 #include <vector>
 
 #include "core/types.h"
+#include "options/refine_options.h"
 #include "residuals/gicp.h"
 #include "residuals/point_to_plane.h"
-#include "rig/options.h"
 #include "rig/preprocess.h"
 
 namespace rigfit {

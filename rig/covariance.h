@@ -9,8 +9,8 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "options/refine_options.h"
 #include "rig/correspondences.h"
-#include "rig/options.h"
 
 namespace rigfit {
 

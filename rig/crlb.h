@@ -10,7 +10,7 @@
 
 #include "core/evaluate.h"
 #include "core/types.h"
-#include "rig/options.h"
+#include "options/refine_options.h"
 
 namespace rigfit {
 

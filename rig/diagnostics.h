@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/types.h"
-#include "rig/options.h"
+#include "options/refine_options.h"
 #include "rig/preprocess.h"
 #include "rig/refine.h"
 #include "rig/region.h"

@@ -6,7 +6,7 @@
 #include <string>
 
 #include "core/types.h"
-#include "rig/options.h"
+#include "options/refine_options.h"
 
 namespace rigfit {
 

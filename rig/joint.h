@@ -12,9 +12,9 @@
 #include <vector>
 
 #include "core/types.h"
+#include "options/refine_options.h"
 #include "registration/log.h"
 #include "rig/degeneracy.h"
-#include "rig/options.h"
 #include "rig/pairwise.h"
 #include "rig/region.h"
 

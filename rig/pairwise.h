@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "core/types.h"
+#include "options/refine_options.h"
 #include "registration/log.h"
-#include "rig/options.h"
 #include "rig/preprocess.h"
 
 namespace rigfit {

@@ -253,6 +253,181 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
   return joint.poses;
 }
 
+/// Refine's first step, ground leveling: each camera's registration points (`points`) and
+/// leveled pose (returned, the initial one where leveling is off or fails); fills each camera's
+/// serial, reference flag, point count and ground result, result->leveled and the leveling
+/// time, and warns of each camera not leveled.
+std::vector<Pose> LevelCameras(const RigCapture& capture, const PoseMap& initial,
+                               const RefineOptions& options, int reference, int num_threads,
+                               const Log& log, std::vector<PointCloud>* points,
+                               RefineResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  const size_t n = capture.cameras.size();
+  points->assign(n, PointCloud{});
+  std::vector<Pose> leveled(n);
+  result->cameras.resize(n);
+  for (size_t i = 0; i < n; ++i) leveled[i] = initial.at(capture.cameras[i].serial);
+  // The cameras in parallel (each RANSAC has its own seeded generator), then the log in
+  // camera order.
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int i) {
+        const CameraCapture& camera = capture.cameras[i];
+        CameraReport& report = result->cameras[i];
+        (*points)[i] = RegistrationPoints(camera, options.region);
+        report.points = static_cast<int>((*points)[i].size());
+        if (options.ground.enabled) {
+          report.ground = LevelCamera((*points)[i], leveled[i], options.ground);
+          leveled[i] = report.ground.T_world_camera;
+        }
+      },
+      /*min_per_thread=*/1);
+  for (size_t i = 0; i < n; ++i) {
+    const CameraCapture& camera = capture.cameras[i];
+    CameraReport& report = result->cameras[i];
+    report.serial = camera.serial;
+    report.reference = static_cast<int>(i) == reference;
+    if (options.ground.enabled) {
+      if (report.ground.accepted) {
+        log.Info("camera " + camera.serial + ": floor leveled (" +
+                 Fixed(report.ground.correction_rotation_deg, 3) + " deg, " +
+                 Fixed(report.ground.correction_translation_m * 1e3, 1) + " mm, " +
+                 std::to_string(report.ground.inliers) + " inliers)");
+      } else {
+        Warn(result, log,
+             "camera " + camera.serial + ": ground leveling not applied: " + report.ground.message);
+      }
+    }
+    result->leveled[camera.serial] = leveled[i];
+  }
+  result->times.leveling_s = SecondsSince(start);
+  return leveled;
+}
+
+/// Refine's second step: the near-floor band, the voxel pyramids and the candidate pairs
+/// (PrepareRegistration), logged; fills each camera's band point count and the time.
+PreparedRig Preprocess(const RigCapture& capture, const std::vector<PointCloud>& points,
+                       const std::vector<Pose>& leveled, const std::vector<bool>& floor_leveled,
+                       const std::vector<double>& depth_noise, const RefineOptions& options,
+                       int num_threads, const Log& log, RefineResult* result) {
+  const auto start = std::chrono::steady_clock::now();
+  PreparedRig prepared =
+      PrepareRegistration(points, leveled, floor_leveled, depth_noise, options, num_threads);
+  for (size_t i = 0; i < capture.cameras.size(); ++i) {
+    result->cameras[i].band_points = prepared.band_points[i];
+    log.Info("camera " + capture.cameras[i].serial + ": " +
+             std::to_string(prepared.band_points[i]) + " band points, " +
+             std::to_string(prepared.pyramids[i].levels.back().points.size()) +
+             " at the finest voxel");
+  }
+  result->times.preprocessing_s = SecondsSince(start);
+  log.Info(std::to_string(prepared.candidates.size()) + " candidate pairs");
+  return prepared;
+}
+
+/// The surface bundle's cameras: every valid pixel of the band once (pixel stride 1), at
+/// the leveled poses.
+std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture,
+                                          const std::vector<Pose>& leveled,
+                                          const std::vector<bool>& floor_leveled,
+                                          const std::vector<double>& depth_noise,
+                                          const RegionOptions& region, int num_threads) {
+  const size_t n = capture.cameras.size();
+  std::vector<SurfaceCamera> surfaces(n);
+  RegionOptions every_pixel = region;
+  every_pixel.pixel_stride = 1;
+  // Up to kSurfaceBandExtensionM over the band: the surface bundle keeps the pixels that
+  // its planes put inside the band, whatever their noise (SurfaceCamera::points_top).
+  RegionOptions band = region;
+  if (band.band_height > 0.0) band.band_height += kSurfaceBandExtensionM;
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int i) {
+        const CameraCapture& camera = capture.cameras[i];
+        surfaces[i].points =
+            NearFloorBand(RegistrationPoints(camera, every_pixel), leveled[i], band);
+        surfaces[i].T_world_leveled = leveled[i];
+        surfaces[i].depth_noise = depth_noise[i];
+        surfaces[i].ray_model = camera.HasDepth();
+        if (camera.HasDepth()) surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
+        surfaces[i].floor_leveled = floor_leveled[i];
+        if (band.band_height > 0.0) {
+          surfaces[i].band_bottom = -band.band_below;
+          surfaces[i].band_top = region.band_height;
+          surfaces[i].points_top = band.band_height;
+        }
+      },
+      /*min_per_thread=*/1);
+  return surfaces;
+}
+
+/// The cameras the registration moves, from their leveled poses; each one's depth noise
+/// logged with where it comes from.
+std::vector<RegistrationCamera> RegistrationCameras(const RigCapture& capture,
+                                                    const std::vector<CloudPyramid>& pyramids,
+                                                    const std::vector<Pose>& leveled,
+                                                    const std::vector<double>& depth_noise,
+                                                    const IcpOptions& options, const Log& log,
+                                                    const RefineResult& result) {
+  std::vector<RegistrationCamera> cameras(capture.cameras.size());
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    const GroundResult& ground = result.cameras[i].ground;
+    cameras[i] = {&pyramids[i], leveled[i], depth_noise[i]};
+    log.Info("camera " + capture.cameras[i].serial +
+             ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
+             (!capture.cameras[i].HasDepth() ? " (points camera: noise floor only)"
+              : options.depth_noise > 0.0    ? " (configured)"
+              : ground.found                 ? " (measured on the floor)"
+                                             : " (no floor: noise floor only)"));
+  }
+  return cameras;
+}
+
+/// Refine's last step, the safety bounds, measured after removing the motion common to the
+/// whole rig: a wrong reference pose moves every other camera by its lever arm, which is no
+/// reason to distrust them; one camera moving against the others is. Fills each camera's
+/// change, acceptance and message, takes the accepted poses into result->refined and warns of
+/// each camera kept at its leveled pose; returns how many non-reference cameras moved.
+int ApplySafetyBounds(const std::vector<Pose>& leveled, const std::vector<Pose>& refined,
+                      const IcpOptions& options, const Log& log, RefineResult* result) {
+  const size_t n = leveled.size();
+  std::vector<bool> connected(n);
+  for (size_t i = 0; i < n; ++i) connected[i] = result->cameras[i].connected;
+  const Pose common = CommonMotion(leveled, refined, connected);
+  int moved = 0;
+  for (size_t i = 0; i < n; ++i) {
+    CameraReport& report = result->cameras[i];
+    const Vec6 delta = PoseDifference(leveled[i], refined[i]);
+    report.delta_rotation_deg = delta.head<3>().norm() * kRadToDeg;
+    report.delta_translation_m = delta.tail<3>().norm();
+    const Vec6 own = PoseDifference(common * leveled[i], refined[i]);
+    report.own_rotation_deg = own.head<3>().norm() * kRadToDeg;
+    report.own_translation_m = own.tail<3>().norm();
+    if (report.reference) {
+      report.accepted = true;
+      continue;
+    }
+    if (!report.connected) {
+      report.message = "not connected to the reference camera by an accepted pair";
+    } else if (!refined[i].matrix().allFinite()) {
+      report.message = "registration produced a non-finite pose";
+    } else if (report.own_rotation_deg > options.max_rotation_deg) {
+      report.message = "rotation change against the rig " + Fixed(report.own_rotation_deg, 3) +
+                       " deg exceeds max_rotation_deg " + Fixed(options.max_rotation_deg, 3);
+    } else if (report.own_translation_m > options.max_translation_m) {
+      report.message = "translation change against the rig " + Fixed(report.own_translation_m, 4) +
+                       " m exceeds max_translation_m " + Fixed(options.max_translation_m, 4);
+    } else {
+      report.accepted = true;
+      ++moved;
+      result->refined[report.serial] = refined[i];
+      continue;
+    }
+    Warn(result, log, "camera " + report.serial + " keeps its leveled pose: " + report.message);
+  }
+  return moved;
+}
+
 }  // namespace
 
 double CameraDepthNoise(const IcpOptions& options, const CameraCapture& camera,
@@ -349,46 +524,9 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
                                                             : options.icp.reference;
   const int reference = ReferenceIndex(capture, result.reference);
 
-  // Ground leveling.
-  auto start = std::chrono::steady_clock::now();
-  std::vector<PointCloud> points(n);
-  std::vector<Pose> leveled(n);
-  result.cameras.resize(n);
-  for (size_t i = 0; i < n; ++i) leveled[i] = initial.at(capture.cameras[i].serial);
-  // The cameras in parallel (each RANSAC has its own seeded generator), then the log in
-  // camera order.
-  ParallelFor(
-      static_cast<int>(n), num_threads,
-      [&](int i) {
-        const CameraCapture& camera = capture.cameras[i];
-        CameraReport& report = result.cameras[i];
-        points[i] = RegistrationPoints(camera, options.region);
-        report.points = static_cast<int>(points[i].size());
-        if (options.ground.enabled) {
-          report.ground = LevelCamera(points[i], leveled[i], options.ground);
-          leveled[i] = report.ground.T_world_camera;
-        }
-      },
-      /*min_per_thread=*/1);
-  for (size_t i = 0; i < n; ++i) {
-    const CameraCapture& camera = capture.cameras[i];
-    CameraReport& report = result.cameras[i];
-    report.serial = camera.serial;
-    report.reference = static_cast<int>(i) == reference;
-    if (options.ground.enabled) {
-      if (report.ground.accepted) {
-        log.Info("camera " + camera.serial + ": floor leveled (" +
-                 Fixed(report.ground.correction_rotation_deg, 3) + " deg, " +
-                 Fixed(report.ground.correction_translation_m * 1e3, 1) + " mm, " +
-                 std::to_string(report.ground.inliers) + " inliers)");
-      } else {
-        Warn(&result, log,
-             "camera " + camera.serial + ": ground leveling not applied: " + report.ground.message);
-      }
-    }
-    result.leveled[camera.serial] = leveled[i];
-  }
-  result.times.leveling_s = SecondsSince(start);
+  std::vector<PointCloud> points;
+  const std::vector<Pose> leveled =
+      LevelCameras(capture, initial, options, reference, num_threads, log, &points, &result);
   result.refined = result.leveled;
   if (!run_icp) {
     result.success = true;
@@ -404,76 +542,28 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   result.icp_ran = true;
   result.mode = options.icp.mode;
   result.method = options.icp.method;
-
-  // Near-floor band, preprocessing and candidate pairs.
-  start = std::chrono::steady_clock::now();
   std::vector<bool> floor_leveled(n);
   std::vector<double> depth_noise(n);
   for (size_t i = 0; i < n; ++i) {
     floor_leveled[i] = result.cameras[i].ground.accepted;
     depth_noise[i] = CameraDepthNoise(options.icp, capture.cameras[i], result.cameras[i].ground);
   }
-  const PreparedRig prepared =
-      PrepareRegistration(points, leveled, floor_leveled, depth_noise, options, num_threads);
-  const std::vector<CloudPyramid>& pyramids = prepared.pyramids;
-  const std::vector<CandidatePair>& candidates = prepared.candidates;
-  for (size_t i = 0; i < n; ++i) {
-    result.cameras[i].band_points = prepared.band_points[i];
-    log.Info("camera " + capture.cameras[i].serial + ": " +
-             std::to_string(prepared.band_points[i]) + " band points, " +
-             std::to_string(pyramids[i].levels.back().points.size()) + " at the finest voxel");
-  }
-  result.times.preprocessing_s = SecondsSince(start);
-  log.Info(std::to_string(candidates.size()) + " candidate pairs");
-
-  // The surface bundle's pixels: every valid pixel of the band once (pixel stride 1).
-  std::vector<SurfaceCamera> surfaces;
-  if (options.icp.mode == RefineMode::kJoint &&
-      options.icp.method == RegistrationMethod::kSurfaceBundle) {
-    surfaces.resize(n);
-    RegionOptions every_pixel = options.region;
-    every_pixel.pixel_stride = 1;
-    // Up to kSurfaceBandExtensionM over the band: the surface bundle keeps the pixels that
-    // its planes put inside the band, whatever their noise (SurfaceCamera::points_top).
-    RegionOptions band = options.region;
-    if (band.band_height > 0.0) band.band_height += kSurfaceBandExtensionM;
-    ParallelFor(
-        static_cast<int>(n), num_threads,
-        [&](int i) {
-          const CameraCapture& camera = capture.cameras[i];
-          surfaces[i].points =
-              NearFloorBand(RegistrationPoints(camera, every_pixel), leveled[i], band);
-          surfaces[i].T_world_leveled = leveled[i];
-          surfaces[i].depth_noise = depth_noise[i];
-          surfaces[i].ray_model = camera.HasDepth();
-          if (camera.HasDepth()) surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
-          surfaces[i].floor_leveled = floor_leveled[i];
-          if (band.band_height > 0.0) {
-            surfaces[i].band_bottom = -band.band_below;
-            surfaces[i].band_top = options.region.band_height;
-            surfaces[i].points_top = band.band_height;
-          }
-        },
-        /*min_per_thread=*/1);
-  }
-
-  std::vector<RegistrationCamera> cameras(n);
-  for (size_t i = 0; i < n; ++i) {
-    const GroundResult& ground = result.cameras[i].ground;
-    cameras[i] = {&pyramids[i], leveled[i], depth_noise[i]};
-    log.Info("camera " + capture.cameras[i].serial +
-             ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
-             (!capture.cameras[i].HasDepth()  ? " (points camera: noise floor only)"
-              : options.icp.depth_noise > 0.0 ? " (configured)"
-              : ground.found                  ? " (measured on the floor)"
-                                              : " (no floor: noise floor only)"));
-  }
+  const PreparedRig prepared = Preprocess(capture, points, leveled, floor_leveled, depth_noise,
+                                          options, num_threads, log, &result);
+  const std::vector<SurfaceCamera> surfaces =
+      options.icp.mode == RefineMode::kJoint &&
+              options.icp.method == RegistrationMethod::kSurfaceBundle
+          ? SurfaceCameras(capture, leveled, floor_leveled, depth_noise, options.region,
+                           num_threads)
+          : std::vector<SurfaceCamera>{};
+  const std::vector<RegistrationCamera> cameras = RegistrationCameras(
+      capture, prepared.pyramids, leveled, depth_noise, options.icp, log, result);
   const std::optional<std::vector<Pose>> registered =
       options.icp.mode == RefineMode::kJoint
-          ? RegisterAllJointly(cameras, candidates, reference, options.icp,
+          ? RegisterAllJointly(cameras, prepared.candidates, reference, options.icp,
                                surfaces.empty() ? nullptr : &surfaces, num_threads, log, &result)
-          : RegisterPairwise(cameras, leveled, candidates, reference, options.icp, num_threads, log,
-                             &result);
+          : RegisterPairwise(cameras, leveled, prepared.candidates, reference, options.icp,
+                             num_threads, log, &result);
   if (!registered) {
     for (CameraReport& report : result.cameras) {
       if (!report.reference) report.message = "registration failed: " + result.message;
@@ -482,45 +572,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
          "registration failed, every camera keeps its leveled pose: " + result.message);
     return result;
   }
-  const std::vector<Pose>& refined = *registered;
-
-  // Safety bounds, measured after removing the motion common to the whole rig: a wrong
-  // reference pose moves every other camera by its lever arm, which is no reason to
-  // distrust them; one camera moving against the others is.
-  std::vector<bool> connected(n);
-  for (size_t i = 0; i < n; ++i) connected[i] = result.cameras[i].connected;
-  const Pose common = CommonMotion(leveled, refined, connected);
-  int moved = 0;
-  for (size_t i = 0; i < n; ++i) {
-    CameraReport& report = result.cameras[i];
-    const Vec6 delta = PoseDifference(leveled[i], refined[i]);
-    report.delta_rotation_deg = delta.head<3>().norm() * kRadToDeg;
-    report.delta_translation_m = delta.tail<3>().norm();
-    const Vec6 own = PoseDifference(common * leveled[i], refined[i]);
-    report.own_rotation_deg = own.head<3>().norm() * kRadToDeg;
-    report.own_translation_m = own.tail<3>().norm();
-    if (report.reference) {
-      report.accepted = true;
-      continue;
-    }
-    if (!report.connected) {
-      report.message = "not connected to the reference camera by an accepted pair";
-    } else if (!refined[i].matrix().allFinite()) {
-      report.message = "registration produced a non-finite pose";
-    } else if (report.own_rotation_deg > options.icp.max_rotation_deg) {
-      report.message = "rotation change against the rig " + Fixed(report.own_rotation_deg, 3) +
-                       " deg exceeds max_rotation_deg " + Fixed(options.icp.max_rotation_deg, 3);
-    } else if (report.own_translation_m > options.icp.max_translation_m) {
-      report.message = "translation change against the rig " + Fixed(report.own_translation_m, 4) +
-                       " m exceeds max_translation_m " + Fixed(options.icp.max_translation_m, 4);
-    } else {
-      report.accepted = true;
-      ++moved;
-      result.refined[report.serial] = refined[i];
-      continue;
-    }
-    Warn(&result, log, "camera " + report.serial + " keeps its leveled pose: " + report.message);
-  }
+  const int moved = ApplySafetyBounds(leveled, *registered, options.icp, log, &result);
   result.success = moved > 0;
   if (result.message.empty()) {
     result.message = result.success ? "refined " + std::to_string(moved) + " of " +

@@ -7,10 +7,10 @@
 #include <vector>
 
 #include "core/types.h"
+#include "options/refine_options.h"
 #include "registration/log.h"
 #include "rig/degeneracy.h"
 #include "rig/ground.h"
-#include "rig/options.h"
 #include "rig/preprocess.h"
 #include "rig/region.h"
 

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "core/types.h"
-#include "rig/options.h"
+#include "options/refine_options.h"
 #include "rig/preprocess.h"
 
 namespace rigfit {

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "core/types.h"
+#include "options/refine_options.h"
 #include "registration/log.h"
-#include "rig/options.h"
 
 namespace rigfit {
 

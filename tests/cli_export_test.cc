@@ -13,8 +13,8 @@
 #include "io/capture_h5.h"
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
+#include "options/refine_options.h"
 #include "report/palette.h"
-#include "rig/options.h"
 
 namespace rigfit {
 namespace {

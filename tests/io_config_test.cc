@@ -91,7 +91,7 @@ std::vector<std::string> StructMembers(const std::string& header, const std::str
 }
 
 TEST(Config, EveryMemberOfTheOptionStructsIsAConfigKey) {
-  const std::string header = io_test::ReadText(RIGFIT_SOURCE_DIR "/rig/options.h");
+  const std::string header = io_test::ReadText(RIGFIT_SOURCE_DIR "/options/refine_options.h");
   const nlohmann::json config = ConfigToJson(RefineOptions{});
   for (const auto& [section, type] :
        {std::pair<std::string, std::string>{"ground", "GroundOptions"},

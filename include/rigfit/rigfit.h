@@ -3,7 +3,7 @@
 //
 // Rig pipeline: a RigCapture (core/types.h: one depth image or point cloud per camera, by
 // serial) and initial extrinsics, a PoseMap of T_world_camera (core/pose.h), go into Refine
-// with RefineOptions (rig/refine.h, rig/options.h; LoadConfig reads them from YAML); the
+// with RefineOptions (rig/refine.h, options/refine_options.h; LoadConfig reads them from YAML); the
 // RefineResult holds the refined poses and what was and was not applied. ReadCapture and
 // WriteCapture (io/capture_h5.h) and ReadExtrinsics and WriteExtrinsics (io/extrinsics_json.h)
 // read and write the files of the CLI; SimulateRig (sim/simulate_rig.h) makes a rig with its
@@ -38,11 +38,11 @@
 #include "io/extrinsics_json.h"
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
+#include "options/refine_options.h"
 #include "registration/log.h"
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
 #include "rgbd/tracking_options.h"
-#include "rig/options.h"
 #include "rig/refine.h"
 #include "sim/simulate_rig.h"
 #include "sim/simulate_sequence.h"

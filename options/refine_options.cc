@@ -1,4 +1,4 @@
-#include "rig/options.h"
+#include "options/refine_options.h"
 
 #include <cmath>
 #include <sstream>
