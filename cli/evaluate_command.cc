@@ -31,41 +31,13 @@ struct EvaluateArgs {
   std::string json_path;  ///< empty: no JSON output
 };
 
-/// The serials of `gt` that `est` lacks, and those of `est` that `gt` lacks.
-struct CameraSets {
-  std::vector<std::string> missing;
-  std::vector<std::string> ignored;
-};
-
-CameraSets CompareCameras(const PoseMap& est, const PoseMap& gt) {
-  CameraSets sets;
-  for (const auto& [serial, pose] : gt) {
-    if (est.count(serial) == 0) sets.missing.push_back(serial);
-  }
-  for (const auto& [serial, pose] : est) {
-    if (gt.count(serial) == 0) sets.ignored.push_back(serial);
-  }
-  return sets;
-}
-
-Json ErrorsJson(const RigErrors& e, const EvaluateArgs& a, const CameraSets& sets) {
-  Json pairs = Json::array();
-  for (const PairError& p : e.pairs) {
-    pairs.push_back({{"serial_i", p.serial_i},
-                     {"serial_j", p.serial_j},
-                     {"rotation_deg", p.error.rotation_rad * kRadToDeg},
-                     {"translation_mm", p.error.translation_m * kMToMm}});
-  }
-  Json cameras = Json::array();
-  for (const auto& [serial, tilt] : e.tilt_rad) {
-    cameras.push_back({{"serial", serial}, {"tilt_deg", tilt * kRadToDeg}});
-  }
-  return {{"estimate", a.estimate_path},
-          {"ground_truth", a.ground_truth_path},
-          {"ignored_cameras", sets.ignored},
-          {"cameras", cameras},
-          {"pairs", pairs},
-          {"summary", RigErrorsSummaryJson(e)}};
+Json ErrorsJson(const RigErrors& e, const EvaluateArgs& a,
+                const std::vector<std::string>& ignored) {
+  Json document = RigErrorsJson(e);
+  document["estimate"] = a.estimate_path;
+  document["ground_truth"] = a.ground_truth_path;
+  document["ignored_cameras"] = ignored;
+  return document;
 }
 
 void PrintTable(const RigErrors& e, const EvaluateArgs& a) {
@@ -105,20 +77,14 @@ int RunEvaluate(const EvaluateArgs& a) {
       std::fprintf(stderr, "evaluate: warning: %s\n", warning.c_str());
     }
   }
-  if (gt.poses.empty()) {
-    throw InputError("evaluate: " + a.ground_truth_path + " holds no camera");
-  }
-  const CameraSets sets = CompareCameras(est.poses, gt.poses);
-  if (!sets.missing.empty()) {
-    throw InputError("evaluate: " + a.estimate_path + " has no pose for camera(s) " +
-                     Join(sets.missing) + " of " + a.ground_truth_path);
-  }
-  if (!sets.ignored.empty()) {
+  const std::vector<std::string> ignored =
+      CheckEvaluationCameras(est.poses, gt.poses, "evaluate", a.estimate_path, a.ground_truth_path);
+  if (!ignored.empty()) {
     std::fprintf(stderr, "evaluate: note: camera(s) %s of %s are not in %s: ignored\n",
-                 Join(sets.ignored).c_str(), a.estimate_path.c_str(), a.ground_truth_path.c_str());
+                 Join(ignored).c_str(), a.estimate_path.c_str(), a.ground_truth_path.c_str());
   }
   const RigErrors errors = EvaluateRig(est.poses, gt.poses);
-  if (!a.json_path.empty()) WriteJsonFile(a.json_path, ErrorsJson(errors, a, sets));
+  if (!a.json_path.empty()) WriteJsonFile(a.json_path, ErrorsJson(errors, a, ignored));
   PrintTable(errors, a);
   return kExitOk;
 }

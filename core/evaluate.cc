@@ -4,7 +4,29 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/errors.h"
+#include "core/format.h"
+
 namespace rigfit {
+
+std::vector<std::string> CheckEvaluationCameras(const PoseMap& est, const PoseMap& gt,
+                                                const std::string& what,
+                                                const std::string& est_name,
+                                                const std::string& gt_name) {
+  if (gt.empty()) throw InputError(what + ": " + gt_name + " holds no camera");
+  std::vector<std::string> missing, ignored;
+  for (const auto& [serial, pose] : gt) {
+    if (est.count(serial) == 0) missing.push_back(serial);
+  }
+  if (!missing.empty()) {
+    throw InputError(what + ": " + est_name + " has no pose for camera(s) " + Join(missing) +
+                     " of " + gt_name);
+  }
+  for (const auto& [serial, pose] : est) {
+    if (gt.count(serial) == 0) ignored.push_back(serial);
+  }
+  return ignored;
+}
 
 RigErrors EvaluateRig(const PoseMap& est, const PoseMap& gt) {
   for (const auto& [serial, pose] : gt) {

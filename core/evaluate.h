@@ -32,6 +32,15 @@ struct RigErrors {
 /// std::invalid_argument naming the first that is not).
 RigErrors EvaluateRig(const PoseMap& est, const PoseMap& gt);
 
+/// The serials of `est` that `gt` lacks (EvaluateRig ignores them). Throws InputError
+/// "<what>: <gt_name> holds no camera" when `gt` is empty and "<what>: <est_name> has no pose
+/// for camera(s) A, B of <gt_name>" when `est` lacks cameras of `gt` (`rigfit evaluate`,
+/// `rigfit.evaluate`).
+std::vector<std::string> CheckEvaluationCameras(const PoseMap& est, const PoseMap& gt,
+                                                const std::string& what,
+                                                const std::string& est_name,
+                                                const std::string& gt_name);
+
 /// 1-sigma uncertainties of a pose, in the human-facing units of the reports.
 struct PoseSigma {
   double yaw_deg = 0.0;   ///< rotation about world +Y

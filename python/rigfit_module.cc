@@ -358,60 +358,16 @@ void SaveExtrinsics(const std::string& path, const py::dict& extrinsics,
   WriteExtrinsics(path, poses, Json::object(), meta);
 }
 
-/// {"pairs", "cameras", "summary", "ignored_cameras"} as `rigfit evaluate --json` writes them.
-py::dict Evaluate(const py::dict& estimated, const py::dict& ground_truth) {
+/// {"pairs", "cameras", "summary", "ignored_cameras"} as `rigfit evaluate --json` writes them,
+/// as JSON text (rigfit/__init__.py loads it).
+std::string Evaluate(const py::dict& estimated, const py::dict& ground_truth) {
   const PoseMap est = PosesOf(estimated, "estimated");
   const PoseMap gt = PosesOf(ground_truth, "ground_truth");
-  std::vector<std::string> missing, ignored;
-  for (const auto& entry : gt) {
-    if (est.count(entry.first) == 0) missing.push_back(entry.first);
-  }
-  for (const auto& entry : est) {
-    if (gt.count(entry.first) == 0) ignored.push_back(entry.first);
-  }
-  if (!missing.empty()) {
-    std::string list;
-    for (const std::string& m : missing) list += (list.empty() ? "" : ", ") + m;
-    throw InputError("evaluate: estimated has no pose for camera(s) " + list + " of ground_truth");
-  }
-  if (gt.empty()) throw InputError("evaluate: ground_truth holds no cameras");
-  const RigErrors e = EvaluateRig(est, gt);
-  constexpr double kMToMm = 1e3;
-  py::list pairs;
-  for (const PairError& p : e.pairs) {
-    py::dict d;
-    d["serial_i"] = p.serial_i;
-    d["serial_j"] = p.serial_j;
-    d["rotation_deg"] = p.error.rotation_rad * kRadToDeg;
-    d["translation_mm"] = p.error.translation_m * kMToMm;
-    pairs.append(d);
-  }
-  py::list cameras;
-  for (const auto& [serial, tilt] : e.tilt_rad) {
-    py::dict d;
-    d["serial"] = serial;
-    d["tilt_deg"] = tilt * kRadToDeg;
-    cameras.append(d);
-  }
-  const auto rms_max = [](bool defined, double rms, double max) {
-    py::dict d;
-    d["rms"] = defined ? py::object(py::float_(rms)) : py::object(py::none());
-    d["max"] = defined ? py::object(py::float_(max)) : py::object(py::none());
-    return d;
-  };
-  const bool has_pairs = !e.pairs.empty();
-  py::dict summary;
-  summary["rotation_deg"] =
-      rms_max(has_pairs, e.rms_rotation_rad * kRadToDeg, e.max_rotation_rad * kRadToDeg);
-  summary["translation_mm"] =
-      rms_max(has_pairs, e.rms_translation_m * kMToMm, e.max_translation_m * kMToMm);
-  summary["tilt_deg"] = rms_max(true, e.rms_tilt_rad * kRadToDeg, e.max_tilt_rad * kRadToDeg);
-  py::dict out;
-  out["ignored_cameras"] = ignored;
-  out["cameras"] = cameras;
-  out["pairs"] = pairs;
-  out["summary"] = summary;
-  return out;
+  const std::vector<std::string> ignored =
+      CheckEvaluationCameras(est, gt, "evaluate", "estimated", "ground_truth");
+  Json document = RigErrorsJson(EvaluateRig(est, gt));
+  document["ignored_cameras"] = ignored;
+  return document.dump();
 }
 
 void SaveCapture(const std::string& path, const py::dict& cameras, bool depth_as_uint16,

@@ -641,4 +641,19 @@ Json RigErrorsSummaryJson(const RigErrors& e) {
           {"tilt_deg", RmsMax(true, e.rms_tilt_rad * kRadToDeg, e.max_tilt_rad * kRadToDeg)}};
 }
 
+Json RigErrorsJson(const RigErrors& e) {
+  Json pairs = Json::array();
+  for (const PairError& p : e.pairs) {
+    pairs.push_back({{"serial_i", p.serial_i},
+                     {"serial_j", p.serial_j},
+                     {"rotation_deg", p.error.rotation_rad * kRadToDeg},
+                     {"translation_mm", p.error.translation_m * kMToMm}});
+  }
+  Json cameras = Json::array();
+  for (const auto& [serial, tilt] : e.tilt_rad) {
+    cameras.push_back({{"serial", serial}, {"tilt_deg", tilt * kRadToDeg}});
+  }
+  return {{"pairs", pairs}, {"cameras", cameras}, {"summary", RigErrorsSummaryJson(e)}};
+}
+
 }  // namespace rigfit

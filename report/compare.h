@@ -104,4 +104,9 @@ std::string CompareText(const CompareResult& result, const CompareSources& sourc
 /// (`rigfit evaluate --json`'s "summary").
 nlohmann::json RigErrorsSummaryJson(const RigErrors& errors);
 
+/// The gauge-free errors as `rigfit evaluate --json` and `rigfit.evaluate` give them:
+/// {"pairs": [{"serial_i", "serial_j", "rotation_deg", "translation_mm"}], "cameras":
+/// [{"serial", "tilt_deg"}], "summary": RigErrorsSummaryJson}.
+nlohmann::json RigErrorsJson(const RigErrors& errors);
+
 }  // namespace rigfit

@@ -250,7 +250,7 @@ def evaluate(estimated: Extrinsics, ground_truth: Extrinsics) -> Dict[str, Any]:
     "translation_mm": ..., "tilt_deg": ...}, "ignored_cameras": [...]}`` over the cameras of
     ``ground_truth``, every one of which must be in ``estimated`` (else ValueError).
     """
-    return _rigfit.evaluate(dict(estimated), dict(ground_truth))
+    return json.loads(_rigfit.evaluate(dict(estimated), dict(ground_truth)))
 
 
 def load_extrinsics(path: Union[str, os.PathLike]) -> Dict[str, "np.ndarray"]:
