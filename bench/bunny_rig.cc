@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -20,6 +21,7 @@
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
 #include "registration/knn.h"
+#include "rig/preprocess.h"
 #include "rig/refine.h"
 
 namespace {
@@ -88,6 +90,71 @@ void CheckPoses(const RigCapture& capture, const PoseMap& poses, const std::stri
   }
 }
 
+/// Every pair's error, joint and pairwise, beside pairwise ICP's report of it (to stderr, so
+/// that the table on stdout stays one table).
+void PrintPairs(const RigErrors& joint, const RigErrors& pairwise,
+                const std::vector<PairReport>& reports) {
+  std::fprintf(stderr,
+               "| pair | joint deg | joint mm | pairwise deg | pairwise mm | fitness | "
+               "RMSE mm | correspondences | accepted |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (size_t k = 0; k < joint.pairs.size(); ++k) {
+    const PairError& j = joint.pairs[k];
+    const PairError& p = pairwise.pairs[k];
+    const PairReport* report = nullptr;
+    for (const PairReport& r : reports) {
+      if ((r.serial_a == j.serial_i && r.serial_b == j.serial_j) ||
+          (r.serial_a == j.serial_j && r.serial_b == j.serial_i)) {
+        report = &r;
+      }
+    }
+    std::fprintf(stderr, "| %s-%s | %.3f | %.3f | %.3f | %.3f |", j.serial_i.c_str(),
+                 j.serial_j.c_str(), j.error.rotation_rad * kRadToDeg, j.error.translation_m * 1e3,
+                 p.error.rotation_rad * kRadToDeg, p.error.translation_m * 1e3);
+    if (report != nullptr) {
+      std::fprintf(stderr, " %.3f | %.3f | %d | %s |\n", report->fitness,
+                   report->rmse_after_m * 1e3, report->correspondences,
+                   report->accepted ? "yes" : report->message.c_str());
+    } else {
+      std::fprintf(stderr, " | | | not a candidate |\n");
+    }
+  }
+}
+
+/// The scans' fit at `poses`, free of the truth: over every ordered pair of scans, each point
+/// of one matched to its nearest neighbour in the other within `overlap_m`, the RMS of the
+/// point-to-plane distance to that neighbour's plane (normals from 10 neighbours in its own
+/// scan at full resolution), in mm, and the number of matches.
+void PlaneFit(const RigCapture& capture, const PoseMap& poses, const std::string& name,
+              double overlap_m) {
+  const size_t n = capture.cameras.size();
+  std::vector<std::unique_ptr<KdTree>> trees(n);
+  std::vector<LocalGeometry> geometry(n);
+  for (size_t i = 0; i < n; ++i) {
+    trees[i] = std::make_unique<KdTree>(capture.cameras[i].points);
+    geometry[i] = EstimateLocalGeometry(capture.cameras[i].points, *trees[i], 10, Vec3::Zero(), 2);
+  }
+  double sum2 = 0.0;
+  size_t count = 0;
+  for (size_t s = 0; s < n; ++s) {
+    for (size_t t = 0; t < n; ++t) {
+      if (s == t) continue;
+      const Pose T =
+          poses.at(capture.cameras[t].serial).inverse() * poses.at(capture.cameras[s].serial);
+      for (const Vec3& p : capture.cameras[s].points) {
+        int j = 0;
+        double d2 = 0.0;
+        const Vec3 q = T * p;
+        if (!trees[t]->Nearest(q, overlap_m, &j, &d2) || !geometry[t].IsValid(j)) continue;
+        const double r = geometry[t].normals[j].dot(q - capture.cameras[t].points[j]);
+        sum2 += r * r;
+        ++count;
+      }
+    }
+  }
+  std::fprintf(stderr, "%s: point-to-plane RMS %.4f mm over %zu matches within %.1f mm\n",
+               name.c_str(), std::sqrt(sum2 / count) * 1e3, count, overlap_m * 1e3);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -99,6 +166,7 @@ int main(int argc, char** argv) {
   double rotation_deg = 2.0, translation_m = 0.005, overlap_m = 0.002;
   int seeds = 5, threads = 2;
   bool check_gt = false;
+  bool pairs = false;
   app.add_option("--capture", capture_path, "the scans imported by rigfit import-ply")->required();
   app.add_option("--conf", conf, "bun.conf");
   app.add_option("--config", config, "refine options (YAML)");
@@ -109,7 +177,11 @@ int main(int argc, char** argv) {
   app.add_option("--seeds", seeds, "perturbations tried (seeds 0..seeds-1)");
   app.add_option("--threads", threads);
   app.add_flag("--check-gt", check_gt, "only measure the overlap of the scans at bun.conf");
-  app.add_option("--overlap-m", overlap_m, "--check-gt: overlap distance, metres");
+  app.add_option("--overlap-m", overlap_m, "--check-gt, --pairs: overlap distance, metres");
+  app.add_flag("--pairs", pairs,
+               "also print (stderr) every scan pair's error, joint and pairwise, pairwise ICP's "
+               "report, and the truth-free fit of joint, pairwise and bun.conf (point-to-plane "
+               "RMS over every ordered pair of scans, matches within --overlap-m)");
   CLI11_PARSE(app, argc, argv);
 
   const RigCapture capture = ReadCapture(capture_path);
@@ -135,11 +207,19 @@ int main(int argc, char** argv) {
     const PoseMap init = bench::PerturbRig(gt, rotation_deg, translation_m, seed);
     RigErrors errors[3] = {EvaluateRig(init, gt)};
     double seconds[2] = {};
+    std::vector<PairReport> reports;
     for (int m = 0; m < 2; ++m) {
       options.icp.mode = m == 0 ? RefineMode::kJoint : RefineMode::kPairwise;
       const auto start = std::chrono::steady_clock::now();
-      errors[m + 1] = EvaluateRig(Refine(capture, init, options, true, threads, {}).refined, gt);
+      const RefineResult result = Refine(capture, init, options, true, threads, {});
+      errors[m + 1] = EvaluateRig(result.refined, gt);
       seconds[m] = SecondsSince(start);
+      if (m == 1) reports = result.pairs;
+      if (pairs) PlaneFit(capture, result.refined, m == 0 ? "joint" : "pairwise", overlap_m);
+    }
+    if (pairs) {
+      PlaneFit(capture, gt, "bun.conf", overlap_m);
+      PrintPairs(errors[1], errors[2], reports);
     }
     for (int k = 0; k < 3; ++k) summary[k].Add(errors[k]);
     std::printf("| %d | %s | %s | %.1f | %s | %.1f |\n", seed, bench::ErrorCells(errors[0]).c_str(),

@@ -1,5 +1,6 @@
 #include "rig/joint.h"
 
+#include <ceres/loss_function.h>
 #include <ceres/solver.h>
 
 #include <Eigen/Eigenvalues>
@@ -211,6 +212,7 @@ class JointProblem {
                    cameras_[i].depth_noise};
     }
     auto start = std::chrono::steady_clock::now();
+    if (it == 0) MeasureFitness(current);
     FindMatches(options_.max_correspondence_distance_factor * voxel_size);
     result_.correspondences_s += SecondsSince(start);
     start = std::chrono::steady_clock::now();
@@ -253,9 +255,34 @@ class JointProblem {
         },
         /*min_per_thread=*/1);
     for (size_t k = 0; k < pairs_.size(); ++k) {
+      // A pair below min_fitness does not link its cameras (as in pairwise ICP).
       result_.pair_correspondences[k] =
-          static_cast<int>(matches_[2 * k].size() + matches_[2 * k + 1].size());
+          fitness_[k] < options_.min_fitness
+              ? 0
+              : static_cast<int>(matches_[2 * k].size() + matches_[2 * k + 1].size());
     }
+  }
+
+  /// Each pair's overlap as pairwise ICP measures it (MeasureOverlap of b into a at the finest
+  /// scale, within the coarsest scale's correspondence distance) at the poses `current`, into
+  /// fitness_.
+  void MeasureFitness(const std::vector<Pose>& current) {
+    const std::vector<ScaleLevel>& levels = cameras_[0].pyramid->levels;
+    const size_t finest = levels.size() - 1;
+    fitness_.assign(pairs_.size(), 0.0);
+    ParallelFor(
+        static_cast<int>(pairs_.size()), num_threads_,
+        [&](int k) {
+          const int a = pairs_[k].a;
+          const int b = pairs_[k].b;
+          const CameraView source{&cameras_[b].pyramid->levels[finest], current[b],
+                                  blocks_[b].data(), cameras_[b].depth_noise};
+          const CameraView target{&cameras_[a].pyramid->levels[finest], current[a],
+                                  blocks_[a].data(), cameras_[a].depth_noise};
+          fitness_[k] =
+              MeasureOverlap(source, target, levels.front().voxel_size, options_, 1).fitness;
+        },
+        /*min_per_thread=*/1);
   }
 
   /// A new problem over the pose blocks: the linked pairs' terms, the cameras they connect to
@@ -315,11 +342,48 @@ class JointProblem {
                                         *terms[b].matches, loss_.get(), TermStorage::kCompressed);
         },
         /*min_per_thread=*/1);
+    const std::vector<double> scales = ResidualScales(terms);
+    scaled_losses_.clear();
     for (size_t b = 0; b < costs.size(); ++b) {
       if (costs[b] == nullptr) continue;
-      problem_->AddResidualBlock(costs[b].release(), nullptr, terms[b].source->pose_block,
+      ceres::LossFunction* scaled = nullptr;
+      if (scales[b] != 1.0) {
+        scaled_losses_.push_back(
+            std::make_unique<ceres::ScaledLoss>(nullptr, scales[b], ceres::DO_NOT_TAKE_OWNERSHIP));
+        scaled = scaled_losses_.back().get();
+      }
+      problem_->AddResidualBlock(costs[b].release(), scaled, terms[b].source->pose_block,
                                  terms[b].target->pose_block);
     }
+  }
+
+  /// Per term of LinkedTerms() (both directions of a pair alike), the factor on its cost: 1,
+  /// except for point-to-plane pairs between two cameras without a depth noise model, whose
+  /// metric sigma (min_noise_m) is a guess: 1 / s^2 with s^2 the pair's mean squared whitened
+  /// residual at the views' poses, sum r^2 / (m - 6), as pairwise ICP scales the information
+  /// of its pose-graph edge (docs/residuals.md, "Weights").
+  std::vector<double> ResidualScales(const std::vector<MatchedViews>& terms) const {
+    std::vector<double> scales(terms.size(), 1.0);
+    if (options_.method != RegistrationMethod::kPointToPlane) return scales;
+    for (size_t b = 0; b + 1 < terms.size(); b += 2) {
+      if (terms[b].source->depth_noise > 0.0 || terms[b].target->depth_noise > 0.0) continue;
+      double sum = 0.0;
+      size_t m = 0;
+      for (size_t t : {b, b + 1}) {
+        const CameraView& source = *terms[t].source;
+        const CameraView& target = *terms[t].target;
+        for (const Correspondence& c : *terms[t].matches) {
+          const Vec3 n = target.T_world_camera.linear() * target.level->geometry.normals[c.target];
+          const double r = n.dot(source.T_world_camera * source.level->points[c.source] -
+                                 target.T_world_camera * target.level->points[c.target]);
+          sum += r * r / PointToPlaneVariance(source, target, c, options_);
+        }
+        m += terms[t].matches->size();
+      }
+      if (m <= 6 || sum <= 0.0) continue;
+      scales[b] = scales[b + 1] = (m - 6.0) / sum;
+    }
+    return scales;
   }
 
   /// The end: the connected cameras' poses, and after a solve the weak directions and the
@@ -395,12 +459,15 @@ class JointProblem {
   const size_t n_;
   const double hold_threshold_;
   std::unique_ptr<ceres::LossFunction> loss_;
+  /// ResidualScales' factors on the problem's pair terms (the problem does not own losses).
+  std::vector<std::unique_ptr<ceres::LossFunction>> scaled_losses_;
   ceres::Solver::Options solver_options_;
   std::vector<PoseBlock> blocks_;
   std::vector<PoseBlock> initial_blocks_;
   std::vector<PoseBlock> start_blocks_;  ///< the problem's constant copy of initial_blocks_
   std::vector<CameraView> views_;
   std::vector<std::vector<Correspondence>> matches_;  ///< pair k: 2k a -> b, 2k + 1 b -> a
+  std::vector<double> fitness_;  ///< pair k's overlap at the start of the scale (MeasureFitness)
   std::unique_ptr<ceres::Problem> problem_;
   JointResult result_;
 };

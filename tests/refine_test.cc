@@ -6,9 +6,12 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <random>
+#include <string>
 
 #include "core/errors.h"
 #include "core/evaluate.h"
+#include "core/geometry.h"
 #include "core/pose.h"
 #include "sim/simulate_rig.h"
 
@@ -219,6 +222,26 @@ TEST_P(BothModes, CameraWithoutOverlapIsReportedAndKeepsItsLeveledPose) {
   EXPECT_TRUE(warned);
 }
 
+TEST_P(BothModes, PairsBelowMinFitnessDoNotLink) {
+  // No pair of a rig overlaps completely: at min_fitness 1 no pair links its cameras, in the
+  // joint mode (gated at the start of each scale) as in the pairwise one (after its ICP).
+  const SimulatedRig rig = Rig(3, 0.0, 6);
+  RefineOptions options;
+  options.icp.mode = GetParam();
+  options.icp.min_fitness = 1.0;
+  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  ASSERT_FALSE(r.pairs.empty());
+  for (const PairReport& p : r.pairs) {
+    EXPECT_FALSE(p.accepted) << p.serial_a << " - " << p.serial_b;
+    EXPECT_GT(p.fitness, 0.3) << p.serial_a << " - " << p.serial_b;  // they do overlap
+  }
+  for (const CameraReport& c : r.cameras) {
+    if (c.reference) continue;
+    EXPECT_FALSE(c.connected) << c.serial;
+    EXPECT_TRUE(r.refined.at(c.serial).isApprox(r.leveled.at(c.serial), 1e-12)) << c.serial;
+  }
+}
+
 TEST_P(BothModes, SafetyBoundsKeepTheLeveledPose) {
   const SimulatedRig rig = Rig(3, 0.0, 7);
   RefineOptions options;
@@ -265,6 +288,75 @@ INSTANTIATE_TEST_SUITE_P(Modes, BothModes,
                          [](const auto& info) {
                            return info.param == RefineMode::kJoint ? "Joint" : "Pairwise";
                          });
+
+/// Three scans of a 10 cm curved height field seen from 0.3 m above (points cameras, as
+/// rigfit import-ply makes them: no depth noise model), 0.1 mm noise along z; the third one
+/// bowed by up to `bow_m` along its depth (a scanner's calibration error), so that it fits
+/// the other two only approximately. Its world poses in `gt`.
+RigCapture ScanRig(double bow_m, PoseMap* gt) {
+  const auto height = [](double x, double y) {
+    return 0.01 * std::sin(40.0 * x) * std::cos(30.0 * y) + 0.005 * std::sin(70.0 * y + 1.0);
+  };
+  // Camera frames: z along -world z, from 0.3 m above, each tilted a little.
+  const auto camera = [](double rx, double ry, const Vec3& t) {
+    Pose T = Pose::Identity();
+    T.linear() = (Eigen::AngleAxisd(rx, Vec3::UnitX()) * Eigen::AngleAxisd(ry, Vec3::UnitY()) *
+                  Eigen::AngleAxisd(M_PI, Vec3::UnitX()))
+                     .toRotationMatrix();
+    T.translation() = t;
+    return T;
+  };
+  const Pose poses[3] = {camera(0.0, 0.0, Vec3(0.0, 0.0, 0.3)),
+                         camera(0.0, 0.3, Vec3(0.05, 0.0, 0.3)),
+                         camera(-0.25, 0.0, Vec3(0.0, 0.04, 0.3))};
+  const double x_range[3][2] = {{-0.06, 0.03}, {-0.03, 0.06}, {-0.05, 0.05}};
+  const double y_range[3][2] = {{-0.05, 0.05}, {-0.05, 0.05}, {-0.02, 0.06}};
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 1e-4);
+  RigCapture capture;
+  for (int c = 0; c < 3; ++c) {
+    CameraCapture& scan = capture.cameras.emplace_back();
+    scan.serial = "scan" + std::to_string(c);
+    (*gt)[scan.serial] = poses[c];
+    const Pose T_camera_world = poses[c].inverse();
+    for (double x = x_range[c][0]; x <= x_range[c][1]; x += 0.001) {
+      for (double y = y_range[c][0]; y <= y_range[c][1]; y += 0.001) {
+        Vec3 p = T_camera_world * Vec3(x, y, height(x, y));
+        p.z() += noise(rng);
+        if (c == 2) p.z() += bow_m * (p.x() * p.x() + p.y() * p.y()) / (0.05 * 0.05);
+        scan.points.push_back(p);
+      }
+    }
+  }
+  return capture;
+}
+
+TEST(JointRefine, ScansWithoutANoiseModelAreWeightedByTheirFit) {
+  // The bowed scan (1 mm) fits the others far beyond min_noise_m. Weighted by min_noise_m
+  // alone its pairs pulled the two consistent scans apart by 0.40 deg, 0.61 mm; scaled by
+  // their residual variance (as the pose graph scales its edges) by 0.17 deg, 0.25 mm (without
+  // the bow 0.011 deg, 0.09 mm either way).
+  PoseMap gt;
+  const RigCapture capture = ScanRig(1e-3, &gt);
+  RefineOptions options;
+  options.ground.enabled = false;
+  options.region.band_height = 0.0;
+  options.icp.voxel_size = 0.002;
+  options.icp.scales = {2.0, 1.0};
+  options.icp.max_iterations = {20, 15};
+  options.icp.min_noise_m = 2e-4;
+  options.icp.gravity_weight = 0.0;
+  options.icp.overlap_margin = 0.05;
+  options.icp.min_overlap_area = 0.0;
+  const RefineResult r = Refine(capture, gt, options, true, 2, StderrLog());
+  ASSERT_TRUE(r.success) << r.message;
+  const RelativePoseError e =
+      RelativeError(r.refined.at("scan0"), r.refined.at("scan1"), gt.at("scan0"), gt.at("scan1"));
+  std::printf("scan0 - scan1: %.4f deg %.4f mm\n", e.rotation_rad / kDegToRad,
+              e.translation_m * 1e3);
+  EXPECT_LT(e.translation_m, 0.0004);
+  EXPECT_LT(e.rotation_rad / kDegToRad, 0.28);
+}
 
 TEST(Refine, OneCameraIsLeveledAndReported) {
   const SimulatedRig rig = Rig(1, 0.0, 8);
