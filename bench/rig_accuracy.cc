@@ -7,15 +7,19 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <string>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 #include "core/evaluate.h"
 #include "core/geometry.h"
 #include "io/config_yaml.h"
 #include "rig/crlb.h"
 #include "rig/refine.h"
+#include "rig/region.h"
+#include "rig/surface_bundle.h"
 #include "sim/scene.h"
 #include "sim/simulate_rig.h"
 
@@ -87,6 +91,208 @@ class BiasSplit {
   std::map<std::tuple<int, std::string, std::string>, Draws> draws_;
 };
 
+/// The surface bundle's segmentation against the simulator's truth (--segmentation): which of
+/// the bound's pixels (every band pixel at the true pose on a face two cameras see,
+/// rig/crlb.h ComputeRigSurfaceBound) the bundle's last round used, on the right face or not,
+/// and the bound of the pixels it used.
+class SegmentationDiagnostic {
+ public:
+  /// The bundle's input and result of one Refine (SetSurfaceBundleObserver).
+  std::vector<rigfit::PointCloud> used_points;
+  rigfit::SurfaceBundleResult bundle;
+  bool seen = false;
+
+  /// Compares the observed run with the truth and prints a line per camera; returns the
+  /// bounds of the used pixels (true faces; and one nuisance plane per bundle plane).
+  void Compare(const rigfit::SimulatedRig& truth, const rigfit::RefineOptions& options,
+               const std::string& reference, double noise, std::uint64_t seed, int threads,
+               const rigfit::RigErrors& after, const rigfit::SampledErrors& full) {
+    using namespace rigfit;
+    if (!seen) {
+      std::printf("       segmentation: the surface bundle did not run\n");
+      return;
+    }
+    const size_t n = truth.capture.cameras.size();
+    RegionOptions every_pixel = options.region;
+    every_pixel.pixel_stride = 1;
+    RegionOptions no_band = every_pixel;
+    no_band.band_height = 0.0;
+    std::vector<PlanarFace> faces;
+    // Per camera: pixel key -> (true face, noise-free point), and the bound's band keys.
+    std::vector<std::map<long long, std::pair<int, Vec3>>> label(n);
+    std::vector<std::set<long long>> band(n);
+    std::vector<PinholeIntrinsics> K(n);
+    const auto key = [](const PinholeIntrinsics& k, const Vec3& p) {
+      const long long u = std::llround(k.fx * p.x() / p.z() + k.cx);
+      const long long v = std::llround(k.fy * p.y() / p.z() + k.cy);
+      return v * 100000 + u;
+    };
+    for (size_t c = 0; c < n; ++c) {
+      const CameraCapture& camera = truth.capture.cameras[c];
+      K[c] = camera.intrinsics;
+      const Pose& T = truth.gt.at(camera.serial);
+      const PointCloud all = RegistrationPoints(camera, no_band);
+      std::vector<int> labels;
+      LabelFaces(truth.scene, T, all, &faces, &labels);
+      for (size_t i = 0; i < all.size(); ++i) label[c][key(K[c], all[i])] = {labels[i], all[i]};
+      for (const Vec3& p :
+           NearFloorBand(RegistrationPoints(camera, every_pixel), T, options.region))
+        band[c].insert(key(K[c], p));
+    }
+    // The bound's faces and pixels (ComputeSurfaceCramerRaoBound's rule: a face counts where
+    // two cameras have 3 pixels or more on it, a camera's pixels where it has 3).
+    std::vector<std::vector<int>> count(faces.size(), std::vector<int>(n, 0));
+    for (size_t c = 0; c < n; ++c) {
+      for (const long long k : band[c]) {
+        const int f = label[c].at(k).first;
+        if (f >= 0) ++count[f][c];
+      }
+    }
+    const auto in_bound = [&](size_t c, int f) {
+      if (f < 0) return false;
+      int cams = 0;
+      for (size_t d = 0; d < n; ++d) cams += count[f][d] >= 3 ? 1 : 0;
+      return cams >= 2 && count[f][c] >= 3;
+    };
+    // The true face of each bundle plane: the most frequent label of its pixels.
+    const size_t planes = bundle.plane_list.size();
+    std::vector<std::map<int, int>> votes(planes);
+    for (const SurfaceBundleResult::Term& t : bundle.terms) {
+      for (const int i : t.pixels) {
+        const auto it = label[t.camera].find(key(K[t.camera], used_points[t.camera][i]));
+        ++votes[t.plane][it == label[t.camera].end() ? -1 : it->second.first];
+      }
+    }
+    std::vector<int> face_of(planes, -1);
+    for (size_t j = 0; j < planes; ++j) {
+      int best = 0;
+      for (const auto& [f, v] : votes[j]) {
+        if (v > best) best = v, face_of[j] = f;
+      }
+    }
+    std::vector<long long> bound_px(n, 0), ok(n, 0), wrong(n, 0), outside(n, 0);
+    std::vector<long long> face_bound(faces.size(), 0), face_ok(faces.size(), 0);
+    for (size_t c = 0; c < n; ++c) {
+      for (const long long k : band[c]) {
+        const int f = label[c].at(k).first;
+        if (in_bound(c, f)) ++bound_px[c], ++face_bound[f];
+      }
+    }
+    std::vector<FacePixels> used_true(n), used_split(n);
+    std::vector<long long> wrong_floor(n, 0);
+    std::vector<PlanarFace> split_faces(planes);
+    for (size_t j = 0; j < planes; ++j) {
+      if (face_of[j] >= 0) split_faces[j] = faces[face_of[j]];
+    }
+    for (size_t c = 0; c < n; ++c) {
+      used_true[c].serial = used_split[c].serial = truth.capture.cameras[c].serial;
+    }
+    for (const SurfaceBundleResult::Term& t : bundle.terms) {
+      const size_t c = t.camera;
+      for (const int i : t.pixels) {
+        const long long k = key(K[c], used_points[c][i]);
+        const auto it = label[c].find(k);
+        const int f = it == label[c].end() ? -1 : it->second.first;
+        if (f < 0 || f != face_of[t.plane]) {
+          ++wrong[c];
+          if (bundle.plane_list[t.plane].floor) ++wrong_floor[c];
+          continue;
+        }
+        if (band[c].count(k) && in_bound(c, f)) {
+          ++ok[c], ++face_ok[f];
+        } else {
+          ++outside[c];
+        }
+        used_true[c].points.push_back(it->second.second);
+        used_true[c].faces.push_back(f);
+        used_split[c].points.push_back(it->second.second);
+        used_split[c].faces.push_back(t.plane);
+      }
+    }
+    int fallbacks = 0;
+    for (size_t c = 0; c < n; ++c) {
+      const bool fell = c < bundle.fallback.size() && bundle.fallback[c];
+      fallbacks += fell ? 1 : 0;
+      std::printf(
+          "       camera %zu: bound %lld px, used on the right face %lld (%.0f%%), outside "
+          "the bound's band %lld, wrong face %lld (on the floor plane %lld)%s\n",
+          c, bound_px[c], ok[c], 100.0 * ok[c] / std::max(bound_px[c], 1LL), outside[c], wrong[c],
+          wrong_floor[c], fell ? ", FELL BACK" : "");
+      total_bound += bound_px[c], total_ok += ok[c], total_wrong += wrong[c];
+      total_outside += outside[c];
+    }
+    int missed = 0, faces_in_bound = 0;
+    long long missed_px = 0, floor_bound = 0, floor_ok = 0;
+    std::string face_text;
+    for (size_t f = 0; f < faces.size(); ++f) {
+      if (face_bound[f] == 0) continue;
+      ++faces_in_bound;
+      if (faces[f].floor) floor_bound += face_bound[f], floor_ok += face_ok[f];
+      if (face_ok[f] == 0) ++missed, missed_px += face_bound[f];
+      if (!faces[f].floor) {
+        char buffer[64];
+        std::snprintf(buffer, sizeof buffer, " %lld/%lld", face_ok[f], face_bound[f]);
+        face_text += buffer;
+      }
+    }
+    std::printf(
+        "       faces: %d in the bound, %d missed (%lld px); floor %lld/%lld used; others "
+        "used/bound:%s; %zu bundle planes; %d cameras fell back\n",
+        faces_in_bound, missed, missed_px, floor_ok, floor_bound, face_text.c_str(), planes,
+        fallbacks);
+    total_faces += faces_in_bound, total_missed += missed, total_fallbacks += fallbacks;
+    total_floor_bound += floor_bound, total_floor_ok += floor_ok;
+    const CramerRaoBound b1 = ComputeSurfaceCramerRaoBound(used_true, faces, truth.gt, reference,
+                                                           noise, 2000, seed, threads);
+    const CramerRaoBound b2 = ComputeSurfaceCramerRaoBound(used_split, split_faces, truth.gt,
+                                                           reference, noise, 2000, seed, threads);
+    const auto show = [&](const char* what, const CramerRaoBound& b, double* r2, double* t2,
+                          double* bt2) {
+      if (!b.ok) {
+        std::printf("       bound of %s: not available: %s\n", what, b.message.c_str());
+        return;
+      }
+      std::printf(
+          "       bound of %s: %.4f deg %.2f mm tilt %.4f deg (x%.2f x%.2f the full bound); "
+          "error / it: %.2f %.2f\n",
+          what, b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3,
+          b.rms.tilt_rad * kRadToDeg, b.rms.rotation_rad / full.rotation_rad,
+          b.rms.translation_m / full.translation_m, after.rms_rotation_rad / b.rms.rotation_rad,
+          after.rms_translation_m / b.rms.translation_m);
+      *r2 += std::pow(after.rms_rotation_rad / b.rms.rotation_rad, 2);
+      *t2 += std::pow(after.rms_translation_m / b.rms.translation_m, 2);
+      *bt2 += std::pow(b.rms.translation_m / full.translation_m, 2);
+    };
+    show("the used pixels (true faces)", b1, &true_r2, &true_t2, &true_bt2);
+    show("the used pixels (a plane per bundle plane)", b2, &split_r2, &split_t2, &split_bt2);
+    runs += b1.ok && b2.ok ? 1 : 0;
+  }
+
+  void Summary() const {
+    if (runs == 0) return;
+    std::printf(
+        "segmentation: the bundle used %.1f%% of the bound's pixels on the right face (floor "
+        "%.1f%%, other faces %.1f%%), %.2f%% of its pixels on a wrong face, %lld right-face "
+        "pixels outside the bound's band; %d of %d faces missed; %d camera fallbacks\n",
+        100.0 * total_ok / total_bound, 100.0 * total_floor_ok / total_floor_bound,
+        100.0 * (total_ok - total_floor_ok) / (total_bound - total_floor_bound),
+        100.0 * total_wrong / (total_ok + total_wrong + total_outside), total_outside, total_missed,
+        total_faces, total_fallbacks);
+    std::printf(
+        "bound of the used pixels, over %d runs: true faces: RMS bound / full bound %.2f "
+        "translation, RMS error / it %.2f rotation %.2f translation; a plane per bundle plane: "
+        "%.2f, %.2f, %.2f\n",
+        runs, std::sqrt(true_bt2 / runs), std::sqrt(true_r2 / runs), std::sqrt(true_t2 / runs),
+        std::sqrt(split_bt2 / runs), std::sqrt(split_r2 / runs), std::sqrt(split_t2 / runs));
+  }
+
+ private:
+  long long total_bound = 0, total_ok = 0, total_wrong = 0, total_outside = 0;
+  long long total_floor_bound = 0, total_floor_ok = 0;
+  int total_faces = 0, total_missed = 0, total_fallbacks = 0, runs = 0;
+  double true_r2 = 0, true_t2 = 0, true_bt2 = 0, split_r2 = 0, split_t2 = 0, split_bt2 = 0;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -125,6 +331,10 @@ int main(int argc, char** argv) {
   std::string config;
   app.add_option("--config", config, "refine options (YAML); --mode and --method override");
   bool verbose = false, from_gt = false, verbose_sigma = false, crlb = false;
+  bool segmentation = false;
+  app.add_flag("--segmentation", segmentation,
+               "with --crlb and --method surface_bundle: the bundle's pixels against the "
+               "simulator's faces, and the bound of the pixels it used");
   app.add_flag("--crlb", crlb,
                "also the Cramer-Rao bound of each seed (rig/crlb.h) and RMS of error / bound");
   app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
@@ -149,6 +359,7 @@ int main(int argc, char** argv) {
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
   BiasSplit bias;
+  SegmentationDiagnostic diagnostic;
   // Every seed's draws in turn: run k is draw k % noise_draws of seed first_seed + k / noise_draws.
   const int runs = seeds * noise_draws;
   for (int run = 0; run < runs; ++run) {
@@ -164,6 +375,16 @@ int main(int argc, char** argv) {
       log.sink = [](LogLevel, const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
     }
     const PoseMap& start = from_gt ? rig.gt : rig.init;
+    diagnostic.seen = false;
+    if (segmentation) {
+      SetSurfaceBundleObserver(
+          [&](const std::vector<SurfaceCamera>& cams, const SurfaceBundleResult& result) {
+            diagnostic.used_points.clear();
+            for (const SurfaceCamera& c : cams) diagnostic.used_points.push_back(c.points);
+            diagnostic.bundle = result;
+            diagnostic.seen = result.usable;
+          });
+    }
     const RefineResult r = Refine(rig.capture, start, options, true, threads, log);
     const RigErrors before = EvaluateRig(start, rig.gt);
     const RigErrors after = EvaluateRig(r.refined, rig.gt);
@@ -203,6 +424,10 @@ int main(int argc, char** argv) {
             after.rms_rotation_rad / s.rms.rotation_rad,
             after.rms_translation_m / s.rms.translation_m);
         surface.Add(s.rms, after);
+        if (segmentation) {
+          diagnostic.Compare(truth, bound_options, r.reference, sim.noise, sim.seed, threads, after,
+                             s.rms);
+        }
       } else {
         std::printf("       surface-model bound: not available: %s\n", s.message.c_str());
       }
@@ -291,6 +516,7 @@ int main(int argc, char** argv) {
         surface.RmsRotationDeg(), surface.RmsTranslationMm(), surface.RmsTiltDeg(), unit,
         surface.RmsRatioRotation(), surface.RmsRatioTranslation());
   }
+  diagnostic.Summary();
   if (crlb && bound.seeds > 0) {
     std::printf(
         "point-to-plane information bound (issue 5's: the joint problem's correspondences, "

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <utility>
 
 #include "core/format.h"
 #include "core/geometry.h"
@@ -330,10 +331,40 @@ std::vector<double> Thickness(const std::vector<ClusterTerm>& terms,
   return rms;
 }
 
+SurfaceBundleObserver& Observer() {
+  static SurfaceBundleObserver observer;
+  return observer;
+}
+
+/// The last round's planes and pixels (SurfaceBundleResult::plane_list, terms).
+void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterTerm>& terms,
+               SurfaceBundleResult* result) {
+  result->plane_list.clear();
+  for (const PlaneBlock& plane : planes) {
+    result->plane_list.push_back({plane.Normal(), plane.x(3), plane.floor});
+  }
+  result->terms.clear();
+  for (const ClusterTerm& t : terms) result->terms.push_back({t.camera, t.plane, t.pixels});
+}
+
+SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                          const Log& log);
+
 }  // namespace
+
+void SetSurfaceBundleObserver(SurfaceBundleObserver observer) { Observer() = std::move(observer); }
 
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
                                           const IcpOptions& options, const Log& log) {
+  SurfaceBundleResult result = Solve(cameras, options, log);
+  if (Observer()) Observer()(cameras, result);
+  return result;
+}
+
+namespace {
+
+SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                          const Log& log) {
   const size_t n = cameras.size();
   SurfaceBundleResult result;
   result.fallback.assign(n, false);
@@ -456,6 +487,7 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
     result.pixels = pixels;
     result.rounds = round + 1;
     result.usable = true;
+    RecordUse(planes, terms, &result);
     log.Debug("surface bundle: round " + std::to_string(round) + ": " +
               std::to_string(planes.size()) + " planes, " + std::to_string(pixels) +
               " pixels, cost " + Fixed(2.0 * summary.final_cost / std::max(pixels, 1), 4) +
@@ -525,4 +557,5 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
   return result;
 }
 
+}  // namespace
 }  // namespace rigfit

@@ -14,6 +14,7 @@
 // or normals that do not span space) keeps its start pose.
 #pragma once
 
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -72,6 +73,21 @@ struct SurfaceBundleResult {
   /// optimistic and a camera with correlated noise weighs what its data are worth.
   std::vector<double> noise_correlation;
   int planes = 0;  ///< in the last round
+  /// The last round's planes (world, n^T x + d = 0) and, per (camera, plane), the indices
+  /// into that camera's SurfaceCamera::points of the pixels it used: for diagnostics
+  /// (bench/rig_accuracy --segmentation compares them with the simulator's faces).
+  struct Plane {
+    Vec3 normal = Vec3::UnitY();
+    double offset = 0.0;
+    bool floor = false;
+  };
+  struct Term {
+    int camera = 0;
+    int plane = 0;
+    std::vector<int> pixels;
+  };
+  std::vector<Plane> plane_list;
+  std::vector<Term> terms;
   int pixels = 0;  ///< in the last round's clusters
   int rounds = 0;
 };
@@ -81,5 +97,12 @@ struct SurfaceBundleResult {
 /// order its threads finish); the problem it solves is small.
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
                                           const IcpOptions& options, const Log& log);
+
+/// Called by every RegisterSurfaceBundle with its input and result before it returns: a hook
+/// for benchmarks and tests that look inside a Refine (bench/rig_accuracy --segmentation).
+/// Process-wide; set it before running, not while a refinement runs. Empty: none.
+using SurfaceBundleObserver =
+    std::function<void(const std::vector<SurfaceCamera>& cameras, const SurfaceBundleResult&)>;
+void SetSurfaceBundleObserver(SurfaceBundleObserver observer);
 
 }  // namespace rigfit

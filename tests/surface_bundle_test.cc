@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/evaluate.h"
@@ -76,6 +77,39 @@ TEST(SurfaceBundle, MeasuresTheNoisesCorrelationAndWeighsItsPixelsByIt) {
       }
     }
   }
+}
+
+TEST(SurfaceBundle, TheObserverSeesEveryPixelOfTheLastRound) {
+  // bench/rig_accuracy --segmentation reads the bundle's planes and pixels through the hook.
+  const SimulatedRig rig = NoiseFreeRig(3);
+  RefineOptions options;
+  options.icp.method = RegistrationMethod::kSurfaceBundle;
+  int calls = 0;
+  SurfaceBundleResult seen;
+  std::vector<size_t> points;
+  SetSurfaceBundleObserver(
+      [&](const std::vector<SurfaceCamera>& cameras, const SurfaceBundleResult& result) {
+        ++calls;
+        seen = result;
+        points.clear();
+        for (const SurfaceCamera& camera : cameras) points.push_back(camera.points.size());
+      });
+  const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+  SetSurfaceBundleObserver(nullptr);
+  ASSERT_TRUE(result.surface.ran);
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(static_cast<int>(seen.plane_list.size()), result.surface.planes);
+  int pixels = 0;
+  for (const SurfaceBundleResult::Term& t : seen.terms) {
+    ASSERT_LT(static_cast<size_t>(t.camera), points.size());
+    ASSERT_LT(static_cast<size_t>(t.plane), seen.plane_list.size());
+    for (const int i : t.pixels) ASSERT_LT(static_cast<size_t>(i), points[t.camera]);
+    pixels += static_cast<int>(t.pixels.size());
+  }
+  EXPECT_EQ(pixels, result.surface.pixels);
+  EXPECT_EQ(std::count_if(seen.plane_list.begin(), seen.plane_list.end(),
+                          [](const SurfaceBundleResult::Plane& p) { return p.floor; }),
+            1);
 }
 
 TEST(PlaneSegmentation, FindsTheSimulatorsFacesOnANoiseFreeCapture) {
