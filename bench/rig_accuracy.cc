@@ -242,10 +242,10 @@ class SegmentationDiagnostic {
         fallbacks);
     total_faces += faces_in_bound, total_missed += missed, total_fallbacks += fallbacks;
     total_floor_bound += floor_bound, total_floor_ok += floor_ok;
-    const CramerRaoBound b1 = ComputeSurfaceCramerRaoBound(used_true, faces, truth.gt, reference,
-                                                           noise, 2000, seed, threads);
+    const CramerRaoBound b1 =
+        ComputeSurfaceCramerRaoBound(used_true, faces, truth.gt, reference, noise, 2000, seed);
     const CramerRaoBound b2 = ComputeSurfaceCramerRaoBound(used_split, split_faces, truth.gt,
-                                                           reference, noise, 2000, seed, threads);
+                                                           reference, noise, 2000, seed);
     const auto show = [&](const char* what, const CramerRaoBound& b, double* r2, double* t2,
                           double* bt2) {
       if (!b.ok) {
