@@ -17,7 +17,8 @@
 #             on the default rig, noise 0, the --bare rig and the wide start (yaw 3 deg, 10 cm).
 #             Runs under nice: accuracy does not depend on the load.
 #   speed     whole-process rigfit refine on rigfit simulate captures, wall time and peak RSS
-#             (/usr/bin/time) and the stage times of _meta.icp_refined.timings_s, median of
+#             (/usr/bin/time) and the stage times of _meta.icp_refined.timings_s (joint, pairwise
+#             and, for the stage breakdown and the camera counts, the surface bundle), median of
 #             5 runs (stage breakdown, 4 cameras) or 3 runs (2/4/8/16 cameras at 640x360;
 #             320x180/640x360/1280x720 with 4 cameras), and one run of 16 cameras at 1280x720.
 #             Not niced; the 1-minute load average at the start of each case is recorded.
@@ -48,7 +49,7 @@ while [ $# -gt 0 ]; do
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
     accuracy | speed | real | micro | rgbd) sections+=("$1") ;;
-    -h | --help) sed -n '2,35p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,38p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
@@ -176,7 +177,9 @@ run_accuracy() {
 # One speed case: `runs` whole-process runs of rigfit refine; appends one row of medians.
 speed_case() {
   local capture_dir="$1" mode="$2" runs="$3" table="$4" label="$5"
-  local tsv load
+  local tsv load args=(--mode "$mode")
+  # "surface_bundle": the joint mode with the surface bundle.
+  [ "$mode" = surface_bundle ] && args=(--mode joint --method surface_bundle)
   tsv="$out/raw/speed-$(basename "$capture_dir")-$mode.tsv"
   load="$(load1)"
   : >"$tsv"
@@ -184,7 +187,7 @@ speed_case() {
     local res="$out/raw/time.txt" code=0
     rm -f "$capture_dir/out-$mode.json"
     /usr/bin/time -f "%e %M" -o "$res" "$rigfit" refine --capture "$capture_dir/capture.h5" \
-      --extrinsics "$capture_dir/init.json" --out "$capture_dir/out-$mode.json" --mode "$mode" \
+      --extrinsics "$capture_dir/init.json" --out "$capture_dir/out-$mode.json" "${args[@]}" \
       --quiet >>"$out/raw/speed-refine.log" 2>&1 || code=$?
     # /usr/bin/time's last line holds "wall_s maxrss_kb" (earlier lines: a signal or exit note).
     echo "$(tail -n1 "$res") $code $(python3 -c '
@@ -230,7 +233,8 @@ run_speed() {
     echo "(default config, 2 threads) under \`/usr/bin/time -f \"%e %M\"\` on \`rigfit simulate --seed 0\` captures"
     echo "(default noise and perturbation). Wall time and peak RSS of the whole process; stage times from"
     echo "\`_meta.icp_refined.timings_s\` (correspondences and solve are the joint mode's part of registration;"
-    echo "pose graph is the pairwise mode's). Each cell is the median over the runs. The machine is"
+    echo "pose graph is the pairwise mode's; mode surface_bundle is \`--mode joint --method surface_bundle\`)."
+    echo "Each cell is the median over the runs. The machine is"
     echo "shared with other engineers' jobs while measuring: the load average column says how busy it was."
     echo
     echo "#### Stage breakdown: 4 cameras, $base, $breakdown_runs runs"
@@ -238,13 +242,13 @@ run_speed() {
     speed_table_header
   } >>"$file"
   simulate "$data/c4-$base" --cameras 4 --width "${base%x*}" --height "${base#*x}"
-  for mode in joint pairwise; do
+  for mode in joint pairwise surface_bundle; do
     speed_case "$data/c4-$base" "$mode" "$breakdown_runs" "$file" "4 cameras $base"
   done
   { echo; echo "#### Scaling with the number of cameras: $base, $runs runs"; echo; speed_table_header; } >>"$file"
   for c in "${cams[@]}"; do
     simulate "$data/c$c-$base" --cameras "$c" --width "${base%x*}" --height "${base#*x}"
-    for mode in joint pairwise; do
+    for mode in joint pairwise surface_bundle; do
       speed_case "$data/c$c-$base" "$mode" "$runs" "$file" "$c cameras $base"
     done
   done
