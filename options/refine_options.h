@@ -100,7 +100,7 @@ struct IcpOptions {
   /// Scale of the robust loss on whitened residuals, in standard deviations.
   double robust_loss_scale = 2.0;
   /// A pair needs this overlap (OverlapStats::fitness) to link its cameras: pairwise ICP, and
-  /// the joint mode at the start of each scale.
+  /// the joint mode at the start of its first and of its finest scale.
   double min_fitness = 0.3;
   /// Candidate pairs: world XZ boxes inflated by overlap_margin must intersect by at least
   /// min_overlap_area.

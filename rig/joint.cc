@@ -212,7 +212,9 @@ class JointProblem {
                    cameras_[i].depth_noise};
     }
     auto start = std::chrono::steady_clock::now();
-    if (it == 0) MeasureFitness(current);
+    // The gate's overlaps (a finest-level search of every pair): at the start, and again at
+    // the finest scale, where the poses are nearly final.
+    if (it == 0 && (s == 0 || finest)) MeasureFitness(current);
     FindMatches(options_.max_correspondence_distance_factor * voxel_size);
     result_.correspondences_s += SecondsSince(start);
     start = std::chrono::steady_clock::now();
@@ -467,7 +469,8 @@ class JointProblem {
   std::vector<PoseBlock> start_blocks_;  ///< the problem's constant copy of initial_blocks_
   std::vector<CameraView> views_;
   std::vector<std::vector<Correspondence>> matches_;  ///< pair k: 2k a -> b, 2k + 1 b -> a
-  std::vector<double> fitness_;  ///< pair k's overlap at the start of the scale (MeasureFitness)
+  /// Pair k's overlap at the start of the first and of the finest scale (MeasureFitness).
+  std::vector<double> fitness_;
   std::unique_ptr<ceres::Problem> problem_;
   JointResult result_;
 };
