@@ -119,6 +119,10 @@ struct MergedCloud {
 
 MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses) {
   MergedCloud cloud;
+  size_t total = 0;
+  for (const SurfaceCamera& camera : cameras) total += camera.points.size();
+  cloud.points.reserve(total);
+  cloud.source.reserve(total);
   for (size_t c = 0; c < cameras.size(); ++c) {
     const Pose& T = poses[c];
     const SurfaceCamera& camera = cameras[c];
