@@ -491,7 +491,7 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
     result.pixels = pixels;
     result.rounds = round + 1;
     result.usable = true;
-    RecordUse(planes, terms, &result);
+    if (Observer()) RecordUse(planes, terms, &result);
     log.Debug("surface bundle: round " + std::to_string(round) + ": " +
               std::to_string(planes.size()) + " planes, " + std::to_string(pixels) +
               " pixels, cost " + Fixed(2.0 * summary.final_cost / std::max(pixels, 1), 4) +

@@ -75,7 +75,9 @@ struct SurfaceBundleResult {
   int planes = 0;  ///< in the last round
   /// The last round's planes (world, n^T x + d = 0) and, per (camera, plane), the indices
   /// into that camera's SurfaceCamera::points of the pixels it used: for diagnostics
-  /// (bench/rig_accuracy --segmentation compares them with the simulator's faces).
+  /// (bench/rig_accuracy --segmentation compares them with the simulator's faces). Filled
+  /// only while an observer is set (SetSurfaceBundleObserver): no refinement needs the copy
+  /// of every pixel index.
   struct Plane {
     Vec3 normal = Vec3::UnitY();
     double offset = 0.0;
