@@ -63,4 +63,16 @@ double TiltErrorRad(const Pose& est, const Pose& gt) {
   return std::atan2(up_est.cross(up_gt).norm(), up_est.dot(up_gt));
 }
 
+Vec3 Signed(const Vec3& v) {
+  int k = 0;
+  v.cwiseAbs().maxCoeff(&k);
+  return v[k] < 0.0 ? Vec3(-v) : v;
+}
+
+double Quantile(std::vector<double>* values, double q) {
+  const auto k = static_cast<std::ptrdiff_t>(std::lround(q * (values->size() - 1)));
+  std::nth_element(values->begin(), values->begin() + k, values->end());
+  return (*values)[k];
+}
+
 }  // namespace rigfit

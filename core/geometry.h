@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "core/types.h"
 
@@ -56,5 +57,12 @@ double TiltErrorRad(const Pose& est, const Pose& gt);
 
 /// Rotation angle of R (radians, [0, pi]).
 double RotationAngle(const Mat3& R);
+
+/// v signed so that its largest component is positive (a direction's sign made definite).
+Vec3 Signed(const Vec3& v);
+
+/// The q-quantile (q in [0, 1]) of non-empty `values`, the element at the rounded rank
+/// q (n - 1); values is reordered.
+double Quantile(std::vector<double>* values, double q);
 
 }  // namespace rigfit

@@ -4,12 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <filesystem>
 #include <limits>
 #include <utility>
 
-#include "core/errors.h"
 #include "core/format.h"
+#include "core/geometry.h"
 #include "report/canvas.h"
 #include "report/html.h"
 #include "report/plot_parts.h"
@@ -44,13 +43,6 @@ std::vector<Vec3> Sampled(const std::vector<Vec3f>& values, size_t max_count) {
   return out;
 }
 
-/// v signed so that its largest component is positive.
-Vec3 Signed(const Vec3& v) {
-  int k = 0;
-  v.cwiseAbs().maxCoeff(&k);
-  return v[k] < 0.0 ? Vec3(-v) : v;
-}
-
 /// The direction of largest spread of the points in the plane perpendicular to `up`, or a
 /// vector perpendicular to up when they have none.
 Vec3 LargestSpreadAcross(const std::vector<Vec3>& points, const Vec3& up) {
@@ -66,13 +58,6 @@ Vec3 LargestSpreadAcross(const std::vector<Vec3>& points, const Vec3& up) {
   const Eigen::SelfAdjointEigenSolver<Mat3> eigen(scatter);  // eigenvalues ascending
   if (eigen.eigenvalues()(2) > 1e-12) return Signed(eigen.eigenvectors().col(2));
   return up.unitOrthogonal();
-}
-
-/// The q-quantile (q in [0, 1]) of `values` (reordered).
-double Quantile(std::vector<double>* values, double q) {
-  const auto k = static_cast<std::ptrdiff_t>(std::lround(q * (values->size() - 1)));
-  std::nth_element(values->begin(), values->begin() + k, values->end());
-  return (*values)[k];
 }
 
 }  // namespace
@@ -298,10 +283,7 @@ std::vector<std::string> WriteMapReport(const std::string& dir, const std::strin
                                         const MapPoints& map,
                                         const std::vector<MapOverlay>& overlays,
                                         const MapViewAxes& axes, const std::string& summary) {
-  CheckReportDirectory(dir, "report:");
-  std::error_code ec;
-  std::filesystem::create_directory(dir, ec);
-  if (ec) throw InputError("report: cannot create directory " + dir + ": " + ec.message());
+  CreateReportDirectory(dir);
   ReportDirectory report(dir);
   const std::string points = std::to_string(map.positions.size()) + " map points";
   const std::string colours = map.colors.empty() ? "coloured by height" : "in their colour";

@@ -63,14 +63,18 @@ void CheckReportDirectory(const std::string& dir, const std::string& what) {
   }
 }
 
-std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
-                                           const RefineResult& result, const PoseMap& after,
-                                           const RefineOptions& options, int num_threads,
-                                           const std::string& summary) {
+void CreateReportDirectory(const std::string& dir) {
   CheckReportDirectory(dir, "report:");
   std::error_code ec;
   fs::create_directory(dir, ec);
   if (ec) throw InputError("report: cannot create directory " + dir + ": " + ec.message());
+}
+
+std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
+                                           const RefineResult& result, const PoseMap& after,
+                                           const RefineOptions& options, int num_threads,
+                                           const std::string& summary) {
+  CreateReportDirectory(dir);
 
   const DiagnosticRig rig = PrepareDiagnostics(capture, result, options, num_threads);
   const double voxel_m = options.icp.scales.back() * options.icp.voxel_size;

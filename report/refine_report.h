@@ -20,6 +20,10 @@ inline constexpr const char* kResidualsFile = "residuals.png";
 /// directory or can be created as one: its parent exists and nothing else has its name.
 void CheckReportDirectory(const std::string& dir, const std::string& what);
 
+/// Checks dir as CheckReportDirectory does ("report:") and creates it when missing; throws
+/// InputError when it cannot. Every report writer starts with it.
+void CreateReportDirectory(const std::string& dir);
+
 /// Writes the report of a refine run into dir, creating dir if missing (its parent must
 /// exist):
 /// - kTopDownBeforeFile, kTopDownAfterFile: the near-floor band of every camera at the

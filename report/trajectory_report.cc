@@ -1,28 +1,15 @@
 #include "report/trajectory_report.h"
 
 #include <Eigen/Eigenvalues>
-#include <filesystem>
 
-#include "core/errors.h"
 #include "core/format.h"
+#include "core/geometry.h"
 #include "io/png.h"
 #include "report/html.h"
 #include "report/palette.h"
 #include "report/refine_report.h"
 
 namespace rigfit {
-namespace {
-
-namespace fs = std::filesystem;
-
-/// v signed so that its largest component is positive.
-Vec3 Signed(const Vec3& v) {
-  int k = 0;
-  v.cwiseAbs().maxCoeff(&k);
-  return v[k] < 0.0 ? Vec3(-v) : v;
-}
-
-}  // namespace
 
 TrajectoryPlane FitTrajectoryPlane(const std::vector<Vec3>& positions) {
   TrajectoryPlane plane;
@@ -58,10 +45,7 @@ std::vector<PlotCurve> TrajectoryPlanCurves(const Trajectory& est, const Traject
 std::vector<std::string> WriteTrajectoryReport(const std::string& dir, const Trajectory& est,
                                                const Trajectory& gt, const TrajectoryErrors& errors,
                                                double max_dt, const std::string& summary) {
-  CheckReportDirectory(dir, "report:");
-  std::error_code ec;
-  fs::create_directory(dir, ec);
-  if (ec) throw InputError("report: cannot create directory " + dir + ": " + ec.message());
+  CreateReportDirectory(dir);
   ReportDirectory report(dir);
 
   std::vector<Vec3> gt_positions;

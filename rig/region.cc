@@ -6,16 +6,6 @@
 #include "core/geometry.h"
 
 namespace rigfit {
-namespace {
-
-/// The q-quantile (q in [0, 1]) of values; values is reordered.
-double Quantile(std::vector<double>& values, double q) {
-  const size_t k = std::min(values.size() - 1, static_cast<size_t>(q * (values.size() - 1) + 0.5));
-  std::nth_element(values.begin(), values.begin() + k, values.end());
-  return values[k];
-}
-
-}  // namespace
 
 PointCloud NearFloorBand(const PointCloud& points_camera, const Pose& T_world_camera,
                          const RegionOptions& options) {
@@ -59,10 +49,10 @@ GroundBox RobustGroundBox(const PointCloud& points_world) {
     xs.push_back(p.x());
     zs.push_back(p.z());
   }
-  box.min_x = Quantile(xs, 0.005);
-  box.max_x = Quantile(xs, 0.995);
-  box.min_z = Quantile(zs, 0.005);
-  box.max_z = Quantile(zs, 0.995);
+  box.min_x = Quantile(&xs, 0.005);
+  box.max_x = Quantile(&xs, 0.995);
+  box.min_z = Quantile(&zs, 0.005);
+  box.max_z = Quantile(&zs, 0.995);
   box.empty = false;
   return box;
 }
