@@ -22,6 +22,11 @@ void ForEachRow(int height, int threads, const Body& body) {
   ParallelFor(height, threads, body, kRowsPerTask);
 }
 
+/// The intrinsics of an image halved by 2x2 blocks (pixel centres at (u + 0.5) / 2 - 0.5).
+PinholeIntrinsics Halved(const PinholeIntrinsics& k) {
+  return {k.fx / 2.0, k.fy / 2.0, (k.cx + 0.5) / 2.0 - 0.5, (k.cy + 0.5) / 2.0 - 0.5};
+}
+
 // Half-resolution depth: per 2x2 block, the mean of the valid depths within the jump ratio
 // of the block's nearest valid depth (the foreground, so a silhouette is not smeared).
 std::vector<float> Downsample(const std::vector<float>& depth, int width, int height,
@@ -222,13 +227,15 @@ RgbdFrame HalveFrame(const RgbdFrame& frame, double max_depth_jump_ratio) {
                      std::to_string(frame.depth_m.size()) + " depths and " +
                      std::to_string(frame.color.size()) + " colour bytes");
   }
-  RgbdFrame half = frame;
+  // The frame's description; its images are made below, not copied at full size first.
+  RgbdFrame half;
+  half.index = frame.index;
+  half.timestamp = frame.timestamp;
+  half.source = frame.source;
+  half.T_world_camera_gt = frame.T_world_camera_gt;
   half.width = frame.width / 2;
   half.height = frame.height / 2;
-  half.intrinsics.fx = frame.intrinsics.fx / 2.0;
-  half.intrinsics.fy = frame.intrinsics.fy / 2.0;
-  half.intrinsics.cx = (frame.intrinsics.cx + 0.5) / 2.0 - 0.5;
-  half.intrinsics.cy = (frame.intrinsics.cy + 0.5) / 2.0 - 0.5;
+  half.intrinsics = Halved(frame.intrinsics);
   half.depth_m = Downsample(frame.depth_m, frame.width, frame.height, max_depth_jump_ratio);
   if (!frame.color.empty()) {
     half.color.assign(3 * static_cast<std::size_t>(half.width) * half.height, 0);
@@ -263,10 +270,7 @@ void BuildCoarserLevels(FramePyramid* pyramid, int levels, double max_depth_jump
     FrameLevel& coarse = pyramid->levels[l];
     coarse.width = fine.width / 2;
     coarse.height = fine.height / 2;
-    coarse.intrinsics.fx = fine.intrinsics.fx / 2.0;
-    coarse.intrinsics.fy = fine.intrinsics.fy / 2.0;
-    coarse.intrinsics.cx = (fine.intrinsics.cx + 0.5) / 2.0 - 0.5;
-    coarse.intrinsics.cy = (fine.intrinsics.cy + 0.5) / 2.0 - 0.5;
+    coarse.intrinsics = Halved(fine.intrinsics);
     coarse.depth_m = Downsample(fine.depth_m, fine.width, fine.height, max_depth_jump_ratio);
     ComputeVertexNormalMaps(&coarse, max_depth_jump_ratio, threads);
   }
