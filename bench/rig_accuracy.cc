@@ -105,7 +105,7 @@ class SegmentationDiagnostic {
   /// Compares the observed run with the truth and prints a line per camera; returns the
   /// bounds of the used pixels (true faces; and one nuisance plane per bundle plane).
   void Compare(const rigfit::SimulatedRig& truth, const rigfit::RefineOptions& options,
-               const std::string& reference, double noise, std::uint64_t seed, int threads,
+               const std::string& reference, double noise, std::uint64_t seed,
                const rigfit::RigErrors& after, const rigfit::SampledErrors& full) {
     using namespace rigfit;
     if (!seen) {
@@ -425,8 +425,7 @@ int main(int argc, char** argv) {
             after.rms_translation_m / s.rms.translation_m);
         surface.Add(s.rms, after);
         if (segmentation) {
-          diagnostic.Compare(truth, bound_options, r.reference, sim.noise, sim.seed, threads, after,
-                             s.rms);
+          diagnostic.Compare(truth, bound_options, r.reference, sim.noise, sim.seed, after, s.rms);
         }
       } else {
         std::printf("       surface-model bound: not available: %s\n", s.message.c_str());

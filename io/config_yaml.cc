@@ -582,11 +582,6 @@ RegistrationMethod RegistrationMethodNamed(const std::string& name) {
   throw InputError("unknown method '" + name + "' (valid: " + Join(valid) + ")");
 }
 
-std::string RegistrationMethodName(RegistrationMethod method) {
-  for (const auto& [m, name] : kMethodNames) {
-    if (m == method) return name;
-  }
-  return "";
-}
+std::string RegistrationMethodName(RegistrationMethod method) { return YamlValue(&method); }
 
 }  // namespace rigfit

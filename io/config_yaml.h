@@ -32,7 +32,8 @@ nlohmann::json ConfigToJson(const RefineOptions& options);
 /// InputError listing the valid names for another.
 RegistrationMethod RegistrationMethodNamed(const std::string& name);
 
-/// The config name of a method (icp.method), the inverse of RegistrationMethodNamed.
+/// The config name of a method (icp.method), the inverse of RegistrationMethodNamed (as the
+/// config writer spells it: an out-of-range value as its number).
 std::string RegistrationMethodName(RegistrationMethod method);
 
 }  // namespace rigfit
