@@ -274,7 +274,7 @@ py::dict TrackDefaults() {
   d["max_frames"] = o.max_frames;
   d["stride"] = o.stride;
   d["iterations"] = o.icp.iterations;
-  d["prior"] = o.prior == MotionPrior::kConstantVelocity ? "constant-velocity" : "identity";
+  d["prior"] = MotionPriorName(o.prior);
   d["keyframes"] = o.keyframes;
   d["min_depth"] = o.frame.min_depth_m;
   d["max_depth"] = o.frame.max_depth_m;
@@ -364,7 +364,7 @@ py::dict SlamDefaults() {
   d["stride"] = o.stride;
   d["halve"] = o.halvings;
   d["iterations"] = o.icp.iterations;
-  d["prior"] = o.prior == MotionPrior::kConstantVelocity ? "constant-velocity" : "identity";
+  d["prior"] = MotionPriorName(o.prior);
   d["min_depth"] = o.frame.min_depth_m;
   d["max_depth"] = o.frame.max_depth_m;
   d["max_distance"] = o.icp.association.max_distance_m;

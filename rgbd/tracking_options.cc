@@ -4,15 +4,19 @@
 
 namespace rigfit {
 
+const char* MotionPriorName(MotionPrior prior) {
+  return prior == MotionPrior::kConstantVelocity ? "constant-velocity" : "identity";
+}
+
 void ApplyTrackingSettings(const std::string& command, OptionSpelling spelling,
                            const std::string& prior, const std::vector<int>& iterations,
                            int threads, int max_frames, MotionPrior* motion_prior,
                            FrameOptions* frame, ProjectiveIcpOptions* icp) {
   const std::string c = command + ": ";
   const auto name = [spelling](const char* key) { return OptionName(key, spelling); };
-  if (prior == "constant-velocity") {
+  if (prior == MotionPriorName(MotionPrior::kConstantVelocity)) {
     *motion_prior = MotionPrior::kConstantVelocity;
-  } else if (prior == "identity") {
+  } else if (prior == MotionPriorName(MotionPrior::kIdentity)) {
     *motion_prior = MotionPrior::kIdentity;
   } else {
     throw InputError(c + name("prior") + " must be constant-velocity or identity, got " + prior);

@@ -16,6 +16,10 @@ namespace rigfit {
 /// Largest number of tracking threads.
 inline constexpr int kMaxTrackingThreads = 64;
 
+/// The name of a motion prior as --prior and rigfit.track's prior take it: "constant-velocity"
+/// or "identity".
+const char* MotionPriorName(MotionPrior prior);
+
 /// Checks and applies the settings both commands have: prior ("constant-velocity" or
 /// "identity"), iterations (1 to 6 counts in [0, 100], finest level first; their count is the
 /// number of pyramid levels), min_depth < max_depth (frame), max_distance > 0 and max_angle in

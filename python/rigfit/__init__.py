@@ -649,11 +649,12 @@ def slam(
     ``min_stable_weight`` (dormant removal; 0 frames: off), ``cover_radius`` (the coverage
     rule; 0: off), ``fold``; the model: ``model_weight``, ``model_recent``, ``splat``;
     ``threads``. Runs without the GIL; progress (every tenth, with the map size) and warnings go
-    to the logger ``"rigfit"``. A failed frame keeps its prediction and is not fused.
+    to the logger ``"rigfit"``. A failed frame keeps its prediction and is not fused; a frame
+    without colour while the map is coloured is tracked but not fused, with a warning
+    (``color=False`` fuses depth only).
 
     Raises:
-        ValueError: options out of range, a bad frame, an unreadable image, a sequence whose
-            colour is missing on a later frame (``color=False`` fuses depth only).
+        ValueError: options out of range, a bad frame, an unreadable image.
     """
     raw = _rigfit.slam(
         _frames_source(frames, "slam"), operator.index(first), operator.index(max_frames),
