@@ -139,21 +139,13 @@ class SegmentationDiagnostic {
            NearFloorBand(RegistrationPoints(camera, every_pixel), T, options.region))
         band[c].insert(key(K[c], p));
     }
-    // The bound's faces and pixels (ComputeSurfaceCramerRaoBound's rule: a face counts where
-    // two cameras have 3 pixels or more on it, a camera's pixels where it has 3).
-    std::vector<std::vector<int>> count(faces.size(), std::vector<int>(n, 0));
+    // The bound's faces and pixels (BoundFaces, the rule of ComputeSurfaceCramerRaoBound).
+    std::vector<FacePixels> band_faces(n);
     for (size_t c = 0; c < n; ++c) {
-      for (const long long k : band[c]) {
-        const int f = label[c].at(k).first;
-        if (f >= 0) ++count[f][c];
-      }
+      for (const long long k : band[c]) band_faces[c].faces.push_back(label[c].at(k).first);
     }
-    const auto in_bound = [&](size_t c, int f) {
-      if (f < 0) return false;
-      int cams = 0;
-      for (size_t d = 0; d < n; ++d) cams += count[f][d] >= 3 ? 1 : 0;
-      return cams >= 2 && count[f][c] >= 3;
-    };
+    const BoundFaces bound_faces(band_faces, faces.size());
+    const auto in_bound = [&](size_t c, int f) { return bound_faces.Counts(c, f); };
     // The true face of each bundle plane: the most frequent label of its pixels.
     const size_t planes = bundle.plane_list.size();
     std::vector<std::map<int, int>> votes(planes);

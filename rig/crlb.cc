@@ -119,6 +119,19 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
   return bound;
 }
 
+BoundFaces::BoundFaces(const std::vector<FacePixels>& cameras, size_t num_faces)
+    : count(num_faces, std::vector<int>(cameras.size(), 0)), used(num_faces, false) {
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    for (const int f : cameras[c].faces) {
+      if (f >= 0) ++count[f][c];
+    }
+  }
+  for (size_t f = 0; f < num_faces; ++f) {
+    used[f] =
+        std::count_if(count[f].begin(), count[f].end(), [](int k) { return k >= kMinPixels; }) >= 2;
+  }
+}
+
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,
@@ -130,20 +143,8 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
     bound.message = "needs two cameras or more and depth noise > 0";
     return bound;
   }
-  // Pixels per (face, camera): a face seen by one camera alone carries nothing about the
-  // poses (its plane absorbs any motion) and is left out.
-  std::vector<std::vector<int>> count(faces.size(), std::vector<int>(n, 0));
-  for (size_t c = 0; c < n; ++c) {
-    for (const int f : cameras[c].faces) {
-      if (f >= 0) ++count[f][c];
-    }
-  }
-  constexpr int kMinPixels = 3;  // a camera's pixels on a face that count
-  std::vector<bool> used(faces.size(), false);
-  for (size_t f = 0; f < faces.size(); ++f) {
-    used[f] =
-        std::count_if(count[f].begin(), count[f].end(), [](int k) { return k >= kMinPixels; }) >= 2;
-  }
+  const BoundFaces counted(cameras, faces.size());
+  const std::vector<bool>& used = counted.used;
   std::vector<std::array<double, kPoseAmbientSize>> poses(n);
   std::vector<Vec4> planes(faces.size());
   for (size_t f = 0; f < faces.size(); ++f) {
@@ -177,7 +178,7 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
     std::vector<PlaneCluster> clusters(faces.size());
     for (size_t i = 0; i < cameras[c].points.size(); ++i) {
       const int f = cameras[c].faces[i];
-      if (f < 0 || !used[f] || count[f][c] < kMinPixels) continue;
+      if (!counted.Counts(c, f)) continue;
       const Vec3& p = cameras[c].points[i];
       clusters[f].AddRay(p, 1.0 / p.z(), depth_noise);
     }

@@ -71,6 +71,20 @@ struct FacePixels {
   std::vector<int> faces;  ///< per point, the index of its face in the faces list (-1: none)
 };
 
+/// The faces and pixels the surface-model bound counts: a face seen by one camera alone
+/// carries nothing about the poses (its plane absorbs any motion), so a face counts where two
+/// cameras or more have kMinPixels or more on it, and a camera's pixels on it where it has
+/// that many.
+struct BoundFaces {
+  static constexpr int kMinPixels = 3;
+  std::vector<std::vector<int>> count;  ///< [face][camera]: the camera's pixels on the face
+  std::vector<bool> used;               ///< per face
+
+  BoundFaces(const std::vector<FacePixels>& cameras, size_t num_faces);
+  /// Whether camera c's pixels on face f count (f < 0: no face).
+  bool Counts(size_t c, int f) const { return f >= 0 && used[f] && count[f][c] >= kMinPixels; }
+};
+
 /// The physical bound of the rig (issue 18): the measurements are the inverse depths of every
 /// pixel once, w = 1/z with sigma_w = depth_noise (noise Gaussian in depth with sigma_z = k z^2
 /// gives sigma_w = k to first order), the unknowns the poses of every camera but `reference`
