@@ -375,10 +375,10 @@ class JointProblem {
         const CameraView& source = *terms[t].source;
         const CameraView& target = *terms[t].target;
         for (const Correspondence& c : *terms[t].matches) {
-          const Vec3 n = target.T_world_camera.linear() * target.level->geometry.normals[c.target];
-          const double r = n.dot(source.T_world_camera * source.level->points[c.source] -
-                                 target.T_world_camera * target.level->points[c.target]);
-          sum += r * r / PointToPlaneVariance(source, target, c, options_);
+          double r = 0.0;  // the whitened residual of the pair's term
+          MakePointToPlaneTerm(source, target, c, options_)
+              .Evaluate(source.pose_block, target.pose_block, &r, nullptr, nullptr);
+          sum += r * r;
         }
         m += terms[t].matches->size();
       }
