@@ -254,9 +254,8 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
     }
     if (fuse) {
       start = std::chrono::steady_clock::now();
-      tracked.fusion =
-          result.map.FuseFrame(pyramid.levels[0], T_world_current, indices[k], options.fusion,
-                               color, options.threads, k == 0 ? nullptr : &view);
+      tracked.fusion = result.map.FuseFrame(pyramid.levels[0], T_world_current, indices[k],
+                                            options.fusion, color, options.threads, &view);
       result.fuse_s += SecondsSince(start);
     }
     tracked.map_size = result.map.size();
