@@ -21,7 +21,6 @@ constexpr int kSearchDirections = 2000;
 constexpr size_t kMaxSampled = 100000;  ///< normals and positions of the up estimate
 constexpr size_t kMaxWindowPoints = 200000;
 constexpr int kMaxSplatPx = 25;
-constexpr int kLegendWidth = 300;
 constexpr double kMarginFraction = 0.05;
 
 /// Viridis (matplotlib's default colour map) at 0, 1/4, 1/2, 3/4 and 1.
@@ -127,7 +126,7 @@ Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& over
                        const std::string& subtitle) {
   Canvas canvas(kMapViewWidth, kMapViewHeight, kWhite);
   plot::DrawTitles(&canvas, title, subtitle);
-  const plot::Rect plot{20, 110, kMapViewWidth - kLegendWidth, kMapViewHeight - 20};
+  const plot::Rect plot{kMapPlotLeft, kMapPlotTop, kMapPlotRight, kMapPlotBottom};
 
   // The window: the points' robust extent and every overlay pose.
   std::vector<double> xs, ys;
@@ -252,7 +251,7 @@ Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& over
   plot::DrawScaleBar(&canvas, plot, px_per_m, (plot.x1 - plot.x0) / px_per_m);
 
   // Legend: the overlays, then what the colours mean.
-  const int legend_x = kMapViewWidth - kLegendWidth + 20;
+  const int legend_x = kMapPlotRight + 20;
   int y = plot.y0;
   for (const MapOverlay& overlay : overlays) {
     y = plot::LegendRow(&canvas, legend_x, y, overlay.color, overlay.label);

@@ -15,6 +15,11 @@ namespace rigfit {
 
 inline constexpr int kMapViewWidth = 1400;  ///< pixels
 inline constexpr int kMapViewHeight = 1000;
+/// The plot in the picture, [left, right) x [top, bottom) pixels; the legend is right of it.
+inline constexpr int kMapPlotLeft = 20;
+inline constexpr int kMapPlotTop = 110;
+inline constexpr int kMapPlotRight = kMapViewWidth - 300;
+inline constexpr int kMapPlotBottom = kMapViewHeight - 20;
 /// The picture's file in a report directory.
 inline constexpr const char* kMapTopFile = "map_top.png";
 

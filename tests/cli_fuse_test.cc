@@ -96,15 +96,15 @@ TEST_F(CliFuseTest, ReportDrawsTheMapFromAboveWithTheCameras) {
   // Each camera is a disc of its colour; the map fills a tenth of the plot at least.
   std::vector<int> camera_pixels(3, 0);
   int drawn = 0;
-  for (int y = 110; y < kMapViewHeight - 20; ++y) {
-    for (int x = 20; x < kMapViewWidth - 300; ++x) {
+  for (int y = kMapPlotTop; y < kMapPlotBottom; ++y) {
+    for (int x = kMapPlotLeft; x < kMapPlotRight; ++x) {
       const Rgb c = image.At(x, y);
       drawn += c != kWhite ? 1 : 0;
       for (int k = 0; k < 3; ++k) camera_pixels[k] += c == CameraColor(k) ? 1 : 0;
     }
   }
   for (int k = 0; k < 3; ++k) EXPECT_GT(camera_pixels[k], 50) << k;
-  EXPECT_GT(drawn, (kMapViewWidth - 320) * (kMapViewHeight - 130) / 10);
+  EXPECT_GT(drawn, (kMapPlotRight - kMapPlotLeft) * (kMapPlotBottom - kMapPlotTop) / 10);
   const std::string page = ReadText(Scratch("report/index.html"));
   EXPECT_NE(page.find("map points (compression"), std::string::npos);  // the summary
   EXPECT_NE(page.find("world +Y, the extrinsics&#39; up axis"), std::string::npos);

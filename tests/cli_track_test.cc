@@ -142,13 +142,13 @@ TEST_F(CliTrack, SlamTracksAndWritesTheMap) {
   ASSERT_EQ(image.width, kMapViewWidth);
   ASSERT_EQ(image.height, kMapViewHeight);
   int drawn = 0, estimate_pixels = 0;
-  for (int y = 110; y < kMapViewHeight - 20; ++y) {
-    for (int x = 20; x < kMapViewWidth - 300; ++x) {
+  for (int y = kMapPlotTop; y < kMapPlotBottom; ++y) {
+    for (int x = kMapPlotLeft; x < kMapPlotRight; ++x) {
       drawn += image.At(x, y) != kWhite ? 1 : 0;
       estimate_pixels += image.At(x, y) == CameraColor(0) ? 1 : 0;
     }
   }
-  EXPECT_GT(drawn, (kMapViewWidth - 320) * (kMapViewHeight - 130) / 10);
+  EXPECT_GT(drawn, (kMapPlotRight - kMapPlotLeft) * (kMapPlotBottom - kMapPlotTop) / 10);
   EXPECT_GT(estimate_pixels, 100);
   const std::string page = cli_test::ReadText((report / kReportIndexFile).string());
   EXPECT_NE(page.find("tracked and fused 24 frames"), std::string::npos);

@@ -157,10 +157,9 @@ TEST(EstimateMapViewAxes, WithoutCamerasTheWholeSphereIsSearched) {
 /// A picture's pixel.
 Rgb At(const Image& image, int x, int y) { return image.At(x, y); }
 
-/// Plot geometry the tests rely on: the plot is [20, kMapViewWidth - 300) x [110,
-/// kMapViewHeight - 20) and the middle of the window (here the origin) lands at its centre.
-constexpr double kMidColumn = 0.5 * (20 + kMapViewWidth - 300 - 1);
-constexpr double kMidRow = 0.5 * (110 + kMapViewHeight - 20 - 1);
+/// The middle of the window (here the origin) lands at the plot's centre.
+constexpr double kMidColumn = 0.5 * (kMapPlotLeft + kMapPlotRight - 1);
+constexpr double kMidRow = 0.5 * (kMapPlotTop + kMapPlotBottom - 1);
 
 class MapPicture : public ::testing::Test {
  protected:
@@ -251,7 +250,7 @@ TEST_F(MapPicture, OverlaysAreDrawnOverThePointsAndWidenTheWindow) {
   const Image image = DrawMapFromAbove({positions_, normals_, colors_, radii_}, {path, camera},
                                        axes_, "title", "subtitle");
   // The window now spans z in [-2, 0.5] (2.5 m + 10%): 2.75 m over the plot's 869 rows.
-  const double px_per_m = (kMapViewHeight - 20 - 110 - 1) / 2.75;
+  const double px_per_m = (kMapPlotBottom - kMapPlotTop - 1) / 2.75;
   const double mid_z = -0.75;
   const auto pixel = [&](double x, double z) {
     return std::make_pair(static_cast<int>(std::lround(kMidColumn + x * px_per_m)),
