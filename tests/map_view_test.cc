@@ -154,9 +154,6 @@ TEST(EstimateMapViewAxes, WithoutCamerasTheWholeSphereIsSearched) {
   EXPECT_TRUE(empty.up.isApprox(Vec3::UnitY()));
 }
 
-/// A picture's pixel.
-Rgb At(const Image& image, int x, int y) { return image.At(x, y); }
-
 /// The middle of the window (here the origin) lands at the plot's centre.
 constexpr double kMidColumn = 0.5 * (kMapPlotLeft + kMapPlotRight - 1);
 constexpr double kMidRow = 0.5 * (kMapPlotTop + kMapPlotBottom - 1);
@@ -205,19 +202,19 @@ TEST_F(MapPicture, PointsLandWhereTheyAreSeenFromAboveTheHighestOnTop) {
   for (const auto& [x, z] : std::vector<std::pair<double, double>>{
            {0.0, 0.0}, {-0.9, -0.4}, {0.9, -0.4}, {-0.9, 0.4}, {0.3, 0.4}}) {
     const auto [c, r] = Pixel(x, z, px_per_m);
-    EXPECT_EQ(At(image, c, r), red) << x << ", " << z;
+    EXPECT_EQ(image.At(c, r), red) << x << ", " << z;
   }
   // ... but under the box (x 0.5..0.7, z 0.15..0.35: right of and below the centre) blue: the
   // box top is higher than the floor.
   const auto [bc, br] = Pixel(0.6, 0.25, px_per_m);
-  EXPECT_EQ(At(image, bc, br), blue);
+  EXPECT_EQ(image.At(bc, br), blue);
   const auto [mc, mr] = Pixel(-0.6, -0.25, px_per_m);  // the mirrored place: floor
-  EXPECT_EQ(At(image, mc, mr), red);
+  EXPECT_EQ(image.At(mc, mr), red);
   // Above and below the floor (|z| > 0.5 m), inside the plot: nothing drawn.
   const auto [ec, er] = Pixel(0.0, 0.7, px_per_m);
-  EXPECT_EQ(At(image, ec, er), kWhite);
+  EXPECT_EQ(image.At(ec, er), kWhite);
   const auto [fc, fr] = Pixel(0.0, -0.7, px_per_m);
-  EXPECT_EQ(At(image, fc, fr), kWhite);
+  EXPECT_EQ(image.At(fc, fr), kWhite);
 }
 
 TEST_F(MapPicture, WithoutColoursHeightColoursTheHigherDifferently) {
@@ -228,7 +225,7 @@ TEST_F(MapPicture, WithoutColoursHeightColoursTheHigherDifferently) {
   const double px_per_m = (kMapViewWidth - 300 - 20 - 1) / (2.0 + 0.2);
   const auto [fc, fr] = Pixel(-0.5, 0.0, px_per_m);
   const auto [bc, br] = Pixel(0.6, 0.25, px_per_m);
-  const Rgb floor = At(image, fc, fr), box = At(image, bc, br);
+  const Rgb floor = image.At(fc, fr), box = image.At(bc, br);
   EXPECT_NE(floor, kWhite);
   EXPECT_NE(box, kWhite);
   EXPECT_NE(floor, box);
@@ -257,11 +254,11 @@ TEST_F(MapPicture, OverlaysAreDrawnOverThePointsAndWidenTheWindow) {
                           static_cast<int>(std::lround(kMidRow + (z - mid_z) * px_per_m)));
   };
   const auto [pc, pr] = pixel(0.0, 0.0);
-  EXPECT_EQ(At(image, pc, pr), (Rgb{0, 160, 0}));  // the path, over the floor
+  EXPECT_EQ(image.At(pc, pr), (Rgb{0, 160, 0}));  // the path, over the floor
   const auto [cc, cr] = pixel(0.0, -2.0);
-  EXPECT_EQ(At(image, cc, cr), (Rgb{230, 0, 230}));  // the camera's disc
+  EXPECT_EQ(image.At(cc, cr), (Rgb{230, 0, 230}));  // the camera's disc
   const auto [fc, fr] = pixel(-0.5, 0.3);
-  EXPECT_EQ(At(image, fc, fr), (Rgb{200, 20, 10}));  // the floor, away from the path
+  EXPECT_EQ(image.At(fc, fr), (Rgb{200, 20, 10}));  // the floor, away from the path
 }
 
 TEST_F(MapPicture, ReportWritesThePictureAndThePage) {

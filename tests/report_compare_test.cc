@@ -1,6 +1,7 @@
 // report/compare.h: the verdict over three runs, on results built by hand (the runs' numbers
 // set, no refinement), and the input checks. `rigfit compare` end to end is
 // tests/cli_compare_test.cc.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <string>
@@ -28,13 +29,9 @@ CompareResult WithErrors(const std::vector<std::pair<double, double>>& errors_mm
   return c;
 }
 
-bool StartsWith(const std::string& text, const std::string& prefix) {
-  return text.compare(0, prefix.size(), prefix) == 0;
-}
-
 TEST(CompareVerdictTest, NamesTheRunBestOnEveryMeasure) {
   const std::string v = CompareVerdict(WithErrors({{28.44, 0.384}, {13.11, 0.107}, {9.0, 0.09}}));
-  EXPECT_TRUE(StartsWith(v, "surface_bundle is best (against the ground truth): ")) << v;
+  EXPECT_THAT(v, testing::StartsWith("surface_bundle is best (against the ground truth): "));
   EXPECT_NE(v.find("RMS relative translation error 28.44 mm (pairwise), 13.11 mm (joint), "
                    "9.00 mm (surface_bundle)"),
             std::string::npos)
@@ -44,17 +41,17 @@ TEST(CompareVerdictTest, NamesTheRunBestOnEveryMeasure) {
 TEST(CompareVerdictTest, RunsWithinFivePercentOfTheBestTie) {
   // Joint and the surface bundle within 5% of each other on both measures, pairwise behind.
   std::string v = CompareVerdict(WithErrors({{20.0, 0.3}, {10.0, 0.100}, {10.4, 0.098}}));
-  EXPECT_TRUE(StartsWith(v, "joint and surface_bundle are even (within 5%) and best")) << v;
+  EXPECT_THAT(v, testing::StartsWith("joint and surface_bundle are even (within 5%) and best"));
   // All three within 5% on both: no winner.
   v = CompareVerdict(WithErrors({{10.0, 0.1}, {10.2, 0.101}, {10.3, 0.102}}));
-  EXPECT_TRUE(StartsWith(v, "no clear winner (against the ground truth, within 5%)")) << v;
+  EXPECT_THAT(v, testing::StartsWith("no clear winner (against the ground truth, within 5%)"));
   // Best on one measure, tied with pairwise on the other: still the best.
   v = CompareVerdict(WithErrors({{20.0, 0.100}, {10.0, 0.101}, {15.0, 0.3}}));
-  EXPECT_TRUE(StartsWith(v, "joint is best")) << v;
+  EXPECT_THAT(v, testing::StartsWith("joint is best"));
   EXPECT_EQ(v.find("even"), std::string::npos) << v;
   // Best on one measure, all three even on the other: that one is named even.
   v = CompareVerdict(WithErrors({{20.0, 0.100}, {10.0, 0.101}, {15.0, 0.102}}));
-  EXPECT_TRUE(StartsWith(v, "joint is best")) << v;
+  EXPECT_THAT(v, testing::StartsWith("joint is best"));
   EXPECT_NE(v.find("; even: RMS relative rotation error"), std::string::npos) << v;
 }
 
@@ -74,10 +71,9 @@ TEST(CompareVerdictTest, SmallNumbersPrintWithThreeSignificantDigits) {
 
 TEST(CompareVerdictTest, MeasuresThatDisagreeAreMixed) {
   const std::string v = CompareVerdict(WithErrors({{10.0, 0.3}, {20.0, 0.1}, {30.0, 0.5}}));
-  EXPECT_TRUE(StartsWith(v,
-                         "mixed (against the ground truth): pairwise best on RMS relative "
-                         "translation error"))
-      << v;
+  EXPECT_THAT(v,
+              testing::StartsWith("mixed (against the ground truth): pairwise best on RMS relative "
+                                  "translation error"));
   EXPECT_NE(v.find("joint best on RMS relative rotation error"), std::string::npos) << v;
 }
 
@@ -86,15 +82,15 @@ TEST(CompareVerdictTest, ARunNotAppliedIsLeftOutAndNamed) {
   c.runs[0].success = false;
   c.runs[0].message = "no accepted pair";
   std::string v = CompareVerdict(c);
-  EXPECT_TRUE(StartsWith(v, "surface_bundle is best")) << v;
+  EXPECT_THAT(v, testing::StartsWith("surface_bundle is best"));
   EXPECT_NE(v.find("; not applied: pairwise (no accepted pair)"), std::string::npos) << v;
   EXPECT_EQ(v.find("(pairwise),"), std::string::npos) << v;  // its numbers left out
   c.runs[2].success = false;
   c.runs[2].message = "too few planes";
   v = CompareVerdict(c);
-  EXPECT_TRUE(StartsWith(v, "joint: the only run applied; not applied: pairwise")) << v;
+  EXPECT_THAT(v, testing::StartsWith("joint: the only run applied; not applied: pairwise"));
   c.runs[1].success = false;
-  EXPECT_TRUE(StartsWith(CompareVerdict(c), "no run refined the rig")) << CompareVerdict(c);
+  EXPECT_THAT(CompareVerdict(c), testing::StartsWith("no run refined the rig"));
 }
 
 TEST(CompareVerdictTest, WithoutTheTruthJudgesByTheFit) {
@@ -115,11 +111,10 @@ TEST(CompareVerdictTest, WithoutTheTruthJudgesByTheFit) {
     c.runs.push_back(run);
   }
   const std::string v = CompareVerdict(c);
-  EXPECT_TRUE(StartsWith(v,
-                         "joint and surface_bundle are even (within 5%) and best (no ground "
-                         "truth: judged by the fit of the pairs): RMS off-floor pair residual "
-                         "12.00 mm (pairwise), 6.00 mm (joint), 5.90 mm (surface_bundle)"))
-      << v;
+  EXPECT_THAT(
+      v, testing::StartsWith("joint and surface_bundle are even (within 5%) and best (no ground "
+                             "truth: judged by the fit of the pairs): RMS off-floor pair residual "
+                             "12.00 mm (pairwise), 6.00 mm (joint), 5.90 mm (surface_bundle)"));
   EXPECT_NE(v.find("even: RMS pair residual"), std::string::npos) << v;
 }
 
