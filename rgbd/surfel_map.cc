@@ -96,17 +96,26 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
   // Through a view: one thread per part of it (the parts the rendering's threads collected).
   const int chunks = use_view ? static_cast<int>(view->parts.size()) : std::max(1, threads);
   zbuffer_.Reset(static_cast<int>(pixels), chunks);
-  const auto associate = [&](std::uint64_t* keys, int i) {
-    const Vec3f p_c = R_cw * (positions_[i] - t);
-    if (!(p_c.z() > 0.0f)) return;
-    const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
-    const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
-    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) return;
+  // The pixel map point i projects to, when `usable` (checked before the gates: a pixel
+  // without a vertex has nothing to gate against) and within the pixel's distance and normal
+  // gates; -1 otherwise. *p_c: the point in the camera frame.
+  const auto gated_pixel = [&](int i, const auto& usable, Vec3f* p_c) {
+    *p_c = R_cw * (positions_[i] - t);
+    if (!(p_c->z() > 0.0f)) return -1;
+    const int u = NearestPixel(fx * p_c->x() / p_c->z() + cx);
+    const int v = NearestPixel(fy * p_c->y() / p_c->z() + cy);
+    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) return -1;
     const int j = v * frame.width + u;
-    if (!frame.Valid(j)) return;
-    if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) return;
-    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) return;
-    ZBuffer::Write(keys, j, ZBuffer::Key(p_c.z(), i));
+    if (!usable(j)) return -1;
+    if ((*p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) return -1;
+    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) return -1;
+    return j;
+  };
+  const auto valid = [&](int j) { return frame.Valid(j); };
+  const auto associate = [&](std::uint64_t* keys, int i) {
+    Vec3f p_c;
+    const int j = gated_pixel(i, valid, &p_c);
+    if (j >= 0) ZBuffer::Write(keys, j, ZBuffer::Key(p_c.z(), i));
   };
   int projected = 0;
   if (use_view) {
@@ -162,19 +171,14 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
   const int map_size = static_cast<int>(positions_.size());
   if (options.fold_overlapping) {
     fold_into_.assign(map_size, -1);
+    const auto merged_into = [&](int j) { return match[j] != ZBuffer::kEmpty; };
     ParallelForChunks(map_size, threads, [&](int, int begin, int end) {
       for (int i = begin; i < end; ++i) {
-        const Vec3f p_c = R_cw * (positions_[i] - t);
-        if (!(p_c.z() > 0.0f)) continue;
-        const int u = NearestPixel(fx * p_c.x() / p_c.z() + cx);
-        const int v = NearestPixel(fy * p_c.y() / p_c.z() + cy);
-        if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) continue;
-        const int j = v * frame.width + u;
-        if (match[j] == ZBuffer::kEmpty) continue;
+        Vec3f p_c;
+        const int j = gated_pixel(i, merged_into, &p_c);
+        if (j < 0) continue;
         const int a = ZBuffer::Index(match[j]);
         if (a == i) continue;
-        if ((p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) continue;
-        if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) continue;
         const float overlap = radii_[a] + radii_[i];
         if ((positions_[i] - positions_[a]).squaredNorm() >= overlap * overlap) continue;
         if (normals_[i].dot(normals_[a]) <= min_cosine) continue;
