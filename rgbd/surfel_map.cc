@@ -142,9 +142,7 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
   const auto color_of = [&](int j) {
     return with_color ? Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]) : Vec3f::Zero();
   };
-  std::vector<int> merged(threads, 0);
-  ParallelForChunks(stats.input_points, threads, [&](int c, int begin, int end) {
-    int count = 0;
+  ParallelForChunks(stats.input_points, threads, [&](int, int begin, int end) {
     for (int k = begin; k < end; ++k) {
       const int j = frame.valid_pixels[k];
       if (match[j] == ZBuffer::kEmpty) continue;
@@ -158,11 +156,8 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
       weights_[i] = w + 1.0f;
       radii_[i] = std::min(radii_[i], SurfelRadius(q.z(), n_q.z(), focal_px));
       last_seen_[i] = frame_index;
-      ++count;
     }
-    merged[c] = count;
   });
-  for (const int count : merged) stats.merged += count;
 
   // 2b. Fold: a map point B that projects to a pixel which merged into another point A, and
   // passes that pixel's gates, is folded into A when their discs overlap (|p_B - p_A| <
@@ -237,6 +232,8 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
     last_seen_.push_back(frame_index);
     ++stats.added;
   }
+  // Every valid pixel merged, was covered or was added.
+  stats.merged = stats.input_points - stats.covered - stats.added;
 
   // 4. Remove dormant unstable points (and the folded ones).
   if (options.dormant_frames > 0 || stats.folded > 0) RemoveDormant(frame_index, options, &stats);
