@@ -265,6 +265,22 @@ bool IsProgressStep(int done, int total, int* last_percent) {
   return true;
 }
 
+/// A frame's index, timestamp and tracking outcome as rigfit.track and rigfit.slam report
+/// them (TrackedFrame, SlamFrame); the callers add their own fields.
+py::dict TrackedFrameDict(int index, double timestamp, const TrackResult& track) {
+  py::dict d;
+  d["index"] = index;
+  d["timestamp"] = timestamp;
+  d["success"] = track.success;
+  d["message"] = track.message;
+  d["iterations"] = track.iterations;
+  d["correspondences"] = track.correspondences;
+  d["matched_ratio"] = track.matched_ratio;
+  d["rmse_m"] = track.rmse_m;
+  d["weak_directions"] = track.weak_directions;
+  return d;
+}
+
 /// The defaults of `rigfit track`'s flags, from the library's option structs: rigfit.track's
 /// keyword defaults.
 py::dict TrackDefaults() {
@@ -326,17 +342,8 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
   py::list frames;
   for (size_t k = 0; k < result.frames.size(); ++k) {
     const OdometryFrame& f = result.frames[k];
-    py::dict d;
-    d["index"] = f.index;
-    d["timestamp"] = result.trajectory.timestamps[k];
-    d["success"] = f.track.success;
-    d["message"] = f.track.message;
+    py::dict d = TrackedFrameDict(f.index, result.trajectory.timestamps[k], f.track);
     d["keyframe"] = f.keyframe;
-    d["iterations"] = f.track.iterations;
-    d["correspondences"] = f.track.correspondences;
-    d["matched_ratio"] = f.track.matched_ratio;
-    d["rmse_m"] = f.track.rmse_m;
-    d["weak_directions"] = f.track.weak_directions;
     frames.append(d);
   }
   py::dict out;
@@ -457,16 +464,7 @@ py::dict Slam(const py::object& source, int first, int max_frames, int stride, i
   std::vector<int> map_sizes;
   for (size_t k = 0; k < result.frames.size(); ++k) {
     const SlamFrame& f = result.frames[k];
-    py::dict d;
-    d["index"] = f.index;
-    d["timestamp"] = result.trajectory.timestamps[k];
-    d["success"] = f.track.success;
-    d["message"] = f.track.message;
-    d["iterations"] = f.track.iterations;
-    d["correspondences"] = f.track.correspondences;
-    d["matched_ratio"] = f.track.matched_ratio;
-    d["rmse_m"] = f.track.rmse_m;
-    d["weak_directions"] = f.track.weak_directions;
+    py::dict d = TrackedFrameDict(f.index, result.trajectory.timestamps[k], f.track);
     d["model_pixels"] = f.model_pixels;
     d["input_points"] = f.fusion.input_points;
     d["merged"] = f.fusion.merged;
