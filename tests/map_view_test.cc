@@ -8,13 +8,12 @@
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <random>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "io/png.h"
+#include "io_test_util.h"
 #include "report/html.h"
 
 namespace rigfit {
@@ -273,12 +272,10 @@ TEST_F(MapPicture, ReportWritesThePictureAndThePage) {
   const RgbRaster png = ReadPng(files[0]);
   EXPECT_EQ(png.width, kMapViewWidth);
   EXPECT_EQ(png.height, kMapViewHeight);
-  std::ifstream page(files[1]);
-  std::stringstream text;
-  text << page.rdbuf();
-  EXPECT_NE(text.str().find("the summary"), std::string::npos);
-  EXPECT_NE(text.str().find("up axis (world +Y)"), std::string::npos);
-  EXPECT_NE(text.str().find(std::to_string(positions_.size()) + " map points"), std::string::npos);
+  const std::string text = io_test::ReadText(files[1]);
+  EXPECT_NE(text.find("the summary"), std::string::npos);
+  EXPECT_NE(text.find("up axis (world +Y)"), std::string::npos);
+  EXPECT_NE(text.find(std::to_string(positions_.size()) + " map points"), std::string::npos);
   fs::remove_all(dir);
 }
 
