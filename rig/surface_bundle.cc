@@ -22,6 +22,7 @@
 #include "rig/correspondences.h"
 #include "rig/covariance.h"
 #include "rig/plane_segmentation.h"
+#include "rig/ray_membership.h"
 
 namespace rigfit {
 namespace {
@@ -231,15 +232,6 @@ std::vector<ClusterTerm> Clusters(const std::vector<SurfaceCamera>& cameras,
   return terms;
 }
 
-/// The band's edges select pixels by their measured height, which moves with their depth
-/// noise: where a face leaves the band (at its top, and at the floor margin of the
-/// segmentation) only the pixels whose noise moved them inward remain, and the face's plane
-/// tilts (on the default simulated rig, most wall and furniture planes by 10-20 degrees at
-/// 3-4 m). A pixel whose predicted point (where its ray meets the plane, which its own noise
-/// does not move) lies this many of its vertical noise sigmas inside every edge was kept
-/// whatever its noise, so the pixels so chosen are free of that selection.
-constexpr double kWindowSigmas = 3.5;
-
 /// Keeps the pixels of each non-floor term whose predicted point lies within kWindowSigmas of
 /// the band's top (inside the points' own, wider, top: SurfaceCamera::points_top) and of the
 /// segmentation's floor margin; a term left with too few pixels goes.
@@ -266,22 +258,38 @@ void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
       const double z = RayPlaneDepth(T.translation(), ray, n, d);  // predicted depth
       if (!std::isfinite(z) || z <= 0.0) continue;
       const double y = T.translation().y() + z * ray.y();
-      // The segmentation's vertical sigma of the pixel (PlaneSegmentationOptions).
-      const double along = camera.depth_noise * z * z * ray.y();
-      const double sigma_v = std::sqrt(along * along + base);
+      const double sigma_v = VerticalSigma(camera, z, ray, base);
       double bottom = camera.band_bottom;
       if (segmentation.leveled_floor) {
         bottom = std::max(bottom, std::min(segmentation.floor_margin_m,
                                            segmentation.floor_margin_sigmas * sigma_v));
       }
-      const double top = std::min(camera.band_top, camera.points_top - kWindowSigmas * sigma_v);
-      if (y >= bottom + kWindowSigmas * sigma_v && y <= top) inside.push_back(i);
+      if (y >= bottom + kWindowSigmas * sigma_v && y <= PredictedTop(camera, sigma_v)) {
+        inside.push_back(i);
+      }
     }
     if (static_cast<int>(inside.size()) < segmentation.min_points_per_camera) continue;
     t.pixels = std::move(inside);
     kept.push_back(std::move(t));
   }
   *terms = std::move(kept);
+}
+
+/// The terms' pixels assigned anew by their rays (rig/ray_membership.h).
+void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
+                  const std::vector<PlaneBlock>& planes,
+                  const PlaneSegmentationOptions& segmentation, std::vector<ClusterTerm>* terms) {
+  std::vector<MembershipPlane> membership_planes;
+  for (const PlaneBlock& plane : planes) {
+    membership_planes.push_back({plane.Normal(), plane.x(3), plane.floor});
+  }
+  std::vector<MembershipTerm> segmented;
+  for (ClusterTerm& t : *terms) segmented.push_back({t.camera, t.plane, std::move(t.pixels)});
+  terms->clear();
+  for (MembershipTerm& t :
+       MembershipByRays(cameras, poses, membership_planes, segmented, segmentation)) {
+    terms->push_back({t.camera, t.plane, PlaneCluster{}, std::move(t.pixels)});
+  }
 }
 
 /// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
@@ -470,6 +478,9 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
     }
     terms = Clusters(cameras, cloud, segmented);
     PredictedHeightWindow(cameras, poses, planes, segmentation, &terms);
+    // The last round's pixels by their rays, from the segmentation at the poses of the
+    // previous rounds' solves.
+    if (round == rounds - 1) AssignByRays(cameras, poses, planes, segmentation, &terms);
     correlation = measured;
     FillClusters(cameras, options, correlation, &terms);
     if (round == 0) {

@@ -1,0 +1,199 @@
+#include "rig/ray_membership.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <unordered_set>
+#include <utility>
+
+#include "core/geometry.h"
+
+namespace rigfit {
+namespace {
+
+/// A cell (a, b) of a plane's grid packed in 64 bits.
+using CellKey = std::int64_t;
+using Cells = std::unordered_set<CellKey>;
+
+CellKey Pack(std::int64_t a, std::int64_t b) {
+  return static_cast<CellKey>((static_cast<std::uint64_t>(a) << 32) |
+                              static_cast<std::uint32_t>(b));
+}
+std::int64_t First(CellKey key) { return static_cast<std::int32_t>(key >> 32); }
+std::int64_t Second(CellKey key) { return static_cast<std::int32_t>(key & 0xffffffff); }
+
+/// Cells of `size` along two in-plane axes: e1 horizontal (unless the plane is near
+/// horizontal), e2 = n x e1.
+struct PlaneGrid {
+  Vec3 origin = Vec3::Zero();
+  Vec3 e1 = Vec3::UnitX();
+  Vec3 e2 = Vec3::UnitZ();
+  double size = 0.04;
+
+  PlaneGrid(const MembershipPlane& plane, double cell) : size(cell) {
+    origin = -plane.offset * plane.normal;
+    const Vec3 helper = std::abs(plane.normal.y()) < 0.9 ? Vec3::UnitY() : Vec3::UnitX();
+    e1 = helper.cross(plane.normal).normalized();
+    e2 = plane.normal.cross(e1);
+  }
+  CellKey Key(const Vec3& x) const {
+    const Vec3 r = x - origin;
+    return Pack(static_cast<std::int64_t>(std::floor(r.dot(e1) / size)),
+                static_cast<std::int64_t>(std::floor(r.dot(e2) / size)));
+  }
+  /// World height of the centre of cell (a, b).
+  double Height(std::int64_t a, std::int64_t b) const {
+    return (origin + (a + 0.5) * size * e1 + (b + 0.5) * size * e2).y();
+  }
+};
+
+Cells Dilated(const Cells& cells) {
+  Cells out;
+  for (const CellKey k : cells) {
+    for (int da = -1; da <= 1; ++da) {
+      for (int db = -1; db <= 1; ++db) out.insert(Pack(First(k) + da, Second(k) + db));
+    }
+  }
+  return out;
+}
+
+/// The cells whose eight neighbours are all in `cells`.
+Cells Eroded(const Cells& cells) {
+  Cells out;
+  for (const CellKey k : cells) {
+    bool inside = true;
+    for (int da = -1; da <= 1 && inside; ++da) {
+      for (int db = -1; db <= 1 && inside; ++db) {
+        inside = cells.count(Pack(First(k) + da, Second(k) + db)) > 0;
+      }
+    }
+    if (inside) out.insert(k);
+  }
+  return out;
+}
+
+/// A near-vertical plane's cells extended down to the floor (y = -size), column by column.
+Cells DownToFloor(const Cells& cells, const PlaneGrid& grid) {
+  if (std::abs(grid.e2.y()) < 0.9) return cells;
+  const int down = grid.e2.y() > 0.0 ? -1 : 1;
+  Cells out = cells;
+  for (const CellKey k : cells) {
+    for (std::int64_t b = Second(k) + down; grid.Height(First(k), b) >= -grid.size; b += down) {
+      if (!out.insert(Pack(First(k), b)).second) break;  // the column below is there already
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+double VerticalSigma(const SurfaceCamera& camera, double z, const Vec3& ray, double base_variance) {
+  const double along = camera.depth_noise * z * z * ray.y();
+  return std::sqrt(along * along + base_variance);
+}
+
+double PredictedTop(const SurfaceCamera& camera, double sigma_v) {
+  return std::min(camera.band_top, camera.points_top - kWindowSigmas * sigma_v);
+}
+
+std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
+                                             const std::vector<Pose>& poses,
+                                             const std::vector<MembershipPlane>& planes,
+                                             const std::vector<MembershipTerm>& segmented,
+                                             const PlaneSegmentationOptions& segmentation) {
+  const size_t n = cameras.size();
+  const size_t m = planes.size();
+  const double model = segmentation.model_sigma_voxels * segmentation.voxel_size;
+  const double base = model * model + segmentation.min_noise_m * segmentation.min_noise_m;
+  const double gate = segmentation.gate_sigmas;
+  std::vector<PlaneGrid> grids;
+  for (const MembershipPlane& plane : planes) {
+    grids.emplace_back(plane, kMembershipCellVoxels * segmentation.voxel_size);
+  }
+  const auto ray_of = [&](size_t c, int i) {
+    const Vec3& p = cameras[c].points[i];
+    return Vec3(poses[c].linear() * (p / p.z()));
+  };
+
+  // Each camera's extent of each plane, and every plane's crease zone.
+  std::vector<std::vector<Cells>> own(n, std::vector<Cells>(m));
+  for (const MembershipTerm& t : segmented) {
+    if (!cameras[t.camera].ray_model) continue;
+    const Vec3& centre = poses[t.camera].translation();
+    const MembershipPlane& plane = planes[t.plane];
+    for (const int i : t.pixels) {
+      const Vec3 ray = ray_of(t.camera, i);
+      const double z = RayPlaneDepth(centre, ray, plane.normal, plane.offset);
+      if (std::isfinite(z) && z > 0.0)
+        own[t.camera][t.plane].insert(grids[t.plane].Key(centre + z * ray));
+    }
+  }
+  std::vector<Cells> zone(m);
+  for (size_t j = 0; j < m; ++j) {
+    Cells all;
+    for (size_t c = 0; c < n; ++c) {
+      own[c][j] = Eroded(Dilated(own[c][j]));
+      all.insert(own[c][j].begin(), own[c][j].end());
+    }
+    zone[j] = planes[j].floor ? Dilated(all) : DownToFloor(Dilated(all), grids[j]);
+  }
+
+  std::vector<MembershipTerm> out;
+  std::vector<std::pair<double, int>> near;  // (depth, plane) of the crease zones a ray meets
+  for (size_t c = 0; c < n; ++c) {
+    const SurfaceCamera& camera = cameras[c];
+    if (!camera.ray_model) {
+      for (const MembershipTerm& t : segmented) {
+        if (t.camera == static_cast<int>(c)) out.push_back(t);
+      }
+      continue;
+    }
+    const Vec3& centre = poses[c].translation();
+    const auto sigma_z = [&](double z) {
+      const double s = camera.depth_noise * z * z;
+      return std::sqrt(s * s + base);
+    };
+    std::vector<std::vector<int>> pixels(m);
+    for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
+      const Vec3 ray = ray_of(c, i);
+      const double measured = camera.points[i].z();
+      const double reach = 2.0 * gate * sigma_z(measured);
+      double z1 = std::numeric_limits<double>::infinity();
+      int j1 = -1;
+      near.clear();
+      for (size_t j = 0; j < m; ++j) {
+        const double z = RayPlaneDepth(centre, ray, planes[j].normal, planes[j].offset);
+        if (!std::isfinite(z) || z <= 0.0 || std::abs(z - measured) > reach) continue;
+        const CellKey key = grids[j].Key(centre + z * ray);
+        if (zone[j].count(key)) near.emplace_back(z, static_cast<int>(j));
+        if (z < z1 && own[c][j].count(key)) z1 = z, j1 = static_cast<int>(j);
+      }
+      if (j1 < 0) continue;
+      const double sigma = sigma_z(z1);
+      if (std::abs(measured - z1) > gate * sigma) continue;
+      const bool crease = std::any_of(near.begin(), near.end(), [&](const auto& hit) {
+        return hit.second != j1 && hit.first - z1 <= gate * sigma;
+      });
+      if (crease) continue;
+      const double sigma_v = VerticalSigma(camera, z1, ray, base);
+      if (planes[j1].floor) {
+        const double height = (poses[c] * camera.points[i]).y();
+        const double limit =
+            std::min({gate * sigma_v, segmentation.floor_height_m, -camera.band_bottom});
+        if (std::abs(height) > limit) continue;
+      } else {
+        const double height = centre.y() + z1 * ray.y();
+        if (height < camera.band_bottom || height > PredictedTop(camera, sigma_v)) continue;
+      }
+      pixels[j1].push_back(i);
+    }
+    for (size_t j = 0; j < m; ++j) {
+      if (static_cast<int>(pixels[j].size()) < segmentation.min_points_per_camera) continue;
+      out.push_back({static_cast<int>(c), static_cast<int>(j), std::move(pixels[j])});
+    }
+  }
+  return out;
+}
+
+}  // namespace rigfit
