@@ -1,0 +1,181 @@
+#include "rig/ray_membership.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "core/geometry.h"
+
+namespace rigfit {
+namespace {
+
+constexpr double kCameraHeight = 1.5;  // m, looking 30 deg down along world +Z
+constexpr double kWallZ = 3.0;         // the wall z = 3 m faces the camera
+constexpr double kNoise = 0.0025;      // k of sigma_z = k z^2
+
+/// A camera over a floor (y = 0) looking at a wall; its pixels of the near-floor band (world
+/// height -0.05 .. 0.4 m), each with its true plane (0 floor, 1 wall) and its ray.
+struct Scene {
+  SurfaceCamera camera;
+  std::vector<MembershipPlane> planes;
+  std::vector<int> truth;  ///< per point: 0 floor, 1 wall
+  std::vector<int> column;
+  std::vector<Vec3> ray;  ///< world direction, unit camera z
+
+  Scene() {
+    const double pitch = 30.0 * M_PI / 180.0;
+    Mat3 R;
+    R.col(1) = Vec3(0.0, -std::cos(pitch), -std::sin(pitch));  // image down
+    R.col(2) = Vec3(0.0, -std::sin(pitch), std::cos(pitch));   // optical axis
+    R.col(0) = R.col(1).cross(R.col(2));
+    camera.T_world_camera.linear() = R;
+    camera.T_world_camera.translation() = Vec3(0.0, kCameraHeight, 0.0);
+    camera.depth_noise = kNoise;
+    camera.band_bottom = -0.05;
+    camera.band_top = 0.3;
+    camera.points_top = 0.4;
+    planes = {{Vec3::UnitY(), 0.0, true}, {Vec3(0.0, 0.0, -1.0), kWallZ, false}};
+    const double f = 300.0, cx = 159.5, cy = 89.5;
+    for (int v = 0; v < 180; ++v) {
+      for (int u = 0; u < 320; ++u) {
+        const Vec3 a((u - cx) / f, (v - cy) / f, 1.0);
+        const Vec3 r = R * a;
+        const Vec3& c = camera.T_world_camera.translation();
+        const double floor = r.y() < 0.0 ? -c.y() / r.y() : INFINITY;
+        const double wall = r.z() > 0.0 ? (kWallZ - c.z()) / r.z() : INFINITY;
+        const double z = std::min(floor, wall);
+        const double height = c.y() + z * r.y();
+        if (!std::isfinite(z) || height < -0.05 || height > 0.4) continue;
+        camera.points.push_back(z * a);
+        truth.push_back(wall < floor ? 1 : 0);
+        column.push_back(u);
+        ray.push_back(r);
+      }
+    }
+  }
+
+  Pose T() const { return camera.T_world_camera; }
+  double Height(int i) const { return (T() * camera.points[i]).y(); }
+  /// Depth at which point i's ray meets plane j.
+  double Depth(int i, int j) const {
+    return RayPlaneDepth(T().translation(), ray[i], planes[j].normal, planes[j].offset);
+  }
+};
+
+/// The pixels of plane j in the result (empty when it has no term).
+std::vector<int> PixelsOn(const std::vector<MembershipTerm>& terms, int plane) {
+  for (const MembershipTerm& t : terms) {
+    if (t.plane == plane) return t.pixels;
+  }
+  return {};
+}
+
+TEST(RayMembership, TakesBackAFacesPixelsThatTheSegmentationLeftOutAndNoneOfAnotherFace) {
+  const Scene s;
+  // The segmentation: the whole floor; the wall between 12 and 25 cm with every third pixel
+  // missing (cell borders, points another fragment fitted as well).
+  MembershipTerm floor{0, 0, {}}, wall{0, 1, {}};
+  for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
+    if (s.truth[i] == 0) floor.pixels.push_back(i);
+    const double h = s.Height(i);
+    if (s.truth[i] == 1 && h > 0.12 && h < 0.25 && i % 3 != 0) wall.pixels.push_back(i);
+  }
+  ASSERT_GT(wall.pixels.size(), 1000u);
+  const PlaneSegmentationOptions segmentation;
+  const std::vector<MembershipTerm> terms =
+      MembershipByRays({s.camera}, {s.T()}, s.planes, {floor, wall}, segmentation);
+  for (const MembershipTerm& t : terms) {
+    for (const int i : t.pixels) ASSERT_EQ(s.truth[i], t.plane) << "pixel " << i;
+  }
+  // The gaps are inside the wall's extent: about all of the wall there comes back.
+  EXPECT_GT(PixelsOn(terms, 1).size(), 1.4 * wall.pixels.size());
+  // Where the floor and the wall are within the gate of each other along the ray, near the
+  // wall's foot, the pixel is in neither: which one it sees depends on their estimates.
+  const std::vector<int> on_floor = PixelsOn(terms, 0);
+  int crease = 0;
+  for (const int i : floor.pixels) {
+    const double z = s.camera.points[i].z();
+    const double sigma = std::hypot(kNoise * z * z, segmentation.min_noise_m);
+    const double wall_foot = s.T().translation().y() + s.Depth(i, 1) * s.ray[i].y();
+    if (s.Depth(i, 1) - z > 0.5 * segmentation.gate_sigmas * sigma || wall_foot < -0.02) continue;
+    ++crease;
+    EXPECT_EQ(std::count(on_floor.begin(), on_floor.end(), i), 0) << "pixel " << i;
+  }
+  EXPECT_GT(crease, 50);
+  EXPECT_GT(on_floor.size(), 0.8 * floor.pixels.size());
+}
+
+TEST(RayMembership, ACameraClaimsAPlaneOnlyWhereItsOwnPixelsOfItAre) {
+  // Two cameras at one pose: the segmentation gave the first the wall's pixels in image
+  // columns < 100, the second those in columns >= 220. Where only the second has pixels of
+  // the wall, the first does not take its own (an object in front of the wall that only the
+  // first sees would otherwise join the wall within the depth gate).
+  const Scene s;
+  MembershipTerm floor{0, 0, {}}, left{0, 1, {}}, right{1, 1, {}};
+  double x_min = INFINITY, x_max = -INFINITY;
+  for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
+    if (s.truth[i] == 0) floor.pixels.push_back(i);
+    const double h = s.Height(i);
+    if (s.truth[i] != 1 || h < 0.12 || h > 0.25) continue;
+    if (s.column[i] >= 220) right.pixels.push_back(i);
+    if (s.column[i] >= 100) continue;
+    left.pixels.push_back(i);
+    const double x = (s.T() * s.camera.points[i]).x();
+    x_min = std::min(x_min, x), x_max = std::max(x_max, x);
+  }
+  const std::vector<MembershipTerm> terms =
+      MembershipByRays({s.camera, s.camera}, {s.T(), s.T()}, s.planes, {floor, left, right}, {});
+  std::vector<int> first_on_wall;
+  for (const MembershipTerm& t : terms) {
+    if (t.camera == 0 && t.plane == 1) first_on_wall = t.pixels;
+  }
+  EXPECT_GE(first_on_wall.size(), left.pixels.size());
+  // Within a cell or two (4 cm cells) of the region its pixels cover.
+  for (const int i : first_on_wall) {
+    const double x = (s.T() * s.camera.points[i]).x();
+    EXPECT_GT(x, x_min - 0.08);
+    EXPECT_LT(x, x_max + 0.08);
+  }
+}
+
+TEST(RayMembership, FloorPixelsAreGatedAlikeAboveAndBelowTheFloorInsideTheBand) {
+  // The points were taken above 2 cm under the floor (band_bottom): a floor pixel that its
+  // noise moved 2.5 cm up is left out as one moved 2.5 cm down would have been (its noise gate
+  // is 3.3-3.6 cm here), one moved 1 cm up is kept.
+  Scene s;
+  s.camera.band_bottom = -0.02;
+  MembershipTerm floor{0, 0, {}};
+  std::vector<int> up1, up3;  // moved 1 and 2.5 cm up
+  for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
+    if (s.truth[i] != 0 || s.camera.points[i].z() < 2.4 || s.camera.points[i].z() > 2.7) continue;
+    floor.pixels.push_back(i);
+    const double rise = s.column[i] % 2 == 0 ? 0.025 : 0.01;  // measured height, m
+    (s.column[i] % 2 == 0 ? up3 : up1).push_back(i);
+    const Vec3 a = s.camera.points[i] / s.camera.points[i].z();
+    s.camera.points[i] += rise / s.ray[i].y() * a;  // along the ray, which goes down
+  }
+  const PlaneSegmentationOptions segmentation;
+  const std::vector<MembershipTerm> terms =
+      MembershipByRays({s.camera}, {s.T()}, s.planes, {floor}, segmentation);
+  const std::vector<int> on_floor = PixelsOn(terms, 0);
+  const auto kept = [&](const std::vector<int>& pixels) {
+    return std::count_if(pixels.begin(), pixels.end(), [&](int i) {
+      return std::find(on_floor.begin(), on_floor.end(), i) != on_floor.end();
+    });
+  };
+  ASSERT_GT(up3.size(), 500u);
+  // This test's premise: the noise gate alone would keep the 2.5 cm pixels.
+  const double model = segmentation.model_sigma_voxels * segmentation.voxel_size;
+  const double base = model * model + segmentation.min_noise_m * segmentation.min_noise_m;
+  for (const int i : up3) {
+    const double z = s.Depth(i, 0);
+    ASSERT_GT(segmentation.gate_sigmas * VerticalSigma(s.camera, z, s.ray[i], base), 0.03);
+  }
+  EXPECT_EQ(kept(up3), 0);
+  EXPECT_GT(kept(up1), 0.9 * up1.size());
+}
+
+}  // namespace
+}  // namespace rigfit
