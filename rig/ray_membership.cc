@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "core/geometry.h"
+#include "core/parallel.h"
 
 namespace rigfit {
 namespace {
@@ -101,7 +102,8 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
                                              const std::vector<Pose>& poses,
                                              const std::vector<MembershipPlane>& planes,
                                              const std::vector<MembershipTerm>& segmented,
-                                             const PlaneSegmentationOptions& segmentation) {
+                                             const PlaneSegmentationOptions& segmentation,
+                                             int num_threads) {
   const size_t n = cameras.size();
   const size_t m = planes.size();
   const double model = segmentation.model_sigma_voxels * segmentation.voxel_size;
@@ -116,81 +118,99 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
     return Vec3(poses[c].linear() * (p / p.z()));
   };
 
-  // Each camera's extent of each plane, and every plane's crease zone.
+  // Each camera's extent of each plane (a camera at a time), then every plane's crease zone
+  // (a plane at a time).
   std::vector<std::vector<Cells>> own(n, std::vector<Cells>(m));
-  for (const MembershipTerm& t : segmented) {
-    if (!cameras[t.camera].ray_model) continue;
-    const Vec3& centre = poses[t.camera].translation();
-    const MembershipPlane& plane = planes[t.plane];
-    for (const int i : t.pixels) {
-      const Vec3 ray = ray_of(t.camera, i);
-      const double z = RayPlaneDepth(centre, ray, plane.normal, plane.offset);
-      if (std::isfinite(z) && z > 0.0)
-        own[t.camera][t.plane].insert(grids[t.plane].Key(centre + z * ray));
-    }
-  }
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int c) {
+        if (!cameras[c].ray_model) return;
+        const Vec3& centre = poses[c].translation();
+        for (const MembershipTerm& t : segmented) {
+          if (t.camera != c) continue;
+          const MembershipPlane& plane = planes[t.plane];
+          for (const int i : t.pixels) {
+            const Vec3 ray = ray_of(c, i);
+            const double z = RayPlaneDepth(centre, ray, plane.normal, plane.offset);
+            if (std::isfinite(z) && z > 0.0) {
+              own[c][t.plane].insert(grids[t.plane].Key(centre + z * ray));
+            }
+          }
+        }
+        for (Cells& cells : own[c]) cells = Eroded(Dilated(cells));
+      },
+      /*min_per_thread=*/1);
   std::vector<Cells> zone(m);
-  for (size_t j = 0; j < m; ++j) {
-    Cells all;
-    for (size_t c = 0; c < n; ++c) {
-      own[c][j] = Eroded(Dilated(own[c][j]));
-      all.insert(own[c][j].begin(), own[c][j].end());
-    }
-    zone[j] = planes[j].floor ? Dilated(all) : DownToFloor(Dilated(all), grids[j]);
-  }
+  ParallelFor(
+      static_cast<int>(m), num_threads,
+      [&](int j) {
+        Cells all;
+        for (size_t c = 0; c < n; ++c) all.insert(own[c][j].begin(), own[c][j].end());
+        zone[j] = planes[j].floor ? Dilated(all) : DownToFloor(Dilated(all), grids[j]);
+      },
+      /*min_per_thread=*/1);
+
+  // Every pixel, a camera at a time.
+  std::vector<std::vector<std::vector<int>>> pixels(n);
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int c) {
+        const SurfaceCamera& camera = cameras[c];
+        if (!camera.ray_model) return;
+        const Vec3& centre = poses[c].translation();
+        const auto sigma_z = [&](double z) {
+          const double s = camera.depth_noise * z * z;
+          return std::sqrt(s * s + base);
+        };
+        pixels[c].resize(m);
+        std::vector<std::pair<double, int>> near;  // (depth, plane) of the crease zones met
+        for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
+          const Vec3 ray = ray_of(c, i);
+          const double measured = camera.points[i].z();
+          const double reach = 2.0 * gate * sigma_z(measured);
+          double z1 = std::numeric_limits<double>::infinity();
+          int j1 = -1;
+          near.clear();
+          for (size_t j = 0; j < m; ++j) {
+            const double z = RayPlaneDepth(centre, ray, planes[j].normal, planes[j].offset);
+            if (!std::isfinite(z) || z <= 0.0 || std::abs(z - measured) > reach) continue;
+            const CellKey key = grids[j].Key(centre + z * ray);
+            if (zone[j].count(key)) near.emplace_back(z, static_cast<int>(j));
+            if (z < z1 && own[c][j].count(key)) z1 = z, j1 = static_cast<int>(j);
+          }
+          if (j1 < 0) continue;
+          const double sigma = sigma_z(z1);
+          if (std::abs(measured - z1) > gate * sigma) continue;
+          const bool crease = std::any_of(near.begin(), near.end(), [&](const auto& hit) {
+            return hit.second != j1 && hit.first - z1 <= gate * sigma;
+          });
+          if (crease) continue;
+          const double sigma_v = VerticalSigma(camera, z1, ray, base);
+          if (planes[j1].floor) {
+            const double height = (poses[c] * camera.points[i]).y();
+            const double limit =
+                std::min({gate * sigma_v, segmentation.floor_height_m, -camera.band_bottom});
+            if (std::abs(height) > limit) continue;
+          } else {
+            const double height = centre.y() + z1 * ray.y();
+            if (height < camera.band_bottom || height > PredictedTop(camera, sigma_v)) continue;
+          }
+          pixels[c][j1].push_back(i);
+        }
+      },
+      /*min_per_thread=*/1);
 
   std::vector<MembershipTerm> out;
-  std::vector<std::pair<double, int>> near;  // (depth, plane) of the crease zones a ray meets
   for (size_t c = 0; c < n; ++c) {
-    const SurfaceCamera& camera = cameras[c];
-    if (!camera.ray_model) {
+    if (!cameras[c].ray_model) {
       for (const MembershipTerm& t : segmented) {
         if (t.camera == static_cast<int>(c)) out.push_back(t);
       }
       continue;
     }
-    const Vec3& centre = poses[c].translation();
-    const auto sigma_z = [&](double z) {
-      const double s = camera.depth_noise * z * z;
-      return std::sqrt(s * s + base);
-    };
-    std::vector<std::vector<int>> pixels(m);
-    for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
-      const Vec3 ray = ray_of(c, i);
-      const double measured = camera.points[i].z();
-      const double reach = 2.0 * gate * sigma_z(measured);
-      double z1 = std::numeric_limits<double>::infinity();
-      int j1 = -1;
-      near.clear();
-      for (size_t j = 0; j < m; ++j) {
-        const double z = RayPlaneDepth(centre, ray, planes[j].normal, planes[j].offset);
-        if (!std::isfinite(z) || z <= 0.0 || std::abs(z - measured) > reach) continue;
-        const CellKey key = grids[j].Key(centre + z * ray);
-        if (zone[j].count(key)) near.emplace_back(z, static_cast<int>(j));
-        if (z < z1 && own[c][j].count(key)) z1 = z, j1 = static_cast<int>(j);
-      }
-      if (j1 < 0) continue;
-      const double sigma = sigma_z(z1);
-      if (std::abs(measured - z1) > gate * sigma) continue;
-      const bool crease = std::any_of(near.begin(), near.end(), [&](const auto& hit) {
-        return hit.second != j1 && hit.first - z1 <= gate * sigma;
-      });
-      if (crease) continue;
-      const double sigma_v = VerticalSigma(camera, z1, ray, base);
-      if (planes[j1].floor) {
-        const double height = (poses[c] * camera.points[i]).y();
-        const double limit =
-            std::min({gate * sigma_v, segmentation.floor_height_m, -camera.band_bottom});
-        if (std::abs(height) > limit) continue;
-      } else {
-        const double height = centre.y() + z1 * ray.y();
-        if (height < camera.band_bottom || height > PredictedTop(camera, sigma_v)) continue;
-      }
-      pixels[j1].push_back(i);
-    }
     for (size_t j = 0; j < m; ++j) {
-      if (static_cast<int>(pixels[j].size()) < segmentation.min_points_per_camera) continue;
-      out.push_back({static_cast<int>(c), static_cast<int>(j), std::move(pixels[j])});
+      if (static_cast<int>(pixels[c][j].size()) < segmentation.min_points_per_camera) continue;
+      out.push_back({static_cast<int>(c), static_cast<int>(j), std::move(pixels[c][j])});
     }
   }
   return out;

@@ -67,11 +67,13 @@ constexpr double kMembershipCellVoxels = 2.0;
 ///    them down); on a face, its predicted height is inside the band (band_bottom, PredictedTop).
 /// Planes a camera's rays meet more than twice the gate from its measured depth are not looked
 /// at. A (camera, plane) with fewer than min_points_per_camera pixels goes; points cameras keep
-/// their segmented terms. Ordered by camera, then plane.
+/// their segmented terms. Ordered by camera, then plane; the same whatever num_threads (the
+/// cameras are shared out among them).
 std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
                                              const std::vector<Pose>& poses,
                                              const std::vector<MembershipPlane>& planes,
                                              const std::vector<MembershipTerm>& segmented,
-                                             const PlaneSegmentationOptions& segmentation);
+                                             const PlaneSegmentationOptions& segmentation,
+                                             int num_threads = 1);
 
 }  // namespace rigfit

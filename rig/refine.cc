@@ -120,7 +120,7 @@ std::optional<std::vector<Pose>> RegisterPairwise(const std::vector<Registration
 /// The surface bundle after the joint point-to-plane solve: joint's poses, covariance and
 /// connectivity in `joint` are replaced where it refined a camera.
 void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const IcpOptions& options,
-                    const Log& log, JointResult* joint, RefineResult* result) {
+                    int num_threads, const Log& log, JointResult* joint, RefineResult* result) {
   for (size_t i = 0; i < surfaces.size(); ++i) {
     surfaces[i].T_world_camera = joint->poses[i];
     surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
@@ -129,7 +129,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     // its pixels would pull the planes.
     if (!joint->connected[i]) surfaces[i].points.clear();
   }
-  const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, log);
+  const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, num_threads, log);
   if (!bundle.usable) {
     Warn(result, log, bundle.message + "; the joint point-to-plane poses stand");
     return;
@@ -200,7 +200,7 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
   JointResult joint =
       RegisterJoint(cameras, candidates, reference, joint_options, num_threads, log);
   if (surfaces != nullptr && joint.usable) {
-    RefineSurfaces(*surfaces, reference, options, log, &joint, result);
+    RefineSurfaces(*surfaces, reference, options, num_threads, log, &joint, result);
   }
   result->times.correspondences_s = joint.correspondences_s;
   result->times.solve_s = joint.solve_s;

@@ -278,7 +278,8 @@ void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
 /// The terms' pixels assigned anew by their rays (rig/ray_membership.h).
 void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
                   const std::vector<PlaneBlock>& planes,
-                  const PlaneSegmentationOptions& segmentation, std::vector<ClusterTerm>* terms) {
+                  const PlaneSegmentationOptions& segmentation, int num_threads,
+                  std::vector<ClusterTerm>* terms) {
   std::vector<MembershipPlane> membership_planes;
   for (const PlaneBlock& plane : planes) {
     membership_planes.push_back({plane.Normal(), plane.x(3), plane.floor});
@@ -287,7 +288,7 @@ void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   for (ClusterTerm& t : *terms) segmented.push_back({t.camera, t.plane, std::move(t.pixels)});
   terms->clear();
   for (MembershipTerm& t :
-       MembershipByRays(cameras, poses, membership_planes, segmented, segmentation)) {
+       MembershipByRays(cameras, poses, membership_planes, segmented, segmentation, num_threads)) {
     terms->push_back({t.camera, t.plane, PlaneCluster{}, std::move(t.pixels)});
   }
 }
@@ -360,15 +361,16 @@ void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterT
 }
 
 SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
-                          const Log& log);
+                          int num_threads, const Log& log);
 
 }  // namespace
 
 void SetSurfaceBundleObserver(SurfaceBundleObserver observer) { Observer() = std::move(observer); }
 
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
-                                          const IcpOptions& options, const Log& log) {
-  SurfaceBundleResult result = Solve(cameras, options, log);
+                                          const IcpOptions& options, int num_threads,
+                                          const Log& log) {
+  SurfaceBundleResult result = Solve(cameras, options, num_threads, log);
   if (Observer()) Observer()(cameras, result);
   return result;
 }
@@ -376,7 +378,7 @@ SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& came
 namespace {
 
 SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
-                          const Log& log) {
+                          int num_threads, const Log& log) {
   const size_t n = cameras.size();
   SurfaceBundleResult result;
   result.fallback.assign(n, false);
@@ -480,7 +482,9 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
     PredictedHeightWindow(cameras, poses, planes, segmentation, &terms);
     // The last round's pixels by their rays, from the segmentation at the poses of the
     // previous rounds' solves.
-    if (round == rounds - 1) AssignByRays(cameras, poses, planes, segmentation, &terms);
+    if (round == rounds - 1) {
+      AssignByRays(cameras, poses, planes, segmentation, num_threads, &terms);
+    }
     correlation = measured;
     FillClusters(cameras, options, correlation, &terms);
     if (round == 0) {

@@ -94,11 +94,14 @@ struct SurfaceBundleResult {
   int rounds = 0;
 };
 
-/// Refines the free cameras. Never throws on bad geometry. Single-threaded, so that its
-/// digits do not depend on the threads (Ceres' multi-threaded Schur elimination sums in the
-/// order its threads finish); the problem it solves is small.
+/// Refines the free cameras. Never throws on bad geometry. The solve is single-threaded, so
+/// that its digits do not depend on the threads (Ceres' multi-threaded Schur elimination sums
+/// in the order its threads finish; the problem it solves is small); num_threads share out the
+/// cameras of the last round's assignment by rays (rig/ray_membership.h), whose result does
+/// not depend on them.
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
-                                          const IcpOptions& options, const Log& log);
+                                          const IcpOptions& options, int num_threads,
+                                          const Log& log);
 
 /// Called by every RegisterSurfaceBundle with its input and result before it returns: a hook
 /// for benchmarks and tests that look inside a Refine (bench/rig_accuracy --segmentation).

@@ -177,5 +177,25 @@ TEST(RayMembership, FloorPixelsAreGatedAlikeAboveAndBelowTheFloorInsideTheBand) 
   EXPECT_GT(kept(up1), 0.9 * up1.size());
 }
 
+TEST(RayMembership, TheSameWhateverTheThreads) {
+  const Scene s;
+  MembershipTerm floor{0, 0, {}}, wall{1, 1, {}};
+  for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
+    (s.truth[i] == 0 ? floor : wall).pixels.push_back(i);
+  }
+  const auto run = [&](int threads) {
+    return MembershipByRays({s.camera, s.camera, s.camera}, {s.T(), s.T(), s.T()}, s.planes,
+                            {floor, wall}, PlaneSegmentationOptions{}, threads);
+  };
+  const std::vector<MembershipTerm> one = run(1), three = run(3);
+  ASSERT_EQ(one.size(), three.size());
+  ASSERT_GE(one.size(), 2u);
+  for (size_t k = 0; k < one.size(); ++k) {
+    EXPECT_EQ(one[k].camera, three[k].camera);
+    EXPECT_EQ(one[k].plane, three[k].plane);
+    EXPECT_EQ(one[k].pixels, three[k].pixels);
+  }
+}
+
 }  // namespace
 }  // namespace rigfit
