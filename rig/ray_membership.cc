@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <unordered_set>
 #include <utility>
 
@@ -12,6 +13,11 @@
 
 namespace rigfit {
 namespace {
+
+/// A ring cell's pixels join the plane when there are this many, and their mean whitened
+/// residual is within this many of its sigmas of zero.
+constexpr int kRingMinPixels = 5;
+constexpr double kRingMeanSigmas = 3.0;
 
 /// A cell (a, b) of a plane's grid packed in 64 bits.
 using CellKey = std::int64_t;
@@ -87,6 +93,27 @@ Cells DownToFloor(const Cells& cells, const PlaneGrid& grid) {
   return out;
 }
 
+/// The pixels of a camera whose rays meet a plane in one cell of its ring, and their whitened
+/// depth residuals against the plane.
+struct RingCell {
+  std::vector<int> pixels;
+  double sum = 0.0;
+  double sum_squares = 0.0;
+
+  void Add(int pixel, double residual) {
+    pixels.push_back(pixel);
+    sum += residual;
+    sum_squares += residual * residual;
+  }
+  /// Enough pixels, their mean within kRingMeanSigmas of its spread of zero, and their
+  /// chi-square within chi2_sigmas of its degrees of freedom (the segmentation's test).
+  bool OnThePlane(double chi2_sigmas) const {
+    const double count = static_cast<double>(pixels.size());
+    return count >= kRingMinPixels && std::abs(sum) <= kRingMeanSigmas * std::sqrt(count) &&
+           sum_squares <= count + chi2_sigmas * std::sqrt(2.0 * count);
+  }
+};
+
 }  // namespace
 
 double VerticalSigma(const SurfaceCamera& camera, double z, const Vec3& ray, double base_variance) {
@@ -150,6 +177,22 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
       },
       /*min_per_thread=*/1);
 
+  // Each camera's ring of kMembershipGrowCells cells around its extent of each plane.
+  std::vector<std::vector<Cells>> ring(n, std::vector<Cells>(m));
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int c) {
+        for (size_t j = 0; j < m; ++j) {
+          if (own[c][j].empty()) continue;
+          Cells grown = own[c][j];
+          for (int g = 0; g < kMembershipGrowCells; ++g) grown = Dilated(grown);
+          for (const CellKey k : grown) {
+            if (!own[c][j].count(k)) ring[c][j].insert(k);
+          }
+        }
+      },
+      /*min_per_thread=*/1);
+
   // Every pixel, a camera at a time.
   std::vector<std::vector<std::vector<int>>> pixels(n);
   ParallelFor(
@@ -163,6 +206,8 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
           return std::sqrt(s * s + base);
         };
         pixels[c].resize(m);
+        // The pixels in the ring, by (plane, cell), with their whitened depth residuals.
+        std::map<std::pair<int, CellKey>, RingCell> ring_cells;
         std::vector<std::pair<double, int>> near;  // (depth, plane) of the crease zones met
         for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
           const Vec3 ray = ray_of(c, i);
@@ -170,13 +215,18 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
           const double reach = 2.0 * gate * sigma_z(measured);
           double z1 = std::numeric_limits<double>::infinity();
           int j1 = -1;
+          CellKey ring_key = 0;  // the ring's cell when the nearest plane is met in the ring
+          bool in_ring = false;
           near.clear();
           for (size_t j = 0; j < m; ++j) {
             const double z = RayPlaneDepth(centre, ray, planes[j].normal, planes[j].offset);
             if (!std::isfinite(z) || z <= 0.0 || std::abs(z - measured) > reach) continue;
             const CellKey key = grids[j].Key(centre + z * ray);
             if (zone[j].count(key)) near.emplace_back(z, static_cast<int>(j));
-            if (z < z1 && own[c][j].count(key)) z1 = z, j1 = static_cast<int>(j);
+            if (z >= z1) continue;
+            const bool own_cell = own[c][j].count(key) > 0;
+            if (!own_cell && !ring[c][j].count(key)) continue;
+            z1 = z, j1 = static_cast<int>(j), in_ring = !own_cell, ring_key = key;
           }
           if (j1 < 0) continue;
           const double sigma = sigma_z(z1);
@@ -195,8 +245,18 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
             const double height = centre.y() + z1 * ray.y();
             if (height < camera.band_bottom || height > PredictedTop(camera, sigma_v)) continue;
           }
-          pixels[c][j1].push_back(i);
+          if (in_ring) {
+            ring_cells[{j1, ring_key}].Add(i, (measured - z1) / sigma);
+          } else {
+            pixels[c][j1].push_back(i);
+          }
         }
+        for (const auto& [key, cell] : ring_cells) {
+          if (!cell.OnThePlane(segmentation.chi2_sigmas)) continue;
+          std::vector<int>& on_plane = pixels[c][key.first];
+          on_plane.insert(on_plane.end(), cell.pixels.begin(), cell.pixels.end());
+        }
+        for (std::vector<int>& on_plane : pixels[c]) std::sort(on_plane.begin(), on_plane.end());
       },
       /*min_per_thread=*/1);
 
