@@ -52,7 +52,9 @@ struct MembershipTerm {
 constexpr double kMembershipCellVoxels = 2.0;
 /// How far, in cells, a camera's extent of a plane may grow where its own pixels agree with the
 /// plane. On the default simulated rig (seeds 0..9 x 3 draws) 0 / 1 / 2 / 4 / 8 cells gave
-/// 4.76 / 4.26 / 4.11 / 3.87 / 4.18 mm (held out, seeds 10..19: 7.00 / - / 6.64 / 6.61 / 6.83).
+/// 4.76 / 4.26 / 4.11 / 3.87 / 4.18 mm (held out, seeds 10..19: 7.00 / - / 6.64 / 6.61 / 6.83),
+/// with the ring cells' mean test |sum r| <= 3 sqrt(N) + 1 (kept without the 1: 4 cells gave
+/// 3.96 / 6.56 mm).
 constexpr int kMembershipGrowCells = 4;
 
 /// Every pixel of every depth camera (ray_model) assigned anew from `segmented`, the
