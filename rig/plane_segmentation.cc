@@ -56,8 +56,7 @@ class Segmenter {
   Segmenter(const std::vector<SegmentPoint>& points, int num_cameras,
             const PlaneSegmentationOptions& options)
       : points_(points), num_cameras_(num_cameras), options_(options) {
-    const double model = options.model_sigma_voxels * options.voxel_size;
-    base_variance_ = model * model + options.min_noise_m * options.min_noise_m;
+    base_variance_ = BaseVariance(options);
     min_cell_ = options.min_cell_voxels * options.voxel_size;
   }
 
@@ -350,6 +349,11 @@ class Segmenter {
 };
 
 }  // namespace
+
+double BaseVariance(const PlaneSegmentationOptions& options) {
+  const double model = options.model_sigma_voxels * options.voxel_size;
+  return model * model + options.min_noise_m * options.min_noise_m;
+}
 
 std::vector<SegmentedPlane> SegmentPlanes(const std::vector<SegmentPoint>& points, int num_cameras,
                                           const PlaneSegmentationOptions& options) {

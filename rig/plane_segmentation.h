@@ -51,6 +51,10 @@ struct PlaneSegmentationOptions {
   double floor_margin_m = 0.08;
 };
 
+/// The variance every point has along any direction on top of its ray noise: the model error
+/// (model_sigma_voxels) and the sensor's noise floor (min_noise_m), m^2.
+double BaseVariance(const PlaneSegmentationOptions& options);
+
 /// One point of the merged cloud.
 struct SegmentPoint {
   Vec3 world = Vec3::Zero();

@@ -33,10 +33,10 @@ std::int64_t Second(CellKey key) { return static_cast<std::int32_t>(key & 0xffff
 /// Cells of `size` along two in-plane axes: e1 horizontal (unless the plane is near
 /// horizontal), e2 = n x e1.
 struct PlaneGrid {
-  Vec3 origin = Vec3::Zero();
-  Vec3 e1 = Vec3::UnitX();
-  Vec3 e2 = Vec3::UnitZ();
-  double size = 0.04;
+  Vec3 origin;
+  Vec3 e1;
+  Vec3 e2;
+  double size;
 
   PlaneGrid(const MembershipPlane& plane, double cell) : size(cell) {
     origin = -plane.offset * plane.normal;
@@ -133,8 +133,7 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
                                              int num_threads) {
   const size_t n = cameras.size();
   const size_t m = planes.size();
-  const double model = segmentation.model_sigma_voxels * segmentation.voxel_size;
-  const double base = model * model + segmentation.min_noise_m * segmentation.min_noise_m;
+  const double base = BaseVariance(segmentation);
   const double gate = segmentation.gate_sigmas;
   std::vector<PlaneGrid> grids;
   for (const MembershipPlane& plane : planes) {
@@ -143,6 +142,17 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
   const auto ray_of = [&](size_t c, int i) {
     const Vec3& p = cameras[c].points[i];
     return Vec3(poses[c].linear() * (p / p.z()));
+  };
+  // A pixel's depth sigma at depth z, and whether a plane met at depth z along its ray is near
+  // enough to its measured depth to be looked at (twice the gate).
+  const auto sigma_z = [&](size_t c, double z) {
+    const double s = cameras[c].depth_noise * z * z;
+    return std::sqrt(s * s + base);
+  };
+  const auto within_reach = [&](size_t c, int i, double z) {
+    const double measured = cameras[c].points[i].z();
+    return std::isfinite(z) && z > 0.0 &&
+           std::abs(z - measured) <= 2.0 * gate * sigma_z(c, measured);
   };
 
   // Each camera's extent of each plane (a camera at a time), then every plane's crease zone
@@ -159,9 +169,8 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
           for (const int i : t.pixels) {
             const Vec3 ray = ray_of(c, i);
             const double z = RayPlaneDepth(centre, ray, plane.normal, plane.offset);
-            if (std::isfinite(z) && z > 0.0) {
-              own[c][t.plane].insert(grids[t.plane].Key(centre + z * ray));
-            }
+            // Not where a grazing ray meets the plane far from the pixel's own point.
+            if (within_reach(c, i, z)) own[c][t.plane].insert(grids[t.plane].Key(centre + z * ray));
           }
         }
         for (Cells& cells : own[c]) cells = Eroded(Dilated(cells));
@@ -201,10 +210,6 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
         const SurfaceCamera& camera = cameras[c];
         if (!camera.ray_model) return;
         const Vec3& centre = poses[c].translation();
-        const auto sigma_z = [&](double z) {
-          const double s = camera.depth_noise * z * z;
-          return std::sqrt(s * s + base);
-        };
         pixels[c].resize(m);
         // The pixels in the ring, by (plane, cell), with their whitened depth residuals.
         std::map<std::pair<int, CellKey>, RingCell> ring_cells;
@@ -212,7 +217,6 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
         for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
           const Vec3 ray = ray_of(c, i);
           const double measured = camera.points[i].z();
-          const double reach = 2.0 * gate * sigma_z(measured);
           double z1 = std::numeric_limits<double>::infinity();
           int j1 = -1;
           CellKey ring_key = 0;  // the ring's cell when the nearest plane is met in the ring
@@ -220,7 +224,7 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
           near.clear();
           for (size_t j = 0; j < m; ++j) {
             const double z = RayPlaneDepth(centre, ray, planes[j].normal, planes[j].offset);
-            if (!std::isfinite(z) || z <= 0.0 || std::abs(z - measured) > reach) continue;
+            if (!within_reach(c, i, z)) continue;
             const CellKey key = grids[j].Key(centre + z * ray);
             if (zone[j].count(key)) near.emplace_back(z, static_cast<int>(j));
             if (z >= z1) continue;
@@ -229,7 +233,7 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
             z1 = z, j1 = static_cast<int>(j), in_ring = !own_cell, ring_key = key;
           }
           if (j1 < 0) continue;
-          const double sigma = sigma_z(z1);
+          const double sigma = sigma_z(c, z1);
           if (std::abs(measured - z1) > gate * sigma) continue;
           const bool crease = std::any_of(near.begin(), near.end(), [&](const auto& hit) {
             return hit.second != j1 && hit.first - z1 <= gate * sigma;

@@ -58,28 +58,33 @@ constexpr double kMembershipCellVoxels = 2.0;
 constexpr int kMembershipGrowCells = 4;
 
 /// Every pixel of every depth camera (ray_model) assigned anew from `segmented`, the
-/// segmentation's pixels at `poses`. A camera's extent of a plane: the cells (kMembershipCellVoxels
-/// on the plane) where the rays of its segmented pixels meet the plane, closed (dilated and
-/// eroded by one cell), grown by up to kMembershipGrowCells cells where the camera's own pixels
-/// agree with the plane: the pixels whose rays meet the plane in a cell of that ring (first, and
-/// passing the tests below) join it when they are 5 or more, their whitened depth residuals'
-/// mean is within 3 sigmas of zero and their chi-square within chi2_sigmas of its degrees of
-/// freedom (the segmentation's planarity test), so that an object standing in front of the
-/// plane, which the depth gate alone would let in, is kept out. A pixel goes to the plane its
-/// ray meets first inside this camera's (grown) extent, when
+/// segmentation's pixels at `poses` (in the surface bundle, after its predicted-height window).
+/// Planes a pixel's ray meets more than twice the gate from its measured depth are not looked
+/// at, neither here nor in building the extents. A camera's extent of a plane: the cells
+/// (kMembershipCellVoxels on the plane) where the rays of its segmented pixels meet the plane,
+/// closed (dilated and eroded by one cell), grown by up to kMembershipGrowCells cells where the
+/// camera's own pixels agree with the plane: the pixels whose rays meet the plane first in a
+/// cell of that ring (and pass the tests below) join it when they are 5 or more, their whitened
+/// depth residuals' mean is within 3 sigmas of zero and their chi-square within chi2_sigmas of
+/// its degrees of freedom (the segmentation's planarity test), so that an object standing in
+/// front of the plane, which the depth gate alone would let in, is kept out (a cell that fails
+/// drops its pixels: it does not hand them to a plane behind). A pixel goes to the plane its ray
+/// meets first inside this camera's (grown) extent, when
 ///  - its measured depth is within gate_sigmas of the predicted one (sigma_z = k z^2 and the
-///    segmentation's base variance);
-///  - no other plane's crease zone (every camera's extent, dilated by a cell; a near-vertical
-///    plane's down to the floor, where faces stand) is met within gate_sigmas of it along the
-///    ray (where two planes meet, which one a pixel sees depends on their estimates);
-///  - on the floor, its measured height is within gate_sigmas of its vertical noise, floor_height_m
-///    and the band's depth under the floor (band_bottom: the points were taken above it, so a
-///    wider gate would keep the noise that moved far pixels up and not the one that moved
-///    them down); on a face, its predicted height is inside the band (band_bottom, PredictedTop).
-/// Planes a camera's rays meet more than twice the gate from its measured depth are not looked
-/// at. A (camera, plane) with fewer than min_points_per_camera pixels goes; points cameras keep
-/// their segmented terms. Ordered by camera, then plane; the same whatever num_threads (the
-/// cameras are shared out among them).
+///    segmentation's BaseVariance);
+///  - the ray meets no other plane's crease zone (every depth camera's extent of it, dilated by
+///    a cell; a near-vertical plane's down to the floor, where faces stand) in front of that
+///    plane, or behind it within gate_sigmas: where two planes meet, which one a pixel sees
+///    depends on their estimates, and a face's foot hides the floor behind it;
+///  - on the floor, its measured height (about y = 0, the leveled floor) is within gate_sigmas
+///    of its vertical noise, floor_height_m and the band's depth under the floor (band_bottom:
+///    the points were taken above it, so a wider gate would keep the noise that moved far
+///    pixels up and not the one that moved them down); on a face, its predicted height is
+///    inside the band (band_bottom, PredictedTop).
+/// A (camera, plane) with fewer than min_points_per_camera pixels goes; points cameras keep
+/// their segmented terms, in their order. Depth cameras' terms are ordered by camera, then
+/// plane; the result is the same whatever num_threads (the cameras, and the planes' zones, are
+/// shared out among them).
 std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
                                              const std::vector<Pose>& poses,
                                              const std::vector<MembershipPlane>& planes,

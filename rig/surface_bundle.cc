@@ -239,8 +239,7 @@ void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
                            const std::vector<Pose>& poses, const std::vector<PlaneBlock>& planes,
                            const PlaneSegmentationOptions& segmentation,
                            std::vector<ClusterTerm>* terms) {
-  const double model = segmentation.model_sigma_voxels * segmentation.voxel_size;
-  const double base = model * model + segmentation.min_noise_m * segmentation.min_noise_m;
+  const double base = BaseVariance(segmentation);
   std::vector<ClusterTerm> kept;
   for (ClusterTerm& t : *terms) {
     const SurfaceCamera& camera = cameras[t.camera];

@@ -97,8 +97,8 @@ struct SurfaceBundleResult {
 /// Refines the free cameras. Never throws on bad geometry. The solve is single-threaded, so
 /// that its digits do not depend on the threads (Ceres' multi-threaded Schur elimination sums
 /// in the order its threads finish; the problem it solves is small); num_threads share out the
-/// cameras of the last round's assignment by rays (rig/ray_membership.h), whose result does
-/// not depend on them.
+/// cameras and planes of the last round's assignment by rays (rig/ray_membership.h), whose
+/// result does not depend on them.
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
                                           const IcpOptions& options, int num_threads,
                                           const Log& log);
