@@ -110,11 +110,6 @@ class Segmenter {
     return fit;
   }
 
-  /// The chi-square test of n points' whitened distances with dof degrees of freedom.
-  bool WithinNoise(double chi2, int dof) const {
-    return dof > 0 && chi2 / dof <= 1.0 + options_.chi2_sigmas * std::sqrt(2.0 / dof);
-  }
-
   /// Whether point i's ray meets the planes a and b within gate_sigmas of its depth noise of
   /// each other: near their crease, where its measured position (which its noise moves)
   /// cannot say which plane it lies on. Unlike a test of the measured position, the choice
@@ -131,10 +126,10 @@ class Segmenter {
 
   /// The plane explains all the points, and the points of each camera that sees it.
   bool Planar(const PlaneFit& fit) const {
-    if (!WithinNoise(fit.chi2, fit.dof)) return false;
+    if (!WithinNoise(fit.chi2, fit.dof, options_.chi2_sigmas)) return false;
     for (int c = 0; c < num_cameras_; ++c) {
       if (fit.camera_count[c] >= options_.min_points_per_camera &&
-          !WithinNoise(fit.camera_chi2[c], fit.camera_count[c])) {
+          !WithinNoise(fit.camera_chi2[c], fit.camera_count[c], options_.chi2_sigmas)) {
         return false;
       }
     }
@@ -349,6 +344,10 @@ class Segmenter {
 };
 
 }  // namespace
+
+bool WithinNoise(double chi2, int dof, double sigmas) {
+  return dof > 0 && chi2 / dof <= 1.0 + sigmas * std::sqrt(2.0 / dof);
+}
 
 double BaseVariance(const PlaneSegmentationOptions& options) {
   const double model = options.model_sigma_voxels * options.voxel_size;

@@ -55,6 +55,10 @@ struct PlaneSegmentationOptions {
 /// (model_sigma_voxels) and the sensor's noise floor (min_noise_m), m^2.
 double BaseVariance(const PlaneSegmentationOptions& options);
 
+/// The chi-square test of whitened residuals: chi2 within `sigmas` standard deviations of its
+/// dof degrees of freedom (chi2 / dof <= 1 + sigmas sqrt(2 / dof)); false for dof <= 0.
+bool WithinNoise(double chi2, int dof, double sigmas);
+
 /// One point of the merged cloud.
 struct SegmentPoint {
   Vec3 world = Vec3::Zero();

@@ -38,7 +38,7 @@ struct PlaneGrid {
   Vec3 e2;
   double size;
 
-  PlaneGrid(const MembershipPlane& plane, double cell) : size(cell) {
+  PlaneGrid(const SurfacePlane& plane, double cell) : size(cell) {
     origin = -plane.offset * plane.normal;
     const Vec3 helper = std::abs(plane.normal.y()) < 0.9 ? Vec3::UnitY() : Vec3::UnitX();
     e1 = helper.cross(plane.normal).normalized();
@@ -108,9 +108,9 @@ struct RingCell {
   /// Enough pixels, their mean within kRingMeanSigmas of its spread of zero, and their
   /// chi-square within chi2_sigmas of its degrees of freedom (the segmentation's test).
   bool OnThePlane(double chi2_sigmas) const {
-    const double count = static_cast<double>(pixels.size());
+    const int count = static_cast<int>(pixels.size());
     return count >= kRingMinPixels && std::abs(sum) <= kRingMeanSigmas * std::sqrt(count) &&
-           sum_squares <= count + chi2_sigmas * std::sqrt(2.0 * count);
+           WithinNoise(sum_squares, count, chi2_sigmas);
   }
 };
 
@@ -125,18 +125,18 @@ double PredictedTop(const SurfaceCamera& camera, double sigma_v) {
   return std::min(camera.band_top, camera.points_top - kWindowSigmas * sigma_v);
 }
 
-std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
-                                             const std::vector<Pose>& poses,
-                                             const std::vector<MembershipPlane>& planes,
-                                             const std::vector<MembershipTerm>& segmented,
-                                             const PlaneSegmentationOptions& segmentation,
-                                             int num_threads) {
+std::vector<SurfaceTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
+                                          const std::vector<Pose>& poses,
+                                          const std::vector<SurfacePlane>& planes,
+                                          const std::vector<SurfaceTerm>& segmented,
+                                          const PlaneSegmentationOptions& segmentation,
+                                          int num_threads) {
   const size_t n = cameras.size();
   const size_t m = planes.size();
   const double base = BaseVariance(segmentation);
   const double gate = segmentation.gate_sigmas;
   std::vector<PlaneGrid> grids;
-  for (const MembershipPlane& plane : planes) {
+  for (const SurfacePlane& plane : planes) {
     grids.emplace_back(plane, kMembershipCellVoxels * segmentation.voxel_size);
   }
   const auto ray_of = [&](size_t c, int i) {
@@ -163,9 +163,9 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
       [&](int c) {
         if (!cameras[c].ray_model) return;
         const Vec3& centre = poses[c].translation();
-        for (const MembershipTerm& t : segmented) {
+        for (const SurfaceTerm& t : segmented) {
           if (t.camera != c) continue;
-          const MembershipPlane& plane = planes[t.plane];
+          const SurfacePlane& plane = planes[t.plane];
           for (const int i : t.pixels) {
             const Vec3 ray = ray_of(c, i);
             const double z = RayPlaneDepth(centre, ray, plane.normal, plane.offset);
@@ -264,10 +264,10 @@ std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& c
       },
       /*min_per_thread=*/1);
 
-  std::vector<MembershipTerm> out;
+  std::vector<SurfaceTerm> out;
   for (size_t c = 0; c < n; ++c) {
     if (!cameras[c].ray_model) {
-      for (const MembershipTerm& t : segmented) {
+      for (const SurfaceTerm& t : segmented) {
         if (t.camera == static_cast<int>(c)) out.push_back(t);
       }
       continue;

@@ -35,19 +35,6 @@ double VerticalSigma(const SurfaceCamera& camera, double z, const Vec3& ray, dou
 /// kWindowSigmas of its vertical noise under the top up to which the points were taken.
 double PredictedTop(const SurfaceCamera& camera, double sigma_v);
 
-struct MembershipPlane {
-  Vec3 normal = Vec3::UnitY();  ///< world, unit: n^T x + offset = 0
-  double offset = 0.0;
-  bool floor = false;
-};
-
-/// One camera's pixels (indices into SurfaceCamera::points) on one plane.
-struct MembershipTerm {
-  int camera = 0;
-  int plane = 0;
-  std::vector<int> pixels;
-};
-
 /// The side of the cells of a plane's extent, in voxels (PlaneSegmentationOptions::voxel_size).
 constexpr double kMembershipCellVoxels = 2.0;
 /// How far, in cells, a camera's extent of a plane may grow where its own pixels agree with the
@@ -85,11 +72,11 @@ constexpr int kMembershipGrowCells = 4;
 /// their segmented terms, in their order. Depth cameras' terms are ordered by camera, then
 /// plane; the result is the same whatever num_threads (the cameras, and the planes' zones, are
 /// shared out among them).
-std::vector<MembershipTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
-                                             const std::vector<Pose>& poses,
-                                             const std::vector<MembershipPlane>& planes,
-                                             const std::vector<MembershipTerm>& segmented,
-                                             const PlaneSegmentationOptions& segmentation,
-                                             int num_threads = 1);
+std::vector<SurfaceTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
+                                          const std::vector<Pose>& poses,
+                                          const std::vector<SurfacePlane>& planes,
+                                          const std::vector<SurfaceTerm>& segmented,
+                                          const PlaneSegmentationOptions& segmentation,
+                                          int num_threads = 1);
 
 }  // namespace rigfit

@@ -274,20 +274,23 @@ void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
   *terms = std::move(kept);
 }
 
+/// The planes of the blocks.
+std::vector<SurfacePlane> PlaneList(const std::vector<PlaneBlock>& planes) {
+  std::vector<SurfacePlane> list;
+  for (const PlaneBlock& plane : planes) list.push_back({plane.Normal(), plane.x(3), plane.floor});
+  return list;
+}
+
 /// The terms' pixels assigned anew by their rays (rig/ray_membership.h).
 void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
                   const std::vector<PlaneBlock>& planes,
                   const PlaneSegmentationOptions& segmentation, int num_threads,
                   std::vector<ClusterTerm>* terms) {
-  std::vector<MembershipPlane> membership_planes;
-  for (const PlaneBlock& plane : planes) {
-    membership_planes.push_back({plane.Normal(), plane.x(3), plane.floor});
-  }
-  std::vector<MembershipTerm> segmented;
+  std::vector<SurfaceTerm> segmented;
   for (ClusterTerm& t : *terms) segmented.push_back({t.camera, t.plane, std::move(t.pixels)});
   terms->clear();
-  for (MembershipTerm& t :
-       MembershipByRays(cameras, poses, membership_planes, segmented, segmentation, num_threads)) {
+  for (SurfaceTerm& t :
+       MembershipByRays(cameras, poses, PlaneList(planes), segmented, segmentation, num_threads)) {
     terms->push_back({t.camera, t.plane, PlaneCluster{}, std::move(t.pixels)});
   }
 }
@@ -351,10 +354,7 @@ SurfaceBundleObserver& Observer() {
 /// The last round's planes and pixels (SurfaceBundleResult::plane_list, terms).
 void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterTerm>& terms,
                SurfaceBundleResult* result) {
-  result->plane_list.clear();
-  for (const PlaneBlock& plane : planes) {
-    result->plane_list.push_back({plane.Normal(), plane.x(3), plane.floor});
-  }
+  result->plane_list = PlaneList(planes);
   result->terms.clear();
   for (const ClusterTerm& t : terms) result->terms.push_back({t.camera, t.plane, t.pixels});
 }

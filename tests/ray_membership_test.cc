@@ -21,7 +21,7 @@ constexpr double kNoise = 0.0025;      // k of sigma_z = k z^2
 /// model) and its ray.
 struct Scene {
   SurfaceCamera camera;
-  std::vector<MembershipPlane> planes;
+  std::vector<SurfacePlane> planes;
   std::vector<int> truth;  ///< per point: 0 floor, 1 wall, 2 the object
   std::vector<int> column;
   std::vector<Vec3> ray;  ///< world direction, unit camera z
@@ -69,8 +69,8 @@ struct Scene {
 };
 
 /// The pixels of plane j in the result (empty when it has no term).
-std::vector<int> PixelsOn(const std::vector<MembershipTerm>& terms, int plane) {
-  for (const MembershipTerm& t : terms) {
+std::vector<int> PixelsOn(const std::vector<SurfaceTerm>& terms, int plane) {
+  for (const SurfaceTerm& t : terms) {
     if (t.plane == plane) return t.pixels;
   }
   return {};
@@ -80,7 +80,7 @@ TEST(RayMembership, TakesBackAFacesPixelsThatTheSegmentationLeftOutAndNoneOfAnot
   const Scene s;
   // The segmentation: the whole floor; the wall between 12 and 25 cm with every third pixel
   // missing (cell borders, points another fragment fitted as well).
-  MembershipTerm floor{0, 0, {}}, wall{0, 1, {}};
+  SurfaceTerm floor{0, 0, {}}, wall{0, 1, {}};
   for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
     if (s.truth[i] == 0) floor.pixels.push_back(i);
     const double h = s.Height(i);
@@ -88,9 +88,9 @@ TEST(RayMembership, TakesBackAFacesPixelsThatTheSegmentationLeftOutAndNoneOfAnot
   }
   ASSERT_GT(wall.pixels.size(), 1000u);
   const PlaneSegmentationOptions segmentation;
-  const std::vector<MembershipTerm> terms =
+  const std::vector<SurfaceTerm> terms =
       MembershipByRays({s.camera}, {s.T()}, s.planes, {floor, wall}, segmentation);
-  for (const MembershipTerm& t : terms) {
+  for (const SurfaceTerm& t : terms) {
     for (const int i : t.pixels) ASSERT_EQ(s.truth[i], t.plane) << "pixel " << i;
   }
   // The gaps are inside the wall's extent: every one of them comes back.
@@ -125,7 +125,7 @@ TEST(RayMembership, ACameraClaimsAPlaneOnlyWhereItsOwnPixelsOfItAre) {
   // the wall, the first does not take its own (an object in front of the wall that only the
   // first sees would otherwise join the wall within the depth gate).
   const Scene s;
-  MembershipTerm floor{0, 0, {}}, left{0, 1, {}}, right{1, 1, {}};
+  SurfaceTerm floor{0, 0, {}}, left{0, 1, {}}, right{1, 1, {}};
   double x_min = INFINITY, x_max = -INFINITY;
   for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
     if (s.truth[i] == 0) floor.pixels.push_back(i);
@@ -137,10 +137,10 @@ TEST(RayMembership, ACameraClaimsAPlaneOnlyWhereItsOwnPixelsOfItAre) {
     const double x = (s.T() * s.camera.points[i]).x();
     x_min = std::min(x_min, x), x_max = std::max(x_max, x);
   }
-  const std::vector<MembershipTerm> terms =
+  const std::vector<SurfaceTerm> terms =
       MembershipByRays({s.camera, s.camera}, {s.T(), s.T()}, s.planes, {floor, left, right}, {});
   std::vector<int> first_on_wall;
-  for (const MembershipTerm& t : terms) {
+  for (const SurfaceTerm& t : terms) {
     if (t.camera == 0 && t.plane == 1) first_on_wall = t.pixels;
   }
   EXPECT_GE(first_on_wall.size(), left.pixels.size());
@@ -161,7 +161,7 @@ TEST(RayMembership, GrowsWhereTheCamerasPixelsAgreeWithThePlaneNotOverAnObjectIn
   // front, which stands 5 cm in front of the wall in some columns: within the depth gate (8 cm
   // at 3 m) but not a plane of the model.
   const Scene s(0.05);
-  MembershipTerm floor{0, 0, {}}, wall{0, 1, {}};
+  SurfaceTerm floor{0, 0, {}}, wall{0, 1, {}};
   int object = 0;
   for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
     if (s.truth[i] == 0) floor.pixels.push_back(i);
@@ -170,7 +170,7 @@ TEST(RayMembership, GrowsWhereTheCamerasPixelsAgreeWithThePlaneNotOverAnObjectIn
     if (s.truth[i] == 1 && h > 0.12 && h < 0.20) wall.pixels.push_back(i);
   }
   ASSERT_GT(object, 500);
-  const std::vector<MembershipTerm> terms =
+  const std::vector<SurfaceTerm> terms =
       MembershipByRays({s.camera}, {s.T()}, s.planes, {floor, wall}, PlaneSegmentationOptions{});
   int grown = 0, leaked = 0;
   for (const int i : PixelsOn(terms, 1)) {
@@ -190,7 +190,7 @@ TEST(RayMembership, FloorPixelsAreGatedAlikeAboveAndBelowTheFloorInsideTheBand) 
   // its noise gate is 3.3-3.6 cm here); one moved 1 cm up or down is kept.
   Scene s;
   s.camera.band_bottom = -0.02;
-  MembershipTerm floor{0, 0, {}};
+  SurfaceTerm floor{0, 0, {}};
   std::vector<int> up1, up3, down1;  // moved 1 and 2.5 cm up, 1 cm down
   for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
     if (s.truth[i] != 0 || s.camera.points[i].z() < 2.4 || s.camera.points[i].z() > 2.7) continue;
@@ -202,7 +202,7 @@ TEST(RayMembership, FloorPixelsAreGatedAlikeAboveAndBelowTheFloorInsideTheBand) 
     s.camera.points[i] += rise / s.ray[i].y() * a;  // along the ray, which goes down
   }
   const PlaneSegmentationOptions segmentation;
-  const std::vector<MembershipTerm> terms =
+  const std::vector<SurfaceTerm> terms =
       MembershipByRays({s.camera}, {s.T()}, s.planes, {floor}, segmentation);
   const std::vector<int> on_floor = PixelsOn(terms, 0);
   const auto kept = [&](const std::vector<int>& pixels) {
@@ -224,7 +224,7 @@ TEST(RayMembership, FloorPixelsAreGatedAlikeAboveAndBelowTheFloorInsideTheBand) 
 
 TEST(RayMembership, TheSameWhateverTheThreads) {
   const Scene s;
-  MembershipTerm floor{0, 0, {}}, wall{1, 1, {}};
+  SurfaceTerm floor{0, 0, {}}, wall{1, 1, {}};
   for (int i = 0; i < static_cast<int>(s.truth.size()); ++i) {
     (s.truth[i] == 0 ? floor : wall).pixels.push_back(i);
   }
@@ -232,7 +232,7 @@ TEST(RayMembership, TheSameWhateverTheThreads) {
     return MembershipByRays({s.camera, s.camera, s.camera}, {s.T(), s.T(), s.T()}, s.planes,
                             {floor, wall}, PlaneSegmentationOptions{}, threads);
   };
-  const std::vector<MembershipTerm> one = run(1), three = run(3);
+  const std::vector<SurfaceTerm> one = run(1), three = run(3);
   ASSERT_EQ(one.size(), three.size());
   ASSERT_GE(one.size(), 2u);
   for (size_t k = 0; k < one.size(); ++k) {
