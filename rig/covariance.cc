@@ -77,7 +77,9 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
 }
 
 Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
-                                       const std::vector<double*>& nuisance) {
+                                       const std::vector<double*>& nuisance,
+                                       Eigen::MatrixXd* robust) {
+  if (robust != nullptr) robust->resize(0, 0);
   if (poses.empty()) return {};
   std::vector<double*> blocks = poses;
   blocks.insert(blocks.end(), nuisance.begin(), nuisance.end());
@@ -96,11 +98,36 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
   }
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
   std::vector<Eigen::MatrixXd> B(nuisance.size()), D(nuisance.size());
+  // For `robust`: per nuisance block, its rows' pose information A_j and gradients g_pose
+  // (poses) and g_block (the block); the information of the rows without one, P.
+  const bool clusters = robust != nullptr;
+  std::vector<Eigen::MatrixXd> A_own(clusters ? nuisance.size() : 0);
+  std::vector<Eigen::VectorXd> g_pose(A_own.size()), g_block(A_own.size());
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(p, p);
   for (size_t j = 0; j < nuisance.size(); ++j) {
     B[j] = Eigen::MatrixXd::Zero(p, start[j + 1] - start[j]);
     D[j] = Eigen::MatrixXd::Zero(start[j + 1] - start[j], start[j + 1] - start[j]);
+    if (!clusters) continue;
+    A_own[j] = Eigen::MatrixXd::Zero(p, p);
+    g_pose[j] = Eigen::VectorXd::Zero(p);
+    g_block[j] = Eigen::VectorXd::Zero(start[j + 1] - start[j]);
   }
   for (int row = 0; row < J.num_rows; ++row) {
+    int cluster = -1;  // the row's nuisance block
+    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+      if (J.cols[a] >= p) cluster = block_of[J.cols[a] - p];
+    }
+    if (clusters && cluster >= 0) {
+      for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+        const int ca = J.cols[a];
+        if (ca < p) {
+          g_pose[cluster](ca) += J.values[a] * residuals[row];
+        } else {
+          g_block[cluster](ca - start[cluster]) += J.values[a] * residuals[row];
+        }
+      }
+    }
+    Eigen::MatrixXd& own = !clusters ? A : cluster >= 0 ? A_own[cluster] : P;
     for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
       const int ca = J.cols[a];
       for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
@@ -108,6 +135,7 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
         const double v = J.values[a] * J.values[b];
         if (cb < p) {
           if (ca < p) A(ca, cb) += v;  // ca >= p: the transpose of B's entry below
+          if (ca < p && clusters) own(ca, cb) += v;
         } else if (ca < p) {
           const int j = block_of[cb - p];
           B[j](ca, cb - start[j]) += v;
@@ -122,13 +150,51 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
       }
     }
   }
+  std::vector<Eigen::VectorXd> scores;
+  std::vector<Eigen::MatrixXd> leverages;  // L_j
   for (size_t j = 0; j < nuisance.size(); ++j) {
     if (D[j].isZero(0.0) && B[j].isZero(0.0)) continue;  // in no residual block
     const Eigen::MatrixXd D_inverse = InverseOrEmpty(D[j]);
     if (D_inverse.size() == 0) return {};
-    A -= B[j] * D_inverse * B[j].transpose();
+    const Eigen::MatrixXd reduction = B[j] * D_inverse * B[j].transpose();
+    A -= reduction;
+    if (!clusters) continue;
+    scores.push_back(g_pose[j] - B[j] * (D_inverse * g_block[j]));
+    leverages.push_back(A_own[j] - reduction);
   }
-  return InverseOrEmpty(A);
+  const Eigen::MatrixXd covariance = InverseOrEmpty(A);
+  if (!clusters || covariance.size() == 0 || scores.size() < 2) return covariance;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> C(covariance);
+  const Eigen::MatrixXd S = C.eigenvectors() *
+                            C.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+                            C.eigenvectors().transpose();
+  Eigen::MatrixXd sum = covariance * P * covariance;
+  for (size_t j = 0; j < scores.size(); ++j) {
+    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(p, p) - S * leverages[j] * S;
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> m(0.5 * (M + M.transpose()));
+    constexpr double kMinRemaining = 0.01;  // leverage at most 0.99
+    const Eigen::VectorXd d =
+        S *
+        (m.eigenvectors() *
+         m.eigenvalues().cwiseMax(kMinRemaining).cwiseSqrt().cwiseInverse().asDiagonal() *
+         m.eigenvectors().transpose()) *
+        S * scores[j];
+    sum += d * d.transpose();
+  }
+  *robust = sum;
+  return covariance;
+}
+
+Eigen::MatrixXd CovarianceAtLeast(const Eigen::MatrixXd& model, const Eigen::MatrixXd& other) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> m(model);
+  const Eigen::VectorXd root = m.eigenvalues().cwiseSqrt();
+  const Eigen::MatrixXd half = m.eigenvectors() * root.asDiagonal();  // model = half half^T
+  const Eigen::MatrixXd half_inverse =
+      root.cwiseInverse().asDiagonal() * m.eigenvectors().transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> w(half_inverse * other *
+                                                         half_inverse.transpose());
+  return half * w.eigenvectors() * w.eigenvalues().cwiseMax(1.0).asDiagonal() *
+         w.eigenvectors().transpose() * half.transpose();
 }
 
 namespace {

@@ -33,8 +33,27 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
 /// largest). The
 /// blocks' order is the one given, not their addresses (ceres::Covariance sorts the blocks by
 /// address, so its last digits depended on where the heap put them).
+///
+/// With `robust` (not null): also the covariance robust to errors shared by the residuals of
+/// each nuisance block (a plane's pixels share its model error, the noise's correlation and
+/// its wrongly assigned pixels, which the noise model does not know): the cluster-robust
+/// sandwich with the small-sample correction "CR2" (Bell and McCaffrey 2002), each nuisance
+/// block's residual blocks one cluster,
+///   C_R = sum_j d_j d_j^T + C P C,   d_j = S (I - S L_j S)^-1/2 S s_j,   S = C^1/2,
+/// with C the covariance returned, s_j = J_p^T r - B_j D_j^-1 J_j^T r the score of cluster j
+/// (its residuals' gradient for the poses, block j eliminated), L_j = A_j - B_j D_j^-1 B_j^T
+/// its information about the poses, and P the information of the residual blocks without a
+/// nuisance block (priors, taken as modelled). Under the noise model E[C_R] = C; the leverage
+/// S L_j S is capped at 0.99 (a cluster that alone fixes a direction). Empty when C is, or
+/// fewer than two nuisance blocks are in a residual block.
 Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
-                                       const std::vector<double*>& nuisance);
+                                       const std::vector<double*>& nuisance,
+                                       Eigen::MatrixXd* robust = nullptr);
+
+/// `other` raised to `model` in every direction where it is smaller: in the frame where
+/// `model` is the identity, the eigenvalues of `other` floored at 1. Both symmetric, `model`
+/// positive definite.
+Eigen::MatrixXd CovarianceAtLeast(const Eigen::MatrixXd& model, const Eigen::MatrixXd& other);
 
 /// The correspondences of one pair direction between two views.
 struct MatchedViews {
