@@ -78,8 +78,13 @@ struct PosePriorFunctor {
 
 /// The start's prior along the directions where the planes know the pose less well than the
 /// start does: with the start's covariance S = C C^T and the planes' P, the eigenvectors u_k
-/// of C^-1 P C^-T with eigenvalues above 1 give the rows u_k^T C^-1 of W (zero rows
-/// elsewhere); an empty matrix when there are none.
+/// of C^-1 P C^-T with eigenvalues lambda_k above 1 give the rows
+/// sqrt(1 - 1 / lambda_k) u_k^T C^-1 of W (zero rows elsewhere); an empty matrix when there
+/// are none. The prior adds what the start knows beyond the planes (1 - 1 / lambda_k of its
+/// information), so that the planes and the prior together know the direction as well as the
+/// start, not better: the two come from the same pixels, and adding the start's whole
+/// information counted them twice (seeds 0..9 x 3: 3.76 mm against 3.40, held out 6.40 against
+/// 6.36, the covariance optimistic by 1.30 against 1.03).
 Mat6 WeakDirectionPrior(const Mat6& start, const Mat6& planes, int* directions) {
   *directions = 0;
   const Eigen::SelfAdjointEigenSolver<Mat6> start_eigen(start);
@@ -91,7 +96,8 @@ Mat6 WeakDirectionPrior(const Mat6& start, const Mat6& planes, int* directions) 
   Mat6 W = Mat6::Zero();
   for (int k = 0; k < 6; ++k) {
     if (ratio.eigenvalues()(k) <= 1.0) continue;
-    W.row(k) = ratio.eigenvectors().col(k).transpose() * whiten;
+    const double excess = std::sqrt(1.0 - 1.0 / ratio.eigenvalues()(k));
+    W.row(k) = excess * ratio.eigenvectors().col(k).transpose() * whiten;
     ++*directions;
   }
   return W;
@@ -542,12 +548,20 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
       free_cameras.push_back(c);
     }
     for (PlaneBlock& plane : planes) plane_blocks.push_back(plane.x.data());
-    const Eigen::MatrixXd covariance =
-        MarginalPoseCovariance(problem.get(), free_poses, plane_blocks);
+    // The noise model's covariance, scaled by the residuals' spread, raised where the planes'
+    // residuals scatter more than it says (the cluster-robust covariance: each plane's model
+    // error and wrong pixels, which the noise model does not know).
+    Eigen::MatrixXd robust;
+    Eigen::MatrixXd covariance =
+        MarginalPoseCovariance(problem.get(), free_poses, plane_blocks, &robust);
     result.covariance_ok = covariance.size() > 0;
-    for (size_t k = 0; k < free_cameras.size() && result.covariance_ok; ++k) {
-      result.covariance[free_cameras[k]] =
-          covariance.block<6, 6>(6 * k, 6 * k) * (result.noise_scale * result.noise_scale);
+    if (!result.covariance_ok) return;
+    covariance *= result.noise_scale * result.noise_scale;
+    if (robust.size() > 0 && result.noise_scale > 0.0) {
+      covariance = CovarianceAtLeast(covariance, robust);
+    }
+    for (size_t k = 0; k < free_cameras.size(); ++k) {
+      result.covariance[free_cameras[k]] = covariance.block<6, 6>(6 * k, 6 * k);
     }
   };
   statistics();
