@@ -136,19 +136,18 @@ class Segmenter {
     return true;
   }
 
-  /// Whether at least min_cameras cameras have min_points_per_camera of the points.
-  bool SeenByEnoughCameras(const std::vector<int>& indices) const {
+  /// Whether some camera has min_points_per_camera of the points.
+  bool SeenByACamera(const std::vector<int>& indices) const {
     std::vector<int> count(num_cameras_, 0);
     for (const int i : indices) ++count[points_[i].camera];
-    const int cameras = static_cast<int>(std::count_if(
-        count.begin(), count.end(), [&](int c) { return c >= options_.min_points_per_camera; }));
-    return cameras >= options_.min_cameras;
+    return std::any_of(count.begin(), count.end(),
+                       [&](int c) { return c >= options_.min_points_per_camera; });
   }
 
   /// The octree below one cell: kept when planar, else split in eight while the children are
   /// at least the smallest cell.
   void Split(const std::vector<int>& indices, const Vec3& corner, double size) {
-    if (!SeenByEnoughCameras(indices)) return;  // splitting cannot add cameras
+    if (!SeenByACamera(indices)) return;  // splitting cannot add points
     const PlaneFit fit = Fit(indices);
     if (Planar(fit)) {
       Patch& patch = cells_.emplace_back();

@@ -1,9 +1,10 @@
 // Planar patches of a rig's merged world cloud, for the surface bundle (rig/surface_bundle.h):
 // an adaptive octree whose cells are kept when a plane explains their points within the noise
-// (a noise-normalised chi-square test, not a fixed eigenvalue ratio, which ignores range), and
-// at least two cameras see them; coplanar neighbours merged; the floor as one plane; points
-// that fit a neighbouring plane as well, or whose ray meets the two planes within their noise
-// of each other (where two planes meet), left out.
+// (a noise-normalised chi-square test, not a fixed eigenvalue ratio, which ignores range) and
+// some camera has enough points in them; coplanar neighbours merged; the floor as one plane;
+// planes that at least two cameras see kept; points that fit a neighbouring plane as well, or
+// whose ray meets the two planes within their noise of each other (where two planes meet), left
+// out.
 #pragma once
 
 #include <vector>
@@ -20,8 +21,16 @@ struct PlaneSegmentationOptions {
   double voxel_size = 0.02;        ///< m
   double max_cell_voxels = 50.0;   ///< the octree's top cells
   double min_cell_voxels = 3.125;  ///< no cell is split below this
-  int min_points_per_camera = 30;  ///< a camera sees a plane with at least this many points
-  int min_cameras = 2;             ///< a plane is kept when this many cameras see it
+  int min_points_per_camera = 30;  ///< a camera sees a cell or a plane with this many points
+  /// A plane is kept when this many cameras see it. Not asked of the octree's cells: at range
+  /// the noise along the ray (2-5 cm at 3-5 m) scatters a face's points over the small cells
+  /// around it, so whether a cell held 30 points of a second camera depended on where that
+  /// camera's noise put them, and the cells kept, and the planes' pixels, followed the noise.
+  /// Asked of the cells, the default rig (seeds 0..9 x 3 draws) gave 3.40 mm of RMS relative
+  /// translation error against 2.40 (seeds 20..39: 5.09 against 3.34), with as many pixels used
+  /// (the error over the bound of the pixels used 1.75 against 1.25, the bias's share of the
+  /// squared error 0.50 against 0.14); 30 points of all cameras together gave 3.21 (3.56).
+  int min_cameras = 2;
   /// Added to every point's noise along the normal: surface roughness, curvature within a
   /// cell and what is left of the misregistration (the caller inflates it for the first
   /// rounds, when the poses are a centimetre off).

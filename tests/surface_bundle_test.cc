@@ -160,6 +160,43 @@ TEST(PlaneSegmentation, FindsTheSimulatorsFacesOnANoiseFreeCapture) {
   EXPECT_GT(static_cast<double>(assigned) / points.size(), 0.8);
 }
 
+TEST(PlaneSegmentation, KeepsAFaceASecondCameraSeesWithFewPointsInEveryCell) {
+  // A face (z = 3 m, 1.9 m wide) and, at its end, a perpendicular one (x = 2 m): camera 0 sees
+  // both densely, camera 1 sees the first with 50 points spread over it, fewer than 30 in any
+  // octree cell (25 in the 1 m cell of the face alone; the other one holds the corner and is
+  // split). The face is seen by two cameras, so it is kept, with camera 1's points.
+  std::vector<SegmentPoint> points;
+  const auto add = [&](const Vec3& x, const Vec3& centre, int camera) {
+    SegmentPoint s;
+    s.world = x;
+    s.depth = x.z() - centre.z();  // both cameras look along world +Z
+    s.ray_world = (x - centre) / s.depth;
+    s.sigma_z = 0.001;
+    s.camera = camera;
+    points.push_back(s);
+  };
+  const Vec3 camera0 = Vec3::Zero(), camera1(1.0, 0.5, 0.0);
+  for (double x = 0.05; x < 1.96; x += 0.02) {
+    for (double y = 0.1; y < 0.41; y += 0.02) add(Vec3(x, y, 3.0), camera0, 0);
+  }
+  for (double z = 3.02; z < 3.91; z += 0.02) {
+    for (double y = 0.1; y < 0.41; y += 0.02) add(Vec3(2.0, y, z), camera0, 0);
+  }
+  for (int k = 0; k < 50; ++k) {
+    add(Vec3(0.07 + 0.038 * k, 0.12 + 0.26 * ((k * 7) % 10) / 9.0, 3.0), camera1, 1);
+  }
+  PlaneSegmentationOptions options;
+  options.leveled_floor = false;
+  const std::vector<SegmentedPlane> planes = SegmentPlanes(points, 2, options);
+  int seen_by_camera1 = 0;
+  for (const SegmentedPlane& plane : planes) {
+    if (std::abs(plane.normal.z()) < std::cos(0.5 * kDegToRad)) continue;
+    for (const int i : plane.points) seen_by_camera1 += points[i].camera == 1 ? 1 : 0;
+  }
+  // All of camera 1's points, but for a few near the crease.
+  EXPECT_GE(seen_by_camera1, 45);
+}
+
 TEST(SurfaceBundle, SamePosesToTheLastBitFromRunToRunInOneProcess) {
   // Repeated in one process (as Python calls it), with the heap laid out differently before
   // each run: ceres::Covariance ordered the poses and planes by address, so the covariance,
