@@ -115,7 +115,13 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
   for (int row = 0; row < J.num_rows; ++row) {
     int cluster = -1;  // the row's nuisance block
     for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
-      if (J.cols[a] >= p) cluster = block_of[J.cols[a] - p];
+      if (J.cols[a] < p) continue;
+      const int j = block_of[J.cols[a] - p];
+      if (cluster >= 0 && j != cluster) {
+        throw std::logic_error(
+            "MarginalPoseCovariance: a residual block holds two nuisance blocks");
+      }
+      cluster = j;
     }
     if (clusters && cluster >= 0) {
       for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
@@ -140,11 +146,7 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
           const int j = block_of[cb - p];
           B[j](ca, cb - start[j]) += v;
         } else {
-          const int j = block_of[ca - p];
-          if (block_of[cb - p] != j) {
-            throw std::logic_error(
-                "MarginalPoseCovariance: a residual block holds two nuisance blocks");
-          }
+          const int j = block_of[ca - p];  // the row's only one (checked above)
           D[j](ca - start[j], cb - start[j]) += v;
         }
       }
@@ -158,7 +160,8 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
     if (D_inverse.size() == 0) return {};
     const Eigen::MatrixXd reduction = B[j] * D_inverse * B[j].transpose();
     A -= reduction;
-    if (!clusters) continue;
+    // A block only fixed cameras see tells nothing of the poses: not a cluster.
+    if (!clusters || B[j].isZero(0.0)) continue;
     scores.push_back(g_pose[j] - B[j] * (D_inverse * g_block[j]));
     leverages.push_back(A_own[j] - reduction);
   }
@@ -187,14 +190,19 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
 
 Eigen::MatrixXd CovarianceAtLeast(const Eigen::MatrixXd& model, const Eigen::MatrixXd& other) {
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> m(model);
+  if (!(m.eigenvalues().minCoeff() > 0.0)) {
+    throw std::invalid_argument("CovarianceAtLeast: the model covariance is not positive definite");
+  }
   const Eigen::VectorXd root = m.eigenvalues().cwiseSqrt();
   const Eigen::MatrixXd half = m.eigenvectors() * root.asDiagonal();  // model = half half^T
   const Eigen::MatrixXd half_inverse =
       root.cwiseInverse().asDiagonal() * m.eigenvectors().transpose();
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> w(half_inverse * other *
                                                          half_inverse.transpose());
-  return half * w.eigenvectors() * w.eigenvalues().cwiseMax(1.0).asDiagonal() *
-         w.eigenvectors().transpose() * half.transpose();
+  const Eigen::MatrixXd raised = half * w.eigenvectors() *
+                                 w.eigenvalues().cwiseMax(1.0).asDiagonal() *
+                                 w.eigenvectors().transpose() * half.transpose();
+  return 0.5 * (raised + raised.transpose());
 }
 
 namespace {

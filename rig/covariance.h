@@ -45,14 +45,17 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
 /// its information about the poses, and P the information of the residual blocks without a
 /// nuisance block (priors, taken as modelled). Under the noise model E[C_R] = C; the leverage
 /// S L_j S is capped at 0.99 (a cluster that alone fixes a direction). Empty when C is, or
-/// fewer than two nuisance blocks are in a residual block.
+/// fewer than two nuisance blocks are in a residual block with a free pose.
 Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
                                        const std::vector<double*>& nuisance,
                                        Eigen::MatrixXd* robust = nullptr);
 
 /// `other` raised to `model` in every direction where it is smaller: in the frame where
-/// `model` is the identity, the eigenvalues of `other` floored at 1. Both symmetric, `model`
-/// positive definite.
+/// `model` is the identity, the eigenvalues of `other` floored at 1 (symmetric, at least both).
+/// Both symmetric; std::invalid_argument unless `model` is positive definite. Of a noisy
+/// unbiased estimate of `model` (a robust covariance when the model holds) the result is
+/// larger than `model` on average: 1.3 times in the trace in tests/covariance_test.cc's scene
+/// (16 clusters, 6 parameters).
 Eigen::MatrixXd CovarianceAtLeast(const Eigen::MatrixXd& model, const Eigen::MatrixXd& other);
 
 /// The correspondences of one pair direction between two views.

@@ -27,9 +27,10 @@ struct PlaneSegmentationOptions {
   /// around it, so whether a cell held 30 points of a second camera depended on where that
   /// camera's noise put them, and the cells kept, and the planes' pixels, followed the noise.
   /// Asked of the cells, the default rig (seeds 0..9 x 3 draws) gave 3.40 mm of RMS relative
-  /// translation error against 2.40 (seeds 20..39: 5.09 against 3.34), with as many pixels used
-  /// (the error over the bound of the pixels used 1.75 against 1.25, the bias's share of the
-  /// squared error 0.50 against 0.14); 30 points of all cameras together gave 3.21 (3.56).
+  /// translation error against 2.40 (seeds 20..39: 5.09 against 3.34), with about as much
+  /// information used (the bound of the pixels used 2.09 against 2.15 times the full bound) but
+  /// the error over it 1.75 against 1.25, the bias's share of the squared error 0.50 against
+  /// 0.14; 30 points of all cameras together gave 3.21 (3.56).
   int min_cameras = 2;
   /// Added to every point's noise along the normal: surface roughness, curvature within a
   /// cell and what is left of the misregistration (the caller inflates it for the first

@@ -77,14 +77,14 @@ struct PosePriorFunctor {
 };
 
 /// The start's prior along the directions where the planes know the pose less well than the
-/// start does: with the start's covariance S = C C^T and the planes' P, the eigenvectors u_k
-/// of C^-1 P C^-T with eigenvalues lambda_k above 1 give the rows
+/// start does: with the start's covariance S = C C^T and the planes' Q, the eigenvectors u_k
+/// of C^-1 Q C^-T with eigenvalues lambda_k above 1 give the rows
 /// sqrt(1 - 1 / lambda_k) u_k^T C^-1 of W (zero rows elsewhere); an empty matrix when there
 /// are none. The prior adds what the start knows beyond the planes (1 - 1 / lambda_k of its
 /// information), so that the planes and the prior together know the direction as well as the
 /// start, not better: the two come from the same pixels, and adding the start's whole
-/// information counted them twice (seeds 0..9 x 3: 3.76 mm against 3.40, held out 6.40 against
-/// 6.36, the covariance optimistic by 1.30 against 1.03).
+/// information counted them twice (seeds 0..9 x 3 at ee4335c: 3.76 mm against 3.40, held out
+/// 6.40 against 6.36, the covariance optimistic by 1.30 against 1.03).
 Mat6 WeakDirectionPrior(const Mat6& start, const Mat6& planes, int* directions) {
   *directions = 0;
   const Eigen::SelfAdjointEigenSolver<Mat6> start_eigen(start);
