@@ -139,18 +139,26 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   log.Info("surface bundle: " + std::to_string(bundle.planes) + " planes, " +
            std::to_string(bundle.pixels) + " pixels, " + std::to_string(bundle.rounds) +
            " rounds, noise scale " + Fixed(bundle.noise_scale, 3));
+  // The reference leveled again on the bundle's floor (its yaw and centre held): the cameras
+  // that keep their joint pose keep it relative to the reference.
+  const Pose correction = bundle.poses[reference] * joint->poses[reference].inverse();
   for (size_t i = 0; i < surfaces.size(); ++i) {
     CameraReport& camera = result->cameras[i];
     camera.surface_thickness_before = bundle.thickness_before[i];
     camera.surface_thickness_after = bundle.thickness_after[i];
     camera.surface_fallback = bundle.fallback[i];
     camera.surface_noise_correlation = bundle.noise_correlation[i];
+    if (static_cast<int>(i) == reference) {
+      joint->poses[i] = bundle.poses[i];
+      continue;
+    }
     if (!surfaces[i].free) continue;
     if (bundle.fallback[i]) {
       Warn(result, log,
            "camera " + camera.serial +
                ": too few planes fix its pose for the surface bundle; it keeps its joint "
                "point-to-plane pose");
+      joint->poses[i] = correction * joint->poses[i];
       continue;
     }
     joint->poses[i] = bundle.poses[i];
@@ -404,7 +412,9 @@ int ApplySafetyBounds(const std::vector<Pose>& leveled, const std::vector<Pose>&
     report.own_rotation_deg = own.head<3>().norm() * kRadToDeg;
     report.own_translation_m = own.tail<3>().norm();
     if (report.reference) {
+      // Its leveled pose, or with the surface bundle its tilt leveled again on its floor.
       report.accepted = true;
+      result->refined[report.serial] = refined[i];
       continue;
     }
     if (!report.connected) {

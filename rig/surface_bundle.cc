@@ -7,6 +7,7 @@
 #include <ceres/solver.h>
 #include <ceres/sphere_manifold.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
@@ -302,6 +303,58 @@ void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<P
 }
 
 /// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
+/// Gauss-Newton iterations of LevelOnFloor (it starts a few hundredths of a degree off).
+constexpr int kLevelIterations = 5;
+
+/// `block` turned about world X and Z through its centre, its yaw and centre held, so that its
+/// pixels of `cluster` lie best on the plane `floor` (held): Gauss-Newton on the plane-cluster
+/// residual over the two tilt angles of the pose's tangent (core/pose.h).
+void LevelOnFloor(const PlaneCluster& cluster, bool ray_model, const Vec4& floor,
+                  PoseBlock* block) {
+  const std::unique_ptr<ceres::CostFunction> cost(PlaneClusterCost::Create(cluster, ray_model));
+  for (int iteration = 0; iteration < kLevelIterations; ++iteration) {
+    Vec4 r;
+    Eigen::Matrix<double, 4, kPoseAmbientSize, Eigen::RowMajor> J;
+    const double* parameters[2] = {block->data(), floor.data()};
+    double* jacobians[2] = {J.data(), nullptr};
+    if (!cost->Evaluate(parameters, r.data(), jacobians)) return;
+    Eigen::Matrix<double, kPoseAmbientSize, 6, Eigen::RowMajor> plus;
+    SharedPoseManifold()->PlusJacobian(block->data(), plus.data());
+    const Eigen::Matrix<double, 4, 6> J_tangent = J * plus;
+    Eigen::Matrix<double, 4, 2> J_tilt;
+    J_tilt << J_tangent.col(0), J_tangent.col(2);  // rotations about world X and Z
+    const Eigen::Vector2d step =
+        -(J_tilt.transpose() * J_tilt).ldlt().solve(J_tilt.transpose() * r);
+    if (!step.allFinite()) return;
+    Vec6 delta;
+    delta << step(0), 0.0, step(1), 0.0, 0.0, 0.0;
+    PoseBlock next;
+    SharedPoseManifold()->Plus(block->data(), delta.data(), next.data());
+    *block = next;
+  }
+}
+
+/// The reference leveled again on the bundle's floor: the cameras that are not free and see
+/// the leveled floor (the reference: a camera the joint solve could not link holds no pixels)
+/// are turned by LevelOnFloor on their floor pixels. Leveling fitted each camera's floor alone,
+/// with the feet of walls and boxes in it; the bundle's floor leaves them out and is shared by
+/// every camera. Returns the world correction C applied to the reference (T <- C T; the
+/// identity when none).
+Pose LevelReference(const std::vector<SurfaceCamera>& cameras,
+                    const std::vector<ClusterTerm>& terms, const std::vector<PlaneBlock>& planes,
+                    std::vector<PoseBlock>* blocks) {
+  Pose correction = Pose::Identity();
+  for (const ClusterTerm& t : terms) {
+    const SurfaceCamera& camera = cameras[t.camera];
+    if (camera.free || !camera.floor_leveled || !planes[t.plane].floor) continue;
+    PoseBlock& block = (*blocks)[t.camera];
+    const Pose before = PoseFromParameters(block.data());
+    LevelOnFloor(t.cluster, camera.ray_model, planes[t.plane].x, &block);
+    correction = PoseFromParameters(block.data()) * before.inverse();
+  }
+  return correction;
+}
+
 std::vector<bool> PlanesFixPose(const std::vector<ClusterTerm>& terms,
                                 const std::vector<PlaneBlock>& planes, size_t num_cameras) {
   std::vector<Mat3> scatter(num_cameras, Mat3::Zero());
@@ -412,6 +465,10 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
   // Solves poses and planes over the terms; false when Ceres fails (summary says why).
   ceres::Solver::Summary summary;
   std::vector<bool> fixed;
+  // The correction of the world that LevelReference applied to the reference: the start's
+  // poses, which the joint solve found against the reference's leveled pose, move with it
+  // where the start holds a direction.
+  Pose gauge = Pose::Identity();
   const auto solve = [&](const std::vector<Mat6>& priors) {
     problem = NewProblem();
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
@@ -443,7 +500,7 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
     }
     for (size_t c = 0; c < n; ++c) {
       if (priors.empty() || priors[c].isZero() || !cameras[c].free || result.fallback[c]) continue;
-      const Pose& T0 = cameras[c].T_world_camera;
+      const Pose T0 = gauge * cameras[c].T_world_camera;
       problem->AddResidualBlock(
           new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
               new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
@@ -503,6 +560,7 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
       result.poses = poses;
       return result;
     }
+    gauge = LevelReference(cameras, terms, planes, &blocks) * gauge;
     for (size_t c = 0; c < n; ++c) poses[c] = PoseFromParameters(blocks[c].data());
     measured = NoiseCorrelation(terms, cameras, blocks, planes, options);
     int pixels = 0;

@@ -11,7 +11,8 @@
 // every camera. Along the directions where the planes know a camera's pose less well than
 // the start does (planes do not see their boundaries), the start holds it as a prior with its
 // covariance. A camera whose planes do not fix all six directions (fewer than three planes,
-// or normals that do not span space) keeps its start pose.
+// or normals that do not span space) keeps its start pose. The reference keeps its yaw and
+// centre (the gauge); after each round its tilt is leveled again on the bundle's floor.
 #pragma once
 
 #include <functional>
@@ -63,7 +64,9 @@ struct SurfaceTerm {
 };
 
 struct SurfaceBundleResult {
-  std::vector<Pose> poses;  ///< refined; cameras that are not free or fell back as given
+  /// Refined; cameras that are not free or fell back as given, but the reference's tilt, leveled
+  /// again on the bundle's floor when it sees it (its yaw and centre as given).
+  std::vector<Pose> poses;
   bool usable = false;
   std::string message;
   /// Per camera: held at its start pose because its planes do not fix its pose.
