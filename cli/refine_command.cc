@@ -166,7 +166,11 @@ std::string Summary(const RefineResult& result, const RefineOptions& options, co
       status = "leveled";
     }
     if (!a.no_icp) {
-      const std::string registration = c.reference  ? "reference (held fixed)"
+      // The surface bundle levels the reference again on its floor: its tilt moves.
+      const std::string reference = c.delta_rotation_deg > 0.0
+                                        ? "reference (yaw and centre held, tilt from the floor)"
+                                        : "reference (held fixed)";
+      const std::string registration = c.reference  ? reference
                                        : c.accepted ? "refined"
                                                     : "kept leveled pose: " + c.message;
       status += (status.empty() ? "" : "; ") + registration;

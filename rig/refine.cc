@@ -139,9 +139,6 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   log.Info("surface bundle: " + std::to_string(bundle.planes) + " planes, " +
            std::to_string(bundle.pixels) + " pixels, " + std::to_string(bundle.rounds) +
            " rounds, noise scale " + Fixed(bundle.noise_scale, 3));
-  // The reference leveled again on the bundle's floor (its yaw and centre held): the cameras
-  // that keep their joint pose keep it relative to the reference.
-  const Pose correction = bundle.poses[reference] * joint->poses[reference].inverse();
   for (size_t i = 0; i < surfaces.size(); ++i) {
     CameraReport& camera = result->cameras[i];
     camera.surface_thickness_before = bundle.thickness_before[i];
@@ -149,6 +146,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     camera.surface_fallback = bundle.fallback[i];
     camera.surface_noise_correlation = bundle.noise_correlation[i];
     if (static_cast<int>(i) == reference) {
+      // Leveled again on the bundle's floor (its yaw and centre held).
       joint->poses[i] = bundle.poses[i];
       continue;
     }
@@ -158,7 +156,6 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
            "camera " + camera.serial +
                ": too few planes fix its pose for the surface bundle; it keeps its joint "
                "point-to-plane pose");
-      joint->poses[i] = correction * joint->poses[i];
       continue;
     }
     joint->poses[i] = bundle.poses[i];

@@ -303,8 +303,10 @@ void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<P
 }
 
 /// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
-/// Gauss-Newton iterations of LevelOnFloor (it starts a few hundredths of a degree off).
-constexpr int kLevelIterations = 5;
+/// LevelOnFloor's Gauss-Newton: at most this many iterations, until a step is below
+/// kLevelStepRad (the start is a few hundredths of a degree off).
+constexpr int kLevelIterations = 20;
+constexpr double kLevelStepRad = 1e-12;
 
 /// `block` turned about world X and Z through its centre, its yaw and centre held, so that its
 /// pixels of `cluster` lie best on the plane `floor` (held): Gauss-Newton on the plane-cluster
@@ -331,6 +333,7 @@ void LevelOnFloor(const PlaneCluster& cluster, bool ray_model, const Vec4& floor
     PoseBlock next;
     SharedPoseManifold()->Plus(block->data(), delta.data(), next.data());
     *block = next;
+    if (step.norm() < kLevelStepRad) return;
   }
 }
 
@@ -467,7 +470,8 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
   std::vector<bool> fixed;
   // The correction of the world that LevelReference applied to the reference: the start's
   // poses, which the joint solve found against the reference's leveled pose, move with it
-  // where the start holds a direction.
+  // where the start holds a direction. (A camera that keeps its joint pose does not: moved
+  // with the reference, seed 18's worst run went from 21.4 to 29.5 mm, the others unchanged.)
   Pose gauge = Pose::Identity();
   const auto solve = [&](const std::vector<Mat6>& priors) {
     problem = NewProblem();
