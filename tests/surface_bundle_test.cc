@@ -24,6 +24,22 @@ SimulatedRig NoiseFreeRig(int cameras) {
   return SimulateRig(sim);
 }
 
+/// A 4-camera 320x180 rig of `sim` (its other fields as given), refined by the surface bundle.
+struct RefinedRig {
+  SimulatedRig rig;
+  RefineResult result;
+};
+RefinedRig RefineSmallRig(SimOptions sim) {
+  sim.cameras = 4;
+  sim.width = 320;
+  sim.height = 180;
+  RefinedRig out{SimulateRig(sim), {}};
+  RefineOptions options;
+  options.icp.method = RegistrationMethod::kSurfaceBundle;
+  out.result = Refine(out.rig.capture, out.rig.init, options, true, 2, Log{});
+  return out;
+}
+
 TEST(SurfaceBundle, NoiseFreeRigsAreRecovered) {
   // The test: 0.1 mm and 0.002 deg of relative error and tilt.
   constexpr double kMaxTranslationM = 1e-4;
@@ -59,14 +75,10 @@ TEST(SurfaceBundle, LevelsTheReferenceAgainOnItsFloorHoldingItsYawAndCentre) {
   for (const unsigned seed : {0u, 1u, 2u}) {
     SCOPED_TRACE(seed);
     SimOptions sim;
-    sim.cameras = 4;
-    sim.width = 320;
-    sim.height = 180;
     sim.seed = seed;
-    const SimulatedRig rig = SimulateRig(sim);
-    RefineOptions options;
-    options.icp.method = RegistrationMethod::kSurfaceBundle;
-    const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+    const RefinedRig refined_rig = RefineSmallRig(sim);
+    const SimulatedRig& rig = refined_rig.rig;
+    const RefineResult& result = refined_rig.result;
     ASSERT_TRUE(result.success) << result.message;
     const std::string& serial = rig.capture.cameras[0].serial;  // the reference
     ASSERT_TRUE(result.cameras[0].reference);
@@ -98,15 +110,9 @@ TEST(SurfaceBundle, MeasuresTheNoisesCorrelationAndWeighsItsPixelsByIt) {
   for (const double share : {0.0, 0.8}) {
     SCOPED_TRACE(share);
     SimOptions sim;
-    sim.cameras = 4;
-    sim.width = 320;
-    sim.height = 180;
     sim.noise_corr_px = share > 0.0 ? 4.0 : 0.0;
     sim.noise_corr_share = share;
-    const SimulatedRig rig = SimulateRig(sim);
-    RefineOptions options;
-    options.icp.method = RegistrationMethod::kSurfaceBundle;
-    const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+    const RefineResult result = RefineSmallRig(sim).result;
     ASSERT_TRUE(result.success) << result.message;
     ASSERT_TRUE(result.surface.ran);
     for (const CameraReport& c : result.cameras) {
