@@ -166,8 +166,7 @@ std::string Summary(const RefineResult& result, const RefineOptions& options, co
       status = "leveled";
     }
     if (!a.no_icp) {
-      // The surface bundle levels the reference again on its floor: its tilt moves.
-      const std::string reference = c.delta_rotation_deg > 0.0
+      const std::string reference = c.surface_leveled
                                         ? "reference (yaw and centre held, tilt from the floor)"
                                         : "reference (held fixed)";
       const std::string registration = c.reference  ? reference

@@ -148,6 +148,8 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     if (static_cast<int>(i) == reference) {
       // Leveled again on the bundle's floor (its yaw and centre held).
       joint->poses[i] = bundle.poses[i];
+      result->refined[camera.serial] = bundle.poses[i];
+      camera.surface_leveled = true;
       continue;
     }
     if (!surfaces[i].free) continue;
@@ -409,9 +411,7 @@ int ApplySafetyBounds(const std::vector<Pose>& leveled, const std::vector<Pose>&
     report.own_rotation_deg = own.head<3>().norm() * kRadToDeg;
     report.own_translation_m = own.tail<3>().norm();
     if (report.reference) {
-      // Its leveled pose, or with the surface bundle its tilt leveled again on its floor.
       report.accepted = true;
-      result->refined[report.serial] = refined[i];
       continue;
     }
     if (!report.connected) {

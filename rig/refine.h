@@ -48,6 +48,9 @@ struct CameraReport {
   /// variance of a 32 x 32 pixel tile's sum against independent pixels' (1: independent;
   /// stereo depth: tens). Its pixels were weighted down by it (SurfaceBundleResult).
   double surface_noise_correlation = 0.0;
+  /// Surface bundle, the reference: its tilt leveled again on the bundle's floor (its yaw and
+  /// centre held).
+  bool surface_leveled = false;
 };
 
 /// What the surface bundle did (method surface_bundle).

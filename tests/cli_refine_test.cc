@@ -168,6 +168,25 @@ TEST_F(CliRefineTest, RefinesTheRigAndPreservesUnknownKeys) {
   EXPECT_NE(r.out.find(Out()), std::string::npos) << r.out;
 }
 
+TEST_F(CliRefineTest, TheReferenceIsHeldOrLeveledOnTheBundlesFloor) {
+  // Point-to-plane holds the reference at its leveled pose; the surface bundle levels it again
+  // on its floor (yaw and centre held), and the summary says which.
+  const PoseMap leveled = LeveledPoses();
+  const std::string reference = leveled.begin()->first;  // the first serial
+  const RunResult held = Refine({});
+  ASSERT_EQ(held.exit_code, 0) << Describe(held);
+  EXPECT_NE(held.out.find("reference (held fixed)"), std::string::npos) << held.out;
+  EXPECT_EQ(ReadExtrinsics(Out()).poses.at(reference).matrix(), leveled.at(reference).matrix());
+
+  const RunResult bundle = Refine({"--method", "surface_bundle"});
+  ASSERT_EQ(bundle.exit_code, 0) << Describe(bundle);
+  EXPECT_NE(bundle.out.find("reference (yaw and centre held, tilt from the floor)"),
+            std::string::npos)
+      << bundle.out;
+  const Pose moved = ReadExtrinsics(Out()).poses.at(reference);
+  EXPECT_LT((moved.translation() - leveled.at(reference).translation()).norm(), 1e-9);
+}
+
 TEST_F(CliRefineTest, NoTimingsMakesTheOutputByteIdentical) {
   const std::string second = (dir_ / "second.json").string();
   const RunResult a = Refine(Init(), Out(), {"--no-timings", "--quiet"});
