@@ -145,8 +145,8 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     camera.surface_thickness_after = bundle.thickness_after[i];
     camera.surface_fallback = bundle.fallback[i];
     camera.surface_noise_correlation = bundle.noise_correlation[i];
-    if (static_cast<int>(i) == reference) {
-      // Leveled again on the bundle's floor (its yaw and centre held).
+    if (bundle.leveled[i]) {
+      // The reference, leveled again on the bundle's floor (its yaw and centre held).
       joint->poses[i] = bundle.poses[i];
       result->refined[camera.serial] = bundle.poses[i];
       camera.surface_leveled = true;

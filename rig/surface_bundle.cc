@@ -302,7 +302,6 @@ void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   }
 }
 
-/// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
 /// LevelOnFloor's Gauss-Newton: at most this many iterations, until a step is below
 /// kLevelStepRad (the start is a few hundredths of a degree off).
 constexpr int kLevelIterations = 20;
@@ -341,11 +340,11 @@ void LevelOnFloor(const PlaneCluster& cluster, bool ray_model, const Vec4& floor
 /// the leveled floor (the reference: a camera the joint solve could not link holds no pixels)
 /// are turned by LevelOnFloor on their floor pixels. Leveling fitted each camera's floor alone,
 /// with the feet of walls and boxes in it; the bundle's floor leaves them out and is shared by
-/// every camera. Returns the world correction C applied to the reference (T <- C T; the
-/// identity when none).
+/// every camera. Marks them in `leveled`; returns the world correction C applied to the
+/// reference (T <- C T; the identity when none).
 Pose LevelReference(const std::vector<SurfaceCamera>& cameras,
                     const std::vector<ClusterTerm>& terms, const std::vector<PlaneBlock>& planes,
-                    std::vector<PoseBlock>* blocks) {
+                    std::vector<PoseBlock>* blocks, std::vector<bool>* leveled) {
   Pose correction = Pose::Identity();
   for (const ClusterTerm& t : terms) {
     const SurfaceCamera& camera = cameras[t.camera];
@@ -354,10 +353,12 @@ Pose LevelReference(const std::vector<SurfaceCamera>& cameras,
     const Pose before = PoseFromParameters(block.data());
     LevelOnFloor(t.cluster, camera.ray_model, planes[t.plane].x, &block);
     correction = PoseFromParameters(block.data()) * before.inverse();
+    (*leveled)[t.camera] = true;
   }
   return correction;
 }
 
+/// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
 std::vector<bool> PlanesFixPose(const std::vector<ClusterTerm>& terms,
                                 const std::vector<PlaneBlock>& planes, size_t num_cameras) {
   std::vector<Mat3> scatter(num_cameras, Mat3::Zero());
@@ -443,6 +444,7 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
   const size_t n = cameras.size();
   SurfaceBundleResult result;
   result.fallback.assign(n, false);
+  result.leveled.assign(n, false);
   result.covariance.assign(n, Mat6::Zero());
   result.thickness_before.assign(n, 0.0);
   result.thickness_after.assign(n, 0.0);
@@ -470,8 +472,8 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
   std::vector<bool> fixed;
   // The correction of the world that LevelReference applied to the reference: the start's
   // poses, which the joint solve found against the reference's leveled pose, move with it
-  // where the start holds a direction. (A camera that keeps its joint pose does not: moved
-  // with the reference, seed 18's worst run went from 21.4 to 29.5 mm, the others unchanged.)
+  // where the start holds a direction (a camera that keeps its joint pose stays where it is:
+  // moving it too changed nothing on the held-out seed that has one).
   Pose gauge = Pose::Identity();
   const auto solve = [&](const std::vector<Mat6>& priors) {
     problem = NewProblem();
@@ -564,7 +566,7 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
       result.poses = poses;
       return result;
     }
-    gauge = LevelReference(cameras, terms, planes, &blocks) * gauge;
+    gauge = LevelReference(cameras, terms, planes, &blocks, &result.leveled) * gauge;
     for (size_t c = 0; c < n; ++c) poses[c] = PoseFromParameters(blocks[c].data());
     measured = NoiseCorrelation(terms, cameras, blocks, planes, options);
     int pixels = 0;

@@ -71,6 +71,8 @@ struct SurfaceBundleResult {
   std::string message;
   /// Per camera: held at its start pose because its planes do not fix its pose.
   std::vector<bool> fallback;
+  /// Per camera: not free (the reference) and its tilt leveled again on the bundle's floor.
+  std::vector<bool> leveled;
   /// Per camera: 6x6 covariance (PoseManifold tangent, planes marginalised, scaled by
   /// noise_scale^2); zero when unavailable.
   std::vector<Mat6> covariance;
