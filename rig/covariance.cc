@@ -133,7 +133,8 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
         }
       }
     }
-    Eigen::MatrixXd& own = !clusters ? A : cluster >= 0 ? A_own[cluster] : P;
+    // Where the row's pose information also goes for `robust`: its cluster's A_j, or P.
+    Eigen::MatrixXd* own = !clusters ? nullptr : cluster >= 0 ? &A_own[cluster] : &P;
     for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
       const int ca = J.cols[a];
       for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
@@ -141,7 +142,7 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
         const double v = J.values[a] * J.values[b];
         if (cb < p) {
           if (ca < p) A(ca, cb) += v;  // ca >= p: the transpose of B's entry below
-          if (ca < p && clusters) own(ca, cb) += v;
+          if (ca < p && own != nullptr) (*own)(ca, cb) += v;
         } else if (ca < p) {
           const int j = block_of[cb - p];
           B[j](ca, cb - start[j]) += v;
