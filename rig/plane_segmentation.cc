@@ -337,9 +337,8 @@ class Segmenter {
   double base_variance_ = 0.0;
   double min_cell_ = 0.0;
   std::vector<Patch> cells_;
-  int floor_index_ = -1;
-  int floor_cell_ = -1;  ///< the leveled floor's index among cells_, -1 if none  ///< the floor's
-                         ///< index among JoinFloor's patches, -1 if none
+  int floor_index_ = -1;  ///< the floor's index among JoinFloor's patches, -1 if none
+  int floor_cell_ = -1;   ///< the leveled floor's index among cells_, -1 if none
 };
 
 }  // namespace
