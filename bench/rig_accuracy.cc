@@ -239,8 +239,7 @@ class SegmentationDiagnostic {
         ComputeSurfaceCramerRaoBound(used_true, faces, truth.gt, reference, noise, 2000, seed);
     const CramerRaoBound b2 = ComputeSurfaceCramerRaoBound(used_split, split_faces, truth.gt,
                                                            reference, noise, 2000, seed);
-    const auto show = [&](const char* what, const CramerRaoBound& b, double* r2, double* t2,
-                          double* bt2) {
+    const auto show = [&](const char* what, const CramerRaoBound& b, RatioSums* sums) {
       if (!b.ok) {
         std::printf("       bound of %s: not available: %s\n", what, b.message.c_str());
         return;
@@ -252,12 +251,13 @@ class SegmentationDiagnostic {
           b.rms.tilt_rad * kRadToDeg, b.rms.rotation_rad / full.rotation_rad,
           b.rms.translation_m / full.translation_m, after.rms_rotation_rad / b.rms.rotation_rad,
           after.rms_translation_m / b.rms.translation_m);
-      *r2 += std::pow(after.rms_rotation_rad / b.rms.rotation_rad, 2);
-      *t2 += std::pow(after.rms_translation_m / b.rms.translation_m, 2);
-      *bt2 += std::pow(b.rms.translation_m / full.translation_m, 2);
+      sums->error_rotation2 += std::pow(after.rms_rotation_rad / b.rms.rotation_rad, 2);
+      sums->error_translation2 += std::pow(after.rms_translation_m / b.rms.translation_m, 2);
+      sums->bound_translation2 += std::pow(b.rms.translation_m / full.translation_m, 2);
+      ++sums->runs;
     };
-    show("the used pixels (true faces)", b1, &true_r2, &true_t2, &true_bt2);
-    show("the used pixels (a plane per bundle plane)", b2, &split_r2, &split_t2, &split_bt2);
+    show("the used pixels (true faces)", b1, &used_true_sums);
+    show("the used pixels (a plane per bundle plane)", b2, &used_split_sums);
     // Where the used pixels' bound loses against the full one: every bound pixel of the faces
     // the bundle used (what is left is what the faces it missed cost), and the missed face
     // that alone would lower the used pixels' bound most.
@@ -278,7 +278,7 @@ class SegmentationDiagnostic {
     const CramerRaoBound b3 =
         ComputeSurfaceCramerRaoBound(face_pixels([&](size_t, int f) { return face_ok[f] > 0; }),
                                      faces, truth.gt, reference, noise, 2000, seed);
-    show("every pixel of the faces it used", b3, &faces_r2, &faces_t2, &faces_bt2);
+    show("every pixel of the faces it used", b3, &used_faces_sums);
     int best = -1;
     double best_translation = b1.ok ? b1.rms.translation_m : 0.0;
     for (size_t g = 0; b1.ok && g < faces.size(); ++g) {
@@ -314,11 +314,10 @@ class SegmentationDiagnostic {
           normal.x(), normal.y(), normal.z(), faces[best].offset, per_camera.c_str(),
           b1.rms.translation_m / full.translation_m, best_translation / full.translation_m);
     }
-    runs += b1.ok && b2.ok && b3.ok ? 1 : 0;
   }
 
   void Summary() const {
-    if (runs == 0) return;
+    if (total_bound == 0) return;
     std::printf(
         "segmentation: the bundle used %.1f%% of the bound's pixels on the right face (floor "
         "%.1f%%, other faces %.1f%%), %.2f%% of its pixels on a wrong face, %lld right-face "
@@ -327,25 +326,31 @@ class SegmentationDiagnostic {
         100.0 * (total_ok - total_floor_ok) / (total_bound - total_floor_bound),
         100.0 * total_wrong / (total_ok + total_wrong + total_outside), total_outside, total_missed,
         total_faces, total_fallbacks);
-    std::printf(
-        "bound of the used pixels, over %d runs: true faces: RMS bound / full bound %.2f "
-        "translation, RMS error / it %.2f rotation %.2f translation; a plane per bundle plane: "
-        "%.2f, %.2f, %.2f\n",
-        runs, std::sqrt(true_bt2 / runs), std::sqrt(true_r2 / runs), std::sqrt(true_t2 / runs),
-        std::sqrt(split_bt2 / runs), std::sqrt(split_r2 / runs), std::sqrt(split_t2 / runs));
-    std::printf(
-        "bound of every pixel of the faces it used (what is left to the full bound: the faces it "
-        "missed): RMS bound / full bound %.2f translation, RMS error / it %.2f rotation %.2f "
-        "translation\n",
-        std::sqrt(faces_bt2 / runs), std::sqrt(faces_r2 / runs), std::sqrt(faces_t2 / runs));
+    const auto line = [](const char* what, const RatioSums& sums) {
+      if (sums.runs == 0) return;
+      std::printf(
+          "bound of %s, over %d runs: RMS bound / full bound %.2f translation, RMS error / it "
+          "%.2f rotation %.2f translation\n",
+          what, sums.runs, std::sqrt(sums.bound_translation2 / sums.runs),
+          std::sqrt(sums.error_rotation2 / sums.runs),
+          std::sqrt(sums.error_translation2 / sums.runs));
+    };
+    line("the used pixels (true faces)", used_true_sums);
+    line("the used pixels (a plane per bundle plane)", used_split_sums);
+    line("every pixel of the faces it used (what is left to the full bound: the faces it missed)",
+         used_faces_sums);
   }
 
  private:
+  /// Sums over the runs of the squared ratios that a bound's line prints.
+  struct RatioSums {
+    double error_rotation2 = 0.0, error_translation2 = 0.0, bound_translation2 = 0.0;
+    int runs = 0;
+  };
   long long total_bound = 0, total_ok = 0, total_wrong = 0, total_outside = 0;
   long long total_floor_bound = 0, total_floor_ok = 0;
-  int total_faces = 0, total_missed = 0, total_fallbacks = 0, runs = 0;
-  double true_r2 = 0, true_t2 = 0, true_bt2 = 0, split_r2 = 0, split_t2 = 0, split_bt2 = 0;
-  double faces_r2 = 0, faces_t2 = 0, faces_bt2 = 0;
+  int total_faces = 0, total_missed = 0, total_fallbacks = 0;
+  RatioSums used_true_sums, used_split_sums, used_faces_sums;
 };
 
 }  // namespace
