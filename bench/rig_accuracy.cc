@@ -267,7 +267,7 @@ class SegmentationDiagnostic {
         pixels[c].serial = truth.capture.cameras[c].serial;
         for (const long long k : band[c]) {
           const auto& [f, p] = label[c].at(k);
-          if (in_bound(c, f) && take(c, f)) {
+          if (in_bound(c, f) && take(f)) {
             pixels[c].points.push_back(p);
             pixels[c].faces.push_back(f);
           }
@@ -276,8 +276,8 @@ class SegmentationDiagnostic {
       return pixels;
     };
     const CramerRaoBound b3 =
-        ComputeSurfaceCramerRaoBound(face_pixels([&](size_t, int f) { return face_ok[f] > 0; }),
-                                     faces, truth.gt, reference, noise, 2000, seed);
+        ComputeSurfaceCramerRaoBound(face_pixels([&](int f) { return face_ok[f] > 0; }), faces,
+                                     truth.gt, reference, noise, 2000, seed);
     show("every pixel of the faces it used", b3, &used_faces_sums);
     int best = -1;
     double best_translation = b1.ok ? b1.rms.translation_m : 0.0;
@@ -285,7 +285,7 @@ class SegmentationDiagnostic {
       if (face_ok[g] > 0 || faces[g].floor || face_bound[g] == 0) continue;
       std::vector<FacePixels> plus = used_true;
       const std::vector<FacePixels> extra =
-          face_pixels([&](size_t, int f) { return f == static_cast<int>(g); });
+          face_pixels([&](int f) { return f == static_cast<int>(g); });
       for (size_t c = 0; c < n; ++c) {
         plus[c].points.insert(plus[c].points.end(), extra[c].points.begin(), extra[c].points.end());
         plus[c].faces.insert(plus[c].faces.end(), extra[c].faces.begin(), extra[c].faces.end());
@@ -298,14 +298,10 @@ class SegmentationDiagnostic {
       }
     }
     if (best >= 0) {
+      const std::vector<FacePixels> pixels = face_pixels([&](int f) { return f == best; });
       std::string per_camera;
       for (size_t c = 0; c < n; ++c) {
-        long long count = 0;
-        for (const long long k : band[c]) {
-          const int f = label[c].at(k).first;
-          count += f == best && in_bound(c, f) ? 1 : 0;
-        }
-        per_camera += (c ? "/" : "") + std::to_string(count);
+        per_camera += (c ? "/" : "") + std::to_string(pixels[c].points.size());
       }
       const Vec3& normal = faces[best].normal;
       std::printf(
