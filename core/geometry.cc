@@ -21,6 +21,11 @@ PointCloud UnprojectDepth(const CameraCapture& camera, const UnprojectOptions& o
   return points;
 }
 
+Eigen::Vector2i PixelOf(const PinholeIntrinsics& K, const Vec3& p) {
+  return {static_cast<int>(std::lround(K.fx * p.x() / p.z() + K.cx)),
+          static_cast<int>(std::lround(K.fy * p.y() / p.z() + K.cy))};
+}
+
 PointCloud CameraPoints(const CameraCapture& camera, const UnprojectOptions& options) {
   if (camera.HasDepth()) return UnprojectDepth(camera, options);
   PointCloud points;

@@ -28,6 +28,10 @@ PointCloud UnprojectDepth(const CameraCapture& camera, const UnprojectOptions& o
 /// (filtered by the same range limits, measured as distance along z).
 PointCloud CameraPoints(const CameraCapture& camera, const UnprojectOptions& options);
 
+/// The pixel (u, v) a camera-frame point of a depth image was unprojected from
+/// (UnprojectDepth): its projection by K, rounded. z > 0.
+Eigen::Vector2i PixelOf(const PinholeIntrinsics& K, const Vec3& p);
+
 /// Where the ray origin + s ray meets the plane n^T x + d = 0: s (the depth, for a ray a = p / z
 /// of a camera at origin); infinity when the ray runs parallel to the plane (|n^T ray| < 1e-9).
 inline double RayPlaneDepth(const Vec3& origin, const Vec3& ray, const Vec3& n, double d) {

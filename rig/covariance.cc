@@ -15,10 +15,6 @@
 
 namespace rigfit {
 
-namespace {
-
-/// The Jacobian (PoseManifold tangents of `blocks`, in order) and residuals of the given
-/// residual blocks, loss functions not applied; constant blocks are evaluated as variables.
 void EvaluateJacobian(ceres::Problem* problem, const std::vector<double*>& blocks,
                       const std::vector<ceres::ResidualBlockId>& residual_blocks,
                       std::vector<double>* residuals, ceres::CRSMatrix* J) {
@@ -35,6 +31,8 @@ void EvaluateJacobian(ceres::Problem* problem, const std::vector<double*>& block
   problem->Evaluate(eval, nullptr, residuals, nullptr, J);
   for (double* block : made_variable) problem->SetParameterBlockConstant(block);
 }
+
+namespace {
 
 /// J^T J of a sparse Jacobian (dense, J.num_cols square).
 Eigen::MatrixXd Gram(const ceres::CRSMatrix& J) {

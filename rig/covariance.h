@@ -22,6 +22,13 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
                             const std::vector<ceres::ResidualBlockId>& residual_blocks,
                             bool scale_by_residuals = true);
 
+/// The Jacobian (PoseManifold tangents of `blocks`, in order; the manifolds' tangents of the
+/// others) and residuals of the given residual blocks, rows in their order, loss functions not
+/// applied; constant blocks are evaluated as variables.
+void EvaluateJacobian(ceres::Problem* problem, const std::vector<double*>& blocks,
+                      const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                      std::vector<double>* residuals, ceres::CRSMatrix* J);
+
 /// Covariance of the pose blocks `poses` (PoseManifold tangents, 6 each, in the order given)
 /// with the blocks `nuisance` marginalised (their own manifolds' tangents), from every
 /// residual block of the problem, whose residuals are whitened (no scale, loss functions not

@@ -1,5 +1,6 @@
 #include "rig/crlb.h"
 
+#include <ceres/crs_matrix.h>
 #include <ceres/manifold.h>
 #include <ceres/product_manifold.h>
 #include <ceres/sphere_manifold.h>
@@ -132,10 +133,114 @@ BoundFaces::BoundFaces(const std::vector<FacePixels>& cameras, size_t num_faces)
   }
 }
 
+namespace {
+
+/// ComputeSurfaceCramerRaoBound's covariance under correlated noise: per camera, the rays a_i
+/// of its counted pixels, three columns per face (the face's indicator times each component),
+/// give G = A^T S^-1 A (CorrelatedGram); since w_i = e_f^T a_i on face f (e_f = -n_c / d_c),
+/// b_i = E_f a_i with E_f = [I; e_f^T], and the information of the stacked per-face
+/// residual vectors pi_c / d_c (PlaneClusterCost with L = I: w_i - h_i = b_i^T pi_c / d_c) is
+/// E G E^T / k^2. The faces are eliminated densely. Empty with a message on failure.
+Eigen::MatrixXd CorrelatedPoseCovariance(
+    const std::vector<FacePixels>& cameras, const std::vector<PlanarFace>& faces,
+    const BoundFaces& counted, const PoseMap& T_true, double depth_noise,
+    const CorrelatedNoiseModel& correlated, int num_threads, ceres::Problem* problem,
+    std::vector<std::array<double, kPoseAmbientSize>>& poses, std::vector<Vec4>& planes,
+    const std::vector<double*>& free_blocks, const std::vector<double*>& plane_blocks,
+    std::string* message) {
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  std::vector<Eigen::MatrixXd> weights;  // per camera: 4 F_c x 4 F_c
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const FacePixels& camera = cameras[c];
+    if (camera.pixels.size() != camera.points.size()) {
+      *message = "correlated noise needs every point's pixel (camera " + camera.serial + ")";
+      return {};
+    }
+    std::vector<int> slot(faces.size(), -1), seen, rows;
+    for (size_t i = 0; i < camera.points.size(); ++i) {
+      const int f = camera.faces[i];
+      if (!counted.Counts(c, f)) continue;
+      if (slot[f] < 0) {
+        slot[f] = static_cast<int>(seen.size());
+        seen.push_back(f);
+      }
+      rows.push_back(static_cast<int>(i));
+    }
+    if (seen.empty()) continue;
+    std::vector<Eigen::Vector2i> pixels(rows.size());
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows.size()),
+                                              3 * static_cast<Eigen::Index>(seen.size()));
+    for (size_t k = 0; k < rows.size(); ++k) {
+      const Vec3& p = camera.points[rows[k]];
+      pixels[k] = camera.pixels[rows[k]];
+      A.block<1, 3>(static_cast<Eigen::Index>(k), 3 * slot[camera.faces[rows[k]]]) =
+          (p / p.z()).transpose();
+    }
+    const Eigen::MatrixXd G = CorrelatedGram(pixels, A, correlated, num_threads);
+    if (G.size() == 0) {
+      *message = "the correlated noise's solve did not converge (camera " + camera.serial + ")";
+      return {};
+    }
+    const Pose& T = T_true.at(camera.serial);
+    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(4 * G.rows() / 3, G.rows());
+    for (size_t s = 0; s < seen.size(); ++s) {
+      const PlanarFace& face = faces[seen[s]];
+      const Vec3 n_c = T.linear().transpose() * face.normal;
+      const double d_c = face.normal.dot(T.translation()) + face.offset;
+      E.block<3, 3>(4 * s, 3 * s).setIdentity();
+      E.block<1, 3>(4 * s + 3, 3 * s) = -n_c.transpose() / d_c;
+      residual_blocks.push_back(
+          problem->AddResidualBlock(new PlaneClusterCost(Mat4::Identity(), true), nullptr,
+                                    poses[c].data(), planes[seen[s]].data()));
+    }
+    weights.push_back(E * G * E.transpose() / (depth_noise * depth_noise));
+  }
+  std::vector<double*> blocks = free_blocks;
+  blocks.insert(blocks.end(), plane_blocks.begin(), plane_blocks.end());
+  std::vector<double> residuals;
+  ceres::CRSMatrix crs;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &crs);
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
+  for (int row = 0; row < crs.num_rows; ++row) {
+    for (int a = crs.rows[row]; a < crs.rows[row + 1]; ++a) J(row, crs.cols[a]) = crs.values[a];
+  }
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(J.cols(), J.cols());
+  Eigen::Index row = 0;
+  for (const Eigen::MatrixXd& W : weights) {
+    const Eigen::MatrixXd Jc = J.middleRows(row, W.rows());
+    information += Jc.transpose() * W * Jc;
+    row += W.rows();
+  }
+  const Eigen::Index p = 6 * static_cast<Eigen::Index>(free_blocks.size());
+  const Eigen::Index q = information.rows() - p;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> faces_eig(
+      information.bottomRightCorner(q, q));
+  if (q > 0 && !(faces_eig.eigenvalues().minCoeff() > 1e-12 * faces_eig.eigenvalues().maxCoeff())) {
+    *message = "the information is singular: some face is not constrained";
+    return {};
+  }
+  Eigen::MatrixXd schur = information.topLeftCorner(p, p);
+  if (q > 0) {
+    const Eigen::MatrixXd B = information.topRightCorner(p, q) * faces_eig.eigenvectors();
+    schur -= B * faces_eig.eigenvalues().cwiseInverse().asDiagonal() * B.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (schur + schur.transpose()));
+  if (!(eig.eigenvalues().minCoeff() > 1e-12 * eig.eigenvalues().maxCoeff())) {
+    *message = "the information is singular: some camera is not constrained";
+    return {};
+  }
+  return eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
+         eig.eigenvectors().transpose();
+}
+
+}  // namespace
+
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,
-                                            double depth_noise, int samples, std::uint64_t seed) {
+                                            double depth_noise, int samples, std::uint64_t seed,
+                                            const CorrelatedNoiseModel& correlated,
+                                            int num_threads) {
   CramerRaoBound bound;
   bound.reference = reference;
   const size_t n = cameras.size();
@@ -174,25 +279,32 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
         planes[f].data(), 4,
         faces[f].floor ? static_cast<ceres::Manifold*>(&floor_manifold) : &plane_manifold);
   }
-  for (size_t c = 0; c < n; ++c) {
-    std::vector<PlaneCluster> clusters(faces.size());
-    for (size_t i = 0; i < cameras[c].points.size(); ++i) {
-      const int f = cameras[c].faces[i];
-      if (!counted.Counts(c, f)) continue;
-      const Vec3& p = cameras[c].points[i];
-      clusters[f].AddRay(p, 1.0 / p.z(), depth_noise);
-    }
-    for (size_t f = 0; f < faces.size(); ++f) {
-      if (clusters[f].Count() == 0) continue;
-      problem->AddResidualBlock(PlaneClusterCost::Create(clusters[f], true), nullptr,
-                                poses[c].data(), planes[f].data());
-    }
-  }
   std::vector<double*> plane_blocks;
   for (size_t f = 0; f < faces.size(); ++f) {
     if (used[f]) plane_blocks.push_back(planes[f].data());
   }
-  bound.covariance = MarginalPoseCovariance(problem.get(), free_blocks, plane_blocks);
+  if (correlated.share > 0.0) {
+    bound.covariance = CorrelatedPoseCovariance(cameras, faces, counted, T_true, depth_noise,
+                                                correlated, num_threads, problem.get(), poses,
+                                                planes, free_blocks, plane_blocks, &bound.message);
+    if (bound.covariance.size() == 0 && !bound.message.empty()) return bound;
+  } else {
+    for (size_t c = 0; c < n; ++c) {
+      std::vector<PlaneCluster> clusters(faces.size());
+      for (size_t i = 0; i < cameras[c].points.size(); ++i) {
+        const int f = cameras[c].faces[i];
+        if (!counted.Counts(c, f)) continue;
+        const Vec3& p = cameras[c].points[i];
+        clusters[f].AddRay(p, 1.0 / p.z(), depth_noise);
+      }
+      for (size_t f = 0; f < faces.size(); ++f) {
+        if (clusters[f].Count() == 0) continue;
+        problem->AddResidualBlock(PlaneClusterCost::Create(clusters[f], true), nullptr,
+                                  poses[c].data(), planes[f].data());
+      }
+    }
+    bound.covariance = MarginalPoseCovariance(problem.get(), free_blocks, plane_blocks);
+  }
   if (bound.covariance.size() == 0) {
     bound.message = "the information is singular: some camera or face is not constrained";
     return bound;
@@ -205,7 +317,8 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
 
 CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
                                       const RefineOptions& options, double depth_noise,
-                                      const FaceLabeler& label, int samples, std::uint64_t seed) {
+                                      const FaceLabeler& label, int samples, std::uint64_t seed,
+                                      const CorrelatedNoiseModel& correlated, int num_threads) {
   RegionOptions every_pixel = options.region;
   every_pixel.pixel_stride = 1;
   std::vector<FacePixels> cameras;
@@ -216,12 +329,15 @@ CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMa
     pixels.serial = camera.serial;
     pixels.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, options.region);
     label(T, pixels.points, &faces, &pixels.faces);
+    if (correlated.share > 0.0) {
+      for (const Vec3& p : pixels.points) pixels.pixels.push_back(PixelOf(camera.intrinsics, p));
+    }
   }
   const std::string reference = options.icp.reference.empty() && !noise_free.cameras.empty()
                                     ? noise_free.cameras.front().serial
                                     : options.icp.reference;
-  return ComputeSurfaceCramerRaoBound(cameras, faces, T_true, reference, depth_noise, samples,
-                                      seed);
+  return ComputeSurfaceCramerRaoBound(cameras, faces, T_true, reference, depth_noise, samples, seed,
+                                      correlated, num_threads);
 }
 
 }  // namespace rigfit

@@ -11,6 +11,7 @@
 #include "core/evaluate.h"
 #include "core/types.h"
 #include "options/refine_options.h"
+#include "rig/correlated_noise.h"
 
 namespace rigfit {
 
@@ -69,6 +70,8 @@ struct FacePixels {
   std::string serial;
   PointCloud points;       ///< camera frame; every valid pixel of the band once
   std::vector<int> faces;  ///< per point, the index of its face in the faces list (-1: none)
+  /// Per point, its pixel (u, v): needed by a bound with correlated noise only (may be empty).
+  std::vector<Eigen::Vector2i> pixels;
 };
 
 /// The faces and pixels the surface-model bound counts: a face seen by one camera alone
@@ -95,10 +98,17 @@ struct BoundFaces {
 /// truth, the faces eliminated by Schur complement (MarginalPoseCovariance, rig/covariance.h). No
 /// gravity prior (it is no measurement). Errors sampled like ComputeCramerRaoBound's. Never throws
 /// on bad geometry: ok false with a message.
+/// With `correlated` share > 0 the noise is CorrelatedNoiseModel's (every camera's `pixels`
+/// needed): the information of camera c is J_c^T B_c^T S_c^-1 B_c J_c / k^2 over all its faces
+/// together (B_c: the rays of its pixels on each face, CorrelatedGram), no longer a sum over
+/// (camera, face) clusters: an estimator that knows the correlation can difference it away
+/// where faces meet.
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,
-                                            double depth_noise, int samples, std::uint64_t seed);
+                                            double depth_noise, int samples, std::uint64_t seed,
+                                            const CorrelatedNoiseModel& correlated = {},
+                                            int num_threads = 1);
 
 /// Labels points (camera frame, at T_world_camera) with the faces they lie on, appending new
 /// faces to `faces` (e.g. the simulator's LabelFaces, sim/scene.h).
@@ -110,6 +120,8 @@ using FaceLabeler = std::function<void(const Pose& T_world_camera, const PointCl
 /// `label`; the reference is options.icp.reference or the first serial.
 CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
                                       const RefineOptions& options, double depth_noise,
-                                      const FaceLabeler& label, int samples, std::uint64_t seed);
+                                      const FaceLabeler& label, int samples, std::uint64_t seed,
+                                      const CorrelatedNoiseModel& correlated = {},
+                                      int num_threads = 1);
 
 }  // namespace rigfit

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "core/noise_field.h"
 #include "sim/random.h"
 
 namespace rigfit {
@@ -357,18 +358,10 @@ void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_w
 }  // namespace
 
 std::vector<double> GaussianNoiseField(int width, int height, double corr_px, SimRng& rng) {
-  const int radius = static_cast<int>(std::ceil(3.0 * corr_px));
-  std::vector<double> kernel(2 * radius + 1);
-  double sum = 0.0;
-  for (int k = -radius; k <= radius; ++k) {
-    kernel[k + radius] = std::exp(-0.5 * k * k / (corr_px * corr_px));
-    sum += kernel[k + radius];
-  }
+  const std::vector<double> kernel = NoiseFieldKernel(corr_px);
+  const int radius = static_cast<int>(kernel.size() / 2);
   double norm2 = 0.0;
-  for (double& k : kernel) {
-    k /= sum;
-    norm2 += k * k;
-  }
+  for (const double k : kernel) norm2 += k * k;
   // White noise on the padded canvas, blurred along rows, then along columns: every output
   // pixel sees the whole kernel, so its variance is norm2^2 exactly (before the division).
   const int pw = width + 2 * radius;

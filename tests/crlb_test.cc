@@ -2,6 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Cholesky>
+#include <cmath>
+#include <functional>
+#include <stdexcept>
+
+#include "core/noise_field.h"
 #include "rig/refine.h"
 #include "rig/region.h"
 #include "sim/scene.h"
@@ -93,91 +99,208 @@ double PredictedInverseDepth(const Pose& T, const Vec3& n, double d, const Vec3&
   return -n_c.dot(a) / d_c;
 }
 
-TEST(SurfaceCramerRaoBound, PoseBlockOfTheSchurComplementEqualsTheDenseInverse) {
-  // A small rig; the Fisher information built here by central differences of the predicted
-  // inverse depth, the planes parameterised differently (two normal directions of our own and
-  // the offset): the poses' block of its dense inverse must equal the bound's covariance, which
-  // Ceres computes with the planes eliminated.
-  SimOptions sim;
-  sim.cameras = 3;
-  sim.width = 64;
-  sim.height = 36;
-  sim.noise = 0.0;
-  sim.dropout = 0.0;
-  const SimulatedRig rig = SimulateRig(sim);
-  constexpr double kNoise = 0.0025;
-  RegionOptions every_pixel;
-  every_pixel.pixel_stride = 1;
+/// A small noise-free rig's band pixels labelled with the simulator's faces, each with its
+/// pixel, and the rows of the Fisher information built independently of the bound: per camera,
+/// one row per pixel the bound counts, the central differences of its predicted inverse depth
+/// in the free poses (6 per camera but the first) and the used faces' planes (parameterised
+/// differently: two normal directions of our own and the offset; the floor's offset alone).
+struct SmallSurfaceProblem {
+  SimulatedRig rig;
   std::vector<FacePixels> cameras;
   std::vector<PlanarFace> faces;
-  for (const CameraCapture& camera : rig.capture.cameras) {
-    FacePixels& c = cameras.emplace_back();
-    c.serial = camera.serial;
-    const Pose& T = rig.gt.at(camera.serial);
-    c.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, RegionOptions{});
-    LabelFaces(rig.scene, T, c.points, &faces, &c.faces);
-  }
-  const CramerRaoBound bound =
-      ComputeSurfaceCramerRaoBound(cameras, faces, rig.gt, cameras.front().serial, kNoise, 10, 1);
-  ASSERT_TRUE(bound.ok) << bound.message;
+  std::vector<Eigen::MatrixXd> rows;                 // per camera, gradients / k
+  std::vector<std::vector<Eigen::Vector2i>> pixels;  // per camera, the rows' pixels
+  int params = 0;
+  static constexpr double kNoise = 0.0025;
 
-  // The faces the bound uses: at least 3 pixels in each of at least two cameras.
-  const size_t n = cameras.size();
-  std::vector<std::vector<int>> count(faces.size(), std::vector<int>(n, 0));
-  for (size_t c = 0; c < n; ++c) {
-    for (const int f : cameras[c].faces) {
-      if (f >= 0) ++count[f][c];
+  SmallSurfaceProblem(int width, int height) {
+    SimOptions sim;
+    sim.cameras = 3;
+    sim.width = width;
+    sim.height = height;
+    sim.noise = 0.0;
+    sim.dropout = 0.0;
+    rig = SimulateRig(sim);
+    RegionOptions every_pixel;
+    every_pixel.pixel_stride = 1;
+    for (const CameraCapture& camera : rig.capture.cameras) {
+      FacePixels& c = cameras.emplace_back();
+      c.serial = camera.serial;
+      const Pose& T = rig.gt.at(camera.serial);
+      c.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, RegionOptions{});
+      LabelFaces(rig.scene, T, c.points, &faces, &c.faces);
+      const PinholeIntrinsics& K = camera.intrinsics;
+      for (const Vec3& p : c.points) {
+        const Eigen::Vector2i px = PixelOf(K, p);
+        // The pixel is the point's own: its depth there.
+        EXPECT_NEAR(camera.depth_m[static_cast<size_t>(px.y()) * camera.width + px.x()], p.z(),
+                    1e-5 * p.z());
+        c.pixels.push_back(px);
+      }
     }
-  }
-  std::vector<int> column(faces.size(), -1);  // first parameter of each used face
-  int params = 6 * static_cast<int>(n - 1);
-  for (size_t f = 0; f < faces.size(); ++f) {
-    int seen = 0;
-    for (size_t c = 0; c < n; ++c) seen += count[f][c] >= 3 ? 1 : 0;
-    if (seen < 2) continue;
-    column[f] = params;
-    params += faces[f].floor ? 1 : 3;
-  }
-  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(params, params);
-  constexpr double kStep = 1e-6;
-  for (size_t c = 0; c < n; ++c) {
-    const Pose& T = rig.gt.at(cameras[c].serial);
-    for (size_t i = 0; i < cameras[c].points.size(); ++i) {
-      const int f = cameras[c].faces[i];
-      if (f < 0 || column[f] < 0 || count[f][c] < 3) continue;
-      const Vec3 a = cameras[c].points[i] / cameras[c].points[i].z();
-      const Vec3& nf = faces[f].normal;
-      const double df = faces[f].offset;
-      // Two directions orthogonal to the normal.
-      const Vec3 u = nf.unitOrthogonal();
-      const Vec3 v = nf.cross(u);
-      Eigen::VectorXd g = Eigen::VectorXd::Zero(params);
-      const auto h = [&](const Pose& Tc, const Vec3& nn, double dd) {
-        return PredictedInverseDepth(Tc, nn.normalized(), dd, a);
-      };
-      if (c > 0) {
-        for (int k = 0; k < 6; ++k) {
-          Vec6 delta = Vec6::Zero();
-          delta[k] = kStep;
-          g[6 * (c - 1) + k] =
-              (h(PosePlus(T, delta), nf, df) - h(PosePlus(T, -delta), nf, df)) / (2 * kStep);
+    // The faces the bound uses: at least 3 pixels in each of at least two cameras.
+    const size_t n = cameras.size();
+    std::vector<std::vector<int>> count(faces.size(), std::vector<int>(n, 0));
+    for (size_t c = 0; c < n; ++c) {
+      for (const int f : cameras[c].faces) {
+        if (f >= 0) ++count[f][c];
+      }
+    }
+    std::vector<int> column(faces.size(), -1);  // first parameter of each used face
+    params = 6 * static_cast<int>(n - 1);
+    for (size_t f = 0; f < faces.size(); ++f) {
+      int seen = 0;
+      for (size_t c = 0; c < n; ++c) seen += count[f][c] >= 3 ? 1 : 0;
+      if (seen < 2) continue;
+      column[f] = params;
+      params += faces[f].floor ? 1 : 3;
+    }
+    constexpr double kStep = 1e-6;
+    for (size_t c = 0; c < n; ++c) {
+      const Pose& T = rig.gt.at(cameras[c].serial);
+      std::vector<Eigen::VectorXd> g_rows;
+      pixels.emplace_back();
+      for (size_t i = 0; i < cameras[c].points.size(); ++i) {
+        const int f = cameras[c].faces[i];
+        if (f < 0 || column[f] < 0 || count[f][c] < 3) continue;
+        const Vec3 a = cameras[c].points[i] / cameras[c].points[i].z();
+        const Vec3& nf = faces[f].normal;
+        const double df = faces[f].offset;
+        // Two directions orthogonal to the normal.
+        const Vec3 u = nf.unitOrthogonal();
+        const Vec3 v = nf.cross(u);
+        Eigen::VectorXd g = Eigen::VectorXd::Zero(params);
+        const auto h = [&](const Pose& Tc, const Vec3& nn, double dd) {
+          return PredictedInverseDepth(Tc, nn.normalized(), dd, a);
+        };
+        if (c > 0) {
+          for (int k = 0; k < 6; ++k) {
+            Vec6 delta = Vec6::Zero();
+            delta[k] = kStep;
+            g[6 * (c - 1) + k] =
+                (h(PosePlus(T, delta), nf, df) - h(PosePlus(T, -delta), nf, df)) / (2 * kStep);
+          }
         }
+        int col = column[f];
+        if (!faces[f].floor) {
+          g[col++] = (h(T, nf + kStep * u, df) - h(T, nf - kStep * u, df)) / (2 * kStep);
+          g[col++] = (h(T, nf + kStep * v, df) - h(T, nf - kStep * v, df)) / (2 * kStep);
+        }
+        g[col] = (h(T, nf, df + kStep) - h(T, nf, df - kStep)) / (2 * kStep);
+        g_rows.push_back(g / kNoise);
+        pixels.back().push_back(cameras[c].pixels[i]);
       }
-      int col = column[f];
-      if (!faces[f].floor) {
-        g[col++] = (h(T, nf + kStep * u, df) - h(T, nf - kStep * u, df)) / (2 * kStep);
-        g[col++] = (h(T, nf + kStep * v, df) - h(T, nf - kStep * v, df)) / (2 * kStep);
-      }
-      g[col] = (h(T, nf, df + kStep) - h(T, nf, df - kStep)) / (2 * kStep);
-      H.noalias() += g * g.transpose() / (kNoise * kNoise);
+      Eigen::MatrixXd& G = rows.emplace_back(static_cast<Eigen::Index>(g_rows.size()), params);
+      for (size_t k = 0; k < g_rows.size(); ++k) G.row(static_cast<Eigen::Index>(k)) = g_rows[k];
     }
   }
-  const Eigen::MatrixXd dense = H.inverse().topLeftCorner(6 * (n - 1), 6 * (n - 1));
+
+  /// The poses' block of the inverse of sum over cameras of rows^T S^-1 rows, S the given
+  /// noise correlation between the rows' pixels (dense).
+  Eigen::MatrixXd DenseCovariance(
+      const std::function<double(const Eigen::Vector2i&, const Eigen::Vector2i&)>& S) const {
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(params, params);
+    for (size_t c = 0; c < rows.size(); ++c) {
+      const Eigen::Index m = rows[c].rows();
+      Eigen::MatrixXd Sc(m, m);
+      for (Eigen::Index i = 0; i < m; ++i) {
+        for (Eigen::Index j = 0; j < m; ++j) Sc(i, j) = S(pixels[c][i], pixels[c][j]);
+      }
+      H += rows[c].transpose() * Sc.llt().solve(rows[c]);
+    }
+    const int p = 6 * static_cast<int>(rows.size() - 1);
+    return H.inverse().topLeftCorner(p, p);
+  }
+};
+
+TEST(SurfaceCramerRaoBound, PoseBlockOfTheSchurComplementEqualsTheDenseInverse) {
+  // The bound's covariance (Ceres computes it with the planes eliminated) against the poses'
+  // block of the dense inverse of the independently built information.
+  const SmallSurfaceProblem problem(64, 36);
+  const CramerRaoBound bound =
+      ComputeSurfaceCramerRaoBound(problem.cameras, problem.faces, problem.rig.gt,
+                                   problem.cameras.front().serial, problem.kNoise, 10, 1);
+  ASSERT_TRUE(bound.ok) << bound.message;
+  const Eigen::MatrixXd dense = problem.DenseCovariance(
+      [](const Eigen::Vector2i& a, const Eigen::Vector2i& b) { return a == b ? 1.0 : 0.0; });
   ASSERT_EQ(bound.covariance.rows(), dense.rows());
   EXPECT_LT((bound.covariance - dense).cwiseAbs().maxCoeff(), 1e-5 * dense.cwiseAbs().maxCoeff())
       << "bound\n"
       << bound.covariance << "\ndense\n"
       << dense;
+}
+
+TEST(SurfaceCramerRaoBound, CorrelatedNoiseEqualsTheDenseGeneralisedLeastSquaresInverse) {
+  // The noise correlated over 1.5 px (share 0.8): the bound's covariance against the dense
+  // inverse of sum_c G_c^T S_c^-1 G_c with S_c written out pixel pair by pixel pair.
+  const SmallSurfaceProblem problem(48, 27);
+  const CorrelatedNoiseModel noise{1.5, 0.8};
+  const std::vector<double> rho = NoiseFieldCorrelation(noise.corr_px);
+  const auto rho_at = [&](int d) {
+    return std::abs(d) < static_cast<int>(rho.size()) ? rho[std::abs(d)] : 0.0;
+  };
+  const CramerRaoBound bound =
+      ComputeSurfaceCramerRaoBound(problem.cameras, problem.faces, problem.rig.gt,
+                                   problem.cameras.front().serial, problem.kNoise, 10, 1, noise, 2);
+  ASSERT_TRUE(bound.ok) << bound.message;
+  const Eigen::MatrixXd dense =
+      problem.DenseCovariance([&](const Eigen::Vector2i& a, const Eigen::Vector2i& b) {
+        return (a == b ? 1.0 - noise.share : 0.0) +
+               noise.share * rho_at(a.x() - b.x()) * rho_at(a.y() - b.y());
+      });
+  ASSERT_EQ(bound.covariance.rows(), dense.rows());
+  EXPECT_LT((bound.covariance - dense).cwiseAbs().maxCoeff(), 1e-5 * dense.cwiseAbs().maxCoeff())
+      << "bound\n"
+      << bound.covariance << "\ndense\n"
+      << dense;
+  // A vanishing share is white noise: the per-(camera, face) clusters' bound.
+  const CramerRaoBound white =
+      ComputeSurfaceCramerRaoBound(problem.cameras, problem.faces, problem.rig.gt,
+                                   problem.cameras.front().serial, problem.kNoise, 10, 1);
+  const CramerRaoBound nearly_white = ComputeSurfaceCramerRaoBound(
+      problem.cameras, problem.faces, problem.rig.gt, problem.cameras.front().serial,
+      problem.kNoise, 10, 1, {noise.corr_px, 1e-9}, 2);
+  ASSERT_TRUE(white.ok && nearly_white.ok);
+  EXPECT_LT((nearly_white.covariance - white.covariance).cwiseAbs().maxCoeff(),
+            1e-6 * white.covariance.cwiseAbs().maxCoeff());
+}
+
+TEST(CorrelatedGram, EqualsTheDenseSolveOnAnIrregularMask) {
+  // 30 x 20 pixels with holes, three columns: B^T S^-1 B against a dense Cholesky solve.
+  const CorrelatedNoiseModel noise{2.0, 0.9};
+  const std::vector<double> rho = NoiseFieldCorrelation(noise.corr_px);
+  std::vector<Eigen::Vector2i> pixels;
+  for (int v = 0; v < 20; ++v) {
+    for (int u = 0; u < 30; ++u) {
+      if ((u * 7 + v * 13) % 5 != 0) pixels.emplace_back(u + 100, v + 50);
+    }
+  }
+  const Eigen::Index m = static_cast<Eigen::Index>(pixels.size());
+  Eigen::MatrixXd B(m, 3);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    B(i, 0) = 1.0;
+    B(i, 1) = pixels[i].x() * 0.01;
+    B(i, 2) = pixels[i].y() > 60 ? 1.0 : 0.0;
+  }
+  Eigen::MatrixXd S(m, m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    for (Eigen::Index j = 0; j < m; ++j) {
+      const int du = std::abs(pixels[i].x() - pixels[j].x());
+      const int dv = std::abs(pixels[i].y() - pixels[j].y());
+      const double c = du < static_cast<int>(rho.size()) && dv < static_cast<int>(rho.size())
+                           ? rho[du] * rho[dv]
+                           : 0.0;
+      S(i, j) = (i == j ? 1.0 - noise.share : 0.0) + noise.share * c;
+    }
+  }
+  const Eigen::MatrixXd dense = B.transpose() * S.llt().solve(B);
+  const Eigen::MatrixXd gram = CorrelatedGram(pixels, B, noise, 2);
+  ASSERT_EQ(gram.rows(), 3);
+  EXPECT_LT((gram - dense).cwiseAbs().maxCoeff(), 1e-7 * dense.cwiseAbs().maxCoeff())
+      << gram << "\n\n"
+      << dense;
+  EXPECT_THROW(CorrelatedGram(pixels, B, {0.0, 0.5}, 1), std::invalid_argument);
+  EXPECT_THROW(CorrelatedGram(pixels, B, {2.0, 1.0}, 1), std::invalid_argument);
 }
 
 }  // namespace
