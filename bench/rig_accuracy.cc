@@ -468,19 +468,21 @@ int main(int argc, char** argv) {
       const CramerRaoBound b =
           ComputeCramerRaoBound(truth.capture, truth.gt, bound_options, sim.noise,
                                 kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
-      const CramerRaoBound s = ComputeRigSurfaceBound(
-          truth.capture, truth.gt, bound_options, sim.noise,
-          [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f, std::vector<int>* l) {
-            LabelFaces(truth.scene, T, p, f, l);
-          },
-          2000, sim.seed);
+      // Prints a bound's line for this run ("error / it": this run's error over the bound's)
+      // and adds it to its summary.
+      const auto report = [&](const char* name, const SampledErrors& e, AgainstReference* sum) {
+        std::printf("       %s: %.4f deg %.2f mm tilt %.4f deg; error / it: %.2f %.2f\n", name,
+                    e.rotation_rad * kRadToDeg, e.translation_m * 1e3, e.tilt_rad * kRadToDeg,
+                    after.rms_rotation_rad / e.rotation_rad,
+                    after.rms_translation_m / e.translation_m);
+        sum->Add(e, after);
+      };
+      const FaceLabeler label = [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f,
+                                    std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); };
+      const CramerRaoBound s = ComputeRigSurfaceBound(truth.capture, truth.gt, bound_options,
+                                                      sim.noise, label, 2000, sim.seed);
       if (s.ok) {
-        std::printf(
-            "       surface-model bound: %.4f deg %.2f mm tilt %.4f deg; error / it: %.2f %.2f\n",
-            s.rms.rotation_rad * kRadToDeg, s.rms.translation_m * 1e3, s.rms.tilt_rad * kRadToDeg,
-            after.rms_rotation_rad / s.rms.rotation_rad,
-            after.rms_translation_m / s.rms.translation_m);
-        surface.Add(s.rms, after);
+        report("surface-model bound", s.rms, &surface);
         if (segmentation) {
           diagnostic.Compare(truth, bound_options, r.reference, sim.noise, sim.seed, after, s.rms);
         }
@@ -488,41 +490,20 @@ int main(int argc, char** argv) {
         std::printf("       surface-model bound: not available: %s\n", s.message.c_str());
       }
       if (sim.noise_corr_share > 0.0) {
-        const CramerRaoBound c = ComputeRigSurfaceBound(
-            truth.capture, truth.gt, bound_options, sim.noise,
-            [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f,
-                std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); },
-            2000, sim.seed, {sim.noise_corr_px, sim.noise_corr_share}, threads);
+        const CramerRaoBound c =
+            ComputeRigSurfaceBound(truth.capture, truth.gt, bound_options, sim.noise, label, 2000,
+                                   sim.seed, {sim.noise_corr_px, sim.noise_corr_share}, threads);
         if (c.ok) {
-          std::printf(
-              "       correlated-noise surface bound: %.4f deg %.2f mm tilt %.4f deg; error / it: "
-              "%.2f %.2f\n",
-              c.rms.rotation_rad * kRadToDeg, c.rms.translation_m * 1e3, c.rms.tilt_rad * kRadToDeg,
-              after.rms_rotation_rad / c.rms.rotation_rad,
-              after.rms_translation_m / c.rms.translation_m);
-          correlated_surface.Add(c.rms, after);
+          report("correlated-noise surface bound", c.rms, &correlated_surface);
         } else {
           std::printf("       correlated-noise surface bound: not available: %s\n",
                       c.message.c_str());
         }
       }
       if (b.ok) {
-        std::printf(
-            "       point-to-plane information bound: %.4f deg %.2f mm tilt %.4f deg; error / "
-            "it: %.2f %.2f\n",
-            b.rms.rotation_rad * kRadToDeg, b.rms.translation_m * 1e3, b.rms.tilt_rad * kRadToDeg,
-            after.rms_rotation_rad / b.rms.rotation_rad,
-            after.rms_translation_m / b.rms.translation_m);
-        bound.Add(b.rms, after);
+        report("point-to-plane information bound", b.rms, &bound);
         if (b.estimator_ok) {
-          std::printf(
-              "       estimator under shared point noise: %.4f deg %.2f mm tilt %.4f deg; "
-              "error / it: %.2f %.2f\n",
-              b.estimator_rms.rotation_rad * kRadToDeg, b.estimator_rms.translation_m * 1e3,
-              b.estimator_rms.tilt_rad * kRadToDeg,
-              after.rms_rotation_rad / b.estimator_rms.rotation_rad,
-              after.rms_translation_m / b.estimator_rms.translation_m);
-          estimator.Add(b.estimator_rms, after);
+          report("estimator under shared point noise", b.estimator_rms, &estimator);
         }
       } else {
         std::printf("       bound: not available: %s\n", b.message.c_str());
