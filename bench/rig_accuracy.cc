@@ -477,12 +477,15 @@ int main(int argc, char** argv) {
                     after.rms_translation_m / e.translation_m);
         sum->Add(e, after);
       };
-      const FaceLabeler label = [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f,
-                                    std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); };
+      const FaceLabeler labeler = [&](const Pose& T, const PointCloud& p,
+                                      std::vector<PlanarFace>* f,
+                                      std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); };
       const CramerRaoBound s = ComputeRigSurfaceBound(truth.capture, truth.gt, bound_options,
-                                                      sim.noise, label, 2000, sim.seed);
+                                                      sim.noise, labeler, 2000, sim.seed);
       if (s.ok) {
-        report("surface-model bound", s.rms, &surface);
+        report(sim.noise_corr_share > 0.0 ? "surface-model bound, white noise of that sigma"
+                                          : "surface-model bound",
+               s.rms, &surface);
         if (segmentation) {
           diagnostic.Compare(truth, bound_options, r.reference, sim.noise, sim.seed, after, s.rms);
         }
@@ -491,7 +494,7 @@ int main(int argc, char** argv) {
       }
       if (sim.noise_corr_share > 0.0) {
         const CramerRaoBound c =
-            ComputeRigSurfaceBound(truth.capture, truth.gt, bound_options, sim.noise, label, 2000,
+            ComputeRigSurfaceBound(truth.capture, truth.gt, bound_options, sim.noise, labeler, 2000,
                                    sim.seed, {sim.noise_corr_px, sim.noise_corr_share}, threads);
         if (c.ok) {
           report("correlated-noise surface bound", c.rms, &correlated_surface);
@@ -566,9 +569,11 @@ int main(int argc, char** argv) {
   }
   if (crlb && surface.seeds > 0) {
     std::printf(
-        "surface-model bound (Cramer-Rao: every band pixel's inverse depth once, sigma_w = noise, "
+        "surface-model bound (Cramer-Rao: every band pixel's inverse depth once, sigma_w = "
+        "noise%s, "
         "the true faces as nuisance planes, floor normal known, no prior): RMS %.4f deg %.2f mm "
         "tilt %.4f deg; RMS of error / bound over the %s: %.2f rotation, %.2f translation\n",
+        sim.noise_corr_share > 0.0 ? ", white: not the simulated correlated noise" : "",
         surface.RmsRotationDeg(), surface.RmsTranslationMm(), surface.RmsTiltDeg(), unit,
         surface.RmsRatioRotation(), surface.RmsRatioTranslation());
   }

@@ -73,7 +73,7 @@ void PrintBound(const SimulateArgs& a) {
     PrintSampled(
         "Cramer-Rao bound of the surface model (every pixel of the band once, inverse "
         "depth, the true faces as nuisance planes, floor normal known; " +
-            noise + ")",
+            noise + (a.sim.noise_corr_share > 0.0 ? "; white noise of that sigma" : "") + ")",
         s.rms);
   } else {
     std::printf("Cramer-Rao bound of the surface model: not available: %s\n", s.message.c_str());

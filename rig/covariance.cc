@@ -32,6 +32,13 @@ void EvaluateJacobian(ceres::Problem* problem, const std::vector<double*>& block
   for (double* block : made_variable) problem->SetParameterBlockConstant(block);
 }
 
+Eigen::MatrixXd InverseOrEmpty(const Eigen::MatrixXd& H) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  if (!(lambda.minCoeff() > 1e-12 * lambda.maxCoeff())) return {};
+  return eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+}
+
 namespace {
 
 /// J^T J of a sparse Jacobian (dense, J.num_cols square).
@@ -45,16 +52,6 @@ Eigen::MatrixXd Gram(const ceres::CRSMatrix& J) {
     }
   }
   return JtJ;
-}
-
-/// The inverse of a symmetric positive semi-definite matrix; empty when it is singular or
-/// nearly so (an eigenvalue at most 1e-12 of the largest): a direction nothing constrains has
-/// no finite covariance, and reporting it as 0 would read as "known exactly".
-Eigen::MatrixXd InverseOrEmpty(const Eigen::MatrixXd& H) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
-  const Eigen::VectorXd& lambda = eig.eigenvalues();
-  if (!(lambda.minCoeff() > 1e-12 * lambda.maxCoeff())) return {};
-  return eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
 }
 
 }  // namespace

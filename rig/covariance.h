@@ -22,6 +22,11 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
                             const std::vector<ceres::ResidualBlockId>& residual_blocks,
                             bool scale_by_residuals = true);
 
+/// The inverse of a symmetric positive semi-definite matrix; empty when it is singular or
+/// nearly so (an eigenvalue at most 1e-12 of the largest): a direction nothing constrains has
+/// no finite covariance, and reporting it as 0 would read as "known exactly".
+Eigen::MatrixXd InverseOrEmpty(const Eigen::MatrixXd& H);
+
 /// The Jacobian (PoseManifold tangents of `blocks`, in order; the manifolds' tangents of the
 /// others) and residuals of the given residual blocks, rows in their order, loss functions not
 /// applied; constant blocks are evaluated as variables.

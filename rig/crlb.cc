@@ -13,6 +13,7 @@
 #include <memory>
 #include <random>
 
+#include "core/geometry.h"
 #include "core/pose.h"
 #include "residuals/plane_cluster.h"
 #include "rig/correspondences.h"
@@ -96,13 +97,11 @@ CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap
     bound.message = "no correspondences between the cameras at the true poses";
     return bound;
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(information);
-  if (!(eig.eigenvalues().minCoeff() > 1e-12 * eig.eigenvalues().maxCoeff())) {
+  bound.covariance = InverseOrEmpty(information);
+  if (bound.covariance.size() == 0) {
     bound.message = "the information is singular: some camera is not constrained";
     return bound;
   }
-  bound.covariance = eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
-                     eig.eigenvectors().transpose();
   for (size_t i = 0; i < n; ++i) {
     if (static_cast<int>(i) != reference) bound.serials.push_back(noise_free.cameras[i].serial);
   }
@@ -213,24 +212,23 @@ Eigen::MatrixXd CorrelatedPoseCovariance(
   }
   const Eigen::Index p = 6 * static_cast<Eigen::Index>(free_blocks.size());
   const Eigen::Index q = information.rows() - p;
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> faces_eig(
-      information.bottomRightCorner(q, q));
-  if (q > 0 && !(faces_eig.eigenvalues().minCoeff() > 1e-12 * faces_eig.eigenvalues().maxCoeff())) {
+  if (q == 0) {
+    *message = "no face is seen by two cameras";
+    return {};
+  }
+  const Eigen::MatrixXd faces_inverse = InverseOrEmpty(information.bottomRightCorner(q, q));
+  if (faces_inverse.size() == 0) {
     *message = "the information is singular: some face is not constrained";
     return {};
   }
-  Eigen::MatrixXd schur = information.topLeftCorner(p, p);
-  if (q > 0) {
-    const Eigen::MatrixXd B = information.topRightCorner(p, q) * faces_eig.eigenvectors();
-    schur -= B * faces_eig.eigenvalues().cwiseInverse().asDiagonal() * B.transpose();
-  }
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(0.5 * (schur + schur.transpose()));
-  if (!(eig.eigenvalues().minCoeff() > 1e-12 * eig.eigenvalues().maxCoeff())) {
+  const Eigen::MatrixXd schur =
+      information.topLeftCorner(p, p) -
+      information.topRightCorner(p, q) * faces_inverse * information.bottomLeftCorner(q, p);
+  Eigen::MatrixXd covariance = InverseOrEmpty(0.5 * (schur + schur.transpose()));
+  if (covariance.size() == 0) {
     *message = "the information is singular: some camera is not constrained";
-    return {};
   }
-  return eig.eigenvectors() * eig.eigenvalues().cwiseInverse().asDiagonal() *
-         eig.eigenvectors().transpose();
+  return covariance;
 }
 
 }  // namespace
@@ -284,10 +282,14 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
     if (used[f]) plane_blocks.push_back(planes[f].data());
   }
   if (correlated.share > 0.0) {
+    if (!(correlated.share < 1.0) || !(correlated.corr_px > 0.0)) {
+      bound.message = "correlated noise needs a white share (share < 1) and corr_px > 0";
+      return bound;
+    }
     bound.covariance = CorrelatedPoseCovariance(cameras, faces, counted, T_true, depth_noise,
                                                 correlated, num_threads, problem.get(), poses,
                                                 planes, free_blocks, plane_blocks, &bound.message);
-    if (bound.covariance.size() == 0 && !bound.message.empty()) return bound;
+    if (bound.covariance.size() == 0) return bound;
   } else {
     for (size_t c = 0; c < n; ++c) {
       std::vector<PlaneCluster> clusters(faces.size());
@@ -329,7 +331,8 @@ CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMa
     pixels.serial = camera.serial;
     pixels.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, options.region);
     label(T, pixels.points, &faces, &pixels.faces);
-    if (correlated.share > 0.0) {
+    // A points camera has no pixels: the correlated bound then says it needs them.
+    if (correlated.share > 0.0 && camera.HasDepth()) {
       for (const Vec3& p : pixels.points) pixels.pixels.push_back(PixelOf(camera.intrinsics, p));
     }
   }

@@ -99,10 +99,12 @@ struct BoundFaces {
 /// gravity prior (it is no measurement). Errors sampled like ComputeCramerRaoBound's. Never throws
 /// on bad geometry: ok false with a message.
 /// With `correlated` share > 0 the noise is CorrelatedNoiseModel's (every camera's `pixels`
-/// needed): the information of camera c is J_c^T B_c^T S_c^-1 B_c J_c / k^2 over all its faces
-/// together (B_c: the rays of its pixels on each face, CorrelatedGram), no longer a sum over
-/// (camera, face) clusters: an estimator that knows the correlation can difference it away
-/// where faces meet.
+/// needed; share < 1 and corr_px > 0, else ok false): the information of camera c is
+/// J_c^T B_c^T S_c^-1 B_c J_c / k^2 over all its faces together (B_c: the rows b_i^T of its
+/// counted pixels, each in its face's columns; CorrelatedGram), no longer a sum over (camera,
+/// face) clusters: an estimator that knows the correlation can difference it away where faces
+/// meet. Only the counted pixels enter: the others (faces one camera sees, clutter) would also
+/// tell of the smooth field next to them, so the true bound of the band is at most this one.
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,

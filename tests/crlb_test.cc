@@ -1,5 +1,6 @@
 #include "rig/crlb.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -7,6 +8,7 @@
 #include <functional>
 #include <stdexcept>
 
+#include "core/geometry.h"
 #include "core/noise_field.h"
 #include "rig/refine.h"
 #include "rig/region.h"
@@ -261,6 +263,12 @@ TEST(SurfaceCramerRaoBound, CorrelatedNoiseEqualsTheDenseGeneralisedLeastSquares
       problem.cameras, problem.faces, problem.rig.gt, problem.cameras.front().serial,
       problem.kNoise, 10, 1, {noise.corr_px, 1e-9}, 2);
   ASSERT_TRUE(white.ok && nearly_white.ok);
+  // All of the noise correlated leaves no white share to invert: no bound, said so.
+  const CramerRaoBound smooth = ComputeSurfaceCramerRaoBound(
+      problem.cameras, problem.faces, problem.rig.gt, problem.cameras.front().serial,
+      problem.kNoise, 10, 1, {noise.corr_px, 1.0}, 2);
+  EXPECT_FALSE(smooth.ok);
+  EXPECT_THAT(smooth.message, ::testing::HasSubstr("white share"));
   EXPECT_LT((nearly_white.covariance - white.covariance).cwiseAbs().maxCoeff(),
             1e-6 * white.covariance.cwiseAbs().maxCoeff());
 }

@@ -281,6 +281,16 @@ TEST(GaussianNoiseField, UnitVarianceAndTheGaussianCorrelation) {
   EXPECT_NEAR(correlation(16), rho[16], 0.04);
   // The kernel cut at 3 sigma loses its tails: within 3e-3 of the untruncated Gaussian.
   for (int d = 0; d <= 16; d += 4) EXPECT_NEAR(rho[d], std::exp(-d * d / 64.0), 3e-3) << d;
+  // Separable: along the diagonal (4, 4) the correlation is rho(4)^2.
+  double diagonal = 0.0;
+  int n = 0;
+  for (int y = 0; y + 4 < kSize; ++y) {
+    for (int x = 0; x + 4 < kSize; ++x) {
+      diagonal += at(x, y) * at(x + 4, y + 4);
+      ++n;
+    }
+  }
+  EXPECT_NEAR(diagonal / n, rho[4] * rho[4], 0.06);
 }
 
 TEST(SimulateRig, CorrelatedNoiseKeepsTheTotalSigmaAndTheDefaultsUnchanged) {
