@@ -25,6 +25,40 @@
 
 namespace {
 
+/// The pixels of `cameras` (RigFacePixels of `capture`) farther than `px` pixels (a square
+/// window, the image's own border not counted) from every pixel of another face, of no face or
+/// without a band point (the band's edge, a pixel without depth): what a segmentation that does
+/// not know the faces' boundaries to the pixel could use.
+std::vector<rigfit::FacePixels> AwayFromBoundaries(const std::vector<rigfit::FacePixels>& cameras,
+                                                   const rigfit::RigCapture& capture, int px) {
+  std::vector<rigfit::FacePixels> kept(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const rigfit::CameraCapture& camera = capture.cameras[c];
+    const rigfit::FacePixels& in = cameras[c];
+    constexpr int kNoPoint = -2;
+    std::vector<int> face(static_cast<size_t>(camera.width) * camera.height, kNoPoint);
+    for (size_t i = 0; i < in.pixels.size(); ++i) {
+      face[static_cast<size_t>(in.pixels[i].y()) * camera.width + in.pixels[i].x()] = in.faces[i];
+    }
+    kept[c].serial = in.serial;
+    for (size_t i = 0; i < in.pixels.size(); ++i) {
+      const Eigen::Vector2i& q = in.pixels[i];
+      bool inside = true;
+      for (int v = q.y() - px; v <= q.y() + px && inside; ++v) {
+        for (int u = q.x() - px; u <= q.x() + px && inside; ++u) {
+          if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
+          inside = face[static_cast<size_t>(v) * camera.width + u] == in.faces[i];
+        }
+      }
+      if (!inside) continue;
+      kept[c].points.push_back(in.points[i]);
+      kept[c].faces.push_back(in.faces[i]);
+      kept[c].pixels.push_back(q);
+    }
+  }
+  return kept;
+}
+
 /// Over the seeds: a reference's RMS errors (the bound, or the estimator's prediction) and
 /// rigfit's errors divided by them.
 struct AgainstReference {
@@ -124,9 +158,8 @@ class SegmentationDiagnostic {
     std::vector<std::set<long long>> band(n);
     std::vector<PinholeIntrinsics> K(n);
     const auto key = [](const PinholeIntrinsics& k, const Vec3& p) {
-      const long long u = std::llround(k.fx * p.x() / p.z() + k.cx);
-      const long long v = std::llround(k.fy * p.y() / p.z() + k.cy);
-      return v * 100000 + u;
+      const Eigen::Vector2i q = PixelOf(k, p);
+      return q.y() * 100000LL + q.x();
     };
     for (size_t c = 0; c < n; ++c) {
       const CameraCapture& camera = truth.capture.cameras[c];
@@ -392,6 +425,12 @@ int main(int argc, char** argv) {
                "with --crlb and --method surface_bundle: the bundle's pixels against the "
                "simulator's faces, the bound of the pixels it used and of every pixel of the "
                "faces it used, and the missed face that would lower the first most");
+  std::vector<int> boundary_px;
+  app.add_option("--bound-boundary-px", boundary_px,
+                 "with --crlb and --noise-corr-share: also the correlated-noise bound without the "
+                 "pixels within N px of another face, of the band's edge or of a pixel without "
+                 "depth (one bound per N)")
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--crlb", crlb,
                "also the Cramer-Rao bound of each seed (rig/crlb.h) and RMS of error / bound");
   app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
@@ -412,6 +451,7 @@ int main(int argc, char** argv) {
               "prep", "solve", "result");
   double sum_r2 = 0, sum_t2 = 0, sum_tilt2 = 0, worst_t = 0;
   AgainstReference bound, estimator, surface, correlated_surface;
+  std::map<int, AgainstReference> away_from_boundaries;  // --bound-boundary-px
   int runs_with_weak = 0;
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
@@ -493,14 +533,26 @@ int main(int argc, char** argv) {
         std::printf("       surface-model bound: not available: %s\n", s.message.c_str());
       }
       if (sim.noise_corr_share > 0.0) {
-        const CramerRaoBound c =
-            ComputeRigSurfaceBound(truth.capture, truth.gt, bound_options, sim.noise, labeler, 2000,
-                                   sim.seed, {sim.noise_corr_px, sim.noise_corr_share}, threads);
-        if (c.ok) {
-          report("correlated-noise surface bound", c.rms, &correlated_surface);
-        } else {
-          std::printf("       correlated-noise surface bound: not available: %s\n",
-                      c.message.c_str());
+        std::vector<PlanarFace> faces;
+        const std::vector<FacePixels> pixels =
+            RigFacePixels(truth.capture, truth.gt, bound_options.region, labeler, &faces);
+        const auto correlated_bound = [&](const std::vector<FacePixels>& cameras,
+                                          const std::string& name, AgainstReference* sum) {
+          const CramerRaoBound c = ComputeSurfaceCramerRaoBound(
+              cameras, faces, truth.gt, RigReference(truth.capture, bound_options), sim.noise, 2000,
+              sim.seed, {sim.noise_corr_px, sim.noise_corr_share}, threads);
+          if (c.ok) {
+            report(name.c_str(), c.rms, sum);
+          } else {
+            std::printf("       %s: not available: %s\n", name.c_str(), c.message.c_str());
+          }
+        };
+        correlated_bound(pixels, "correlated-noise surface bound", &correlated_surface);
+        for (const int px : boundary_px) {
+          correlated_bound(AwayFromBoundaries(pixels, truth.capture, px),
+                           "correlated-noise surface bound without the pixels within " +
+                               std::to_string(px) + " px of a boundary",
+                           &away_from_boundaries[px]);
         }
       }
       if (b.ok) {
@@ -585,6 +637,14 @@ int main(int argc, char** argv) {
         sim.noise_corr_px, sim.noise_corr_share, correlated_surface.RmsRotationDeg(),
         correlated_surface.RmsTranslationMm(), correlated_surface.RmsTiltDeg(), unit,
         correlated_surface.RmsRatioRotation(), correlated_surface.RmsRatioTranslation());
+    for (const auto& [px, sum] : away_from_boundaries) {
+      if (sum.seeds == 0) continue;  // not available in any run (said per run)
+      std::printf(
+          "  without the pixels within %d px of a boundary: RMS %.4f deg %.2f mm tilt %.4f deg; "
+          "RMS of error / bound: %.2f rotation, %.2f translation\n",
+          px, sum.RmsRotationDeg(), sum.RmsTranslationMm(), sum.RmsTiltDeg(),
+          sum.RmsRatioRotation(), sum.RmsRatioTranslation());
+    }
   }
   diagnostic.Summary();
   if (crlb && bound.seeds > 0) {

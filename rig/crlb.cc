@@ -317,30 +317,39 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
   return bound;
 }
 
-CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
-                                      const RefineOptions& options, double depth_noise,
-                                      const FaceLabeler& label, int samples, std::uint64_t seed,
-                                      const CorrelatedNoiseModel& correlated, int num_threads) {
-  RegionOptions every_pixel = options.region;
+std::vector<FacePixels> RigFacePixels(const RigCapture& noise_free, const PoseMap& T_true,
+                                      const RegionOptions& region, const FaceLabeler& label,
+                                      std::vector<PlanarFace>* faces) {
+  RegionOptions every_pixel = region;
   every_pixel.pixel_stride = 1;
   std::vector<FacePixels> cameras;
-  std::vector<PlanarFace> faces;
   for (const CameraCapture& camera : noise_free.cameras) {
     FacePixels& pixels = cameras.emplace_back();
     const Pose& T = T_true.at(camera.serial);
     pixels.serial = camera.serial;
-    pixels.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, options.region);
-    label(T, pixels.points, &faces, &pixels.faces);
-    // A points camera has no pixels: the correlated bound then says it needs them.
-    if (correlated.share > 0.0 && camera.HasDepth()) {
+    pixels.points = NearFloorBand(RegistrationPoints(camera, every_pixel), T, region);
+    label(T, pixels.points, faces, &pixels.faces);
+    if (camera.HasDepth()) {
       for (const Vec3& p : pixels.points) pixels.pixels.push_back(PixelOf(camera.intrinsics, p));
     }
   }
-  const std::string reference = options.icp.reference.empty() && !noise_free.cameras.empty()
-                                    ? noise_free.cameras.front().serial
-                                    : options.icp.reference;
-  return ComputeSurfaceCramerRaoBound(cameras, faces, T_true, reference, depth_noise, samples, seed,
-                                      correlated, num_threads);
+  return cameras;
+}
+
+CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
+                                      const RefineOptions& options, double depth_noise,
+                                      const FaceLabeler& label, int samples, std::uint64_t seed,
+                                      const CorrelatedNoiseModel& correlated, int num_threads) {
+  std::vector<PlanarFace> faces;
+  const std::vector<FacePixels> cameras =
+      RigFacePixels(noise_free, T_true, options.region, label, &faces);
+  return ComputeSurfaceCramerRaoBound(cameras, faces, T_true, RigReference(noise_free, options),
+                                      depth_noise, samples, seed, correlated, num_threads);
+}
+
+std::string RigReference(const RigCapture& capture, const RefineOptions& options) {
+  return options.icp.reference.empty() && !capture.cameras.empty() ? capture.cameras.front().serial
+                                                                   : options.icp.reference;
 }
 
 }  // namespace rigfit

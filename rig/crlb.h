@@ -117,9 +117,18 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
 using FaceLabeler = std::function<void(const Pose& T_world_camera, const PointCloud& points,
                                        std::vector<PlanarFace>* faces, std::vector<int>* labels)>;
 
-/// ComputeSurfaceCramerRaoBound of a noise-free capture at its true poses: every valid pixel
-/// of each camera's near-floor band (options.region, pixel stride 1) once, labelled by
-/// `label`; the reference is options.icp.reference or the first serial.
+/// Every valid pixel of each camera's near-floor band (`region`, pixel stride 1) of a noise-free
+/// capture at its true poses, labelled by `label` (its faces appended to `faces`), with its
+/// pixel for a depth camera.
+std::vector<FacePixels> RigFacePixels(const RigCapture& noise_free, const PoseMap& T_true,
+                                      const RegionOptions& region, const FaceLabeler& label,
+                                      std::vector<PlanarFace>* faces);
+
+/// The reference camera of a bound: options.icp.reference, or the capture's first serial.
+std::string RigReference(const RigCapture& capture, const RefineOptions& options);
+
+/// ComputeSurfaceCramerRaoBound of a noise-free capture at its true poses over its
+/// RigFacePixels (options.region), the reference RigReference's.
 CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
                                       const RefineOptions& options, double depth_noise,
                                       const FaceLabeler& label, int samples, std::uint64_t seed,
