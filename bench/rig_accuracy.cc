@@ -3,6 +3,7 @@
 // camera) before and after, and the time per stage. Prints a table and a summary; runs in
 // process (no file I/O), so the times are the solver's. Usage: rig_accuracy --help.
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "core/evaluate.h"
+#include "core/format.h"
 #include "core/geometry.h"
 #include "io/config_yaml.h"
 #include "rig/crlb.h"
@@ -26,15 +28,19 @@
 namespace {
 
 /// The pixels of `cameras` (RigFacePixels of `capture`) farther than `px` pixels (a square
-/// window, the image's own border not counted) from every pixel of another face, of no face or
-/// without a band point (the band's edge, a pixel without depth): what a segmentation that does
-/// not know the faces' boundaries to the pixel could use.
+/// window) from every band pixel of another face or of none: what a segmentation that does not
+/// know where faces meet to the pixel could use. Positions without a band pixel (outside the
+/// image or the band, dropped pixels) are not looked at. A camera without pixels is kept whole.
 std::vector<rigfit::FacePixels> AwayFromBoundaries(const std::vector<rigfit::FacePixels>& cameras,
                                                    const rigfit::RigCapture& capture, int px) {
   std::vector<rigfit::FacePixels> kept(cameras.size());
   for (size_t c = 0; c < cameras.size(); ++c) {
     const rigfit::CameraCapture& camera = capture.cameras[c];
     const rigfit::FacePixels& in = cameras[c];
+    if (in.pixels.size() != in.points.size()) {
+      kept[c] = in;
+      continue;
+    }
     constexpr int kNoPoint = -2;
     std::vector<int> face(static_cast<size_t>(camera.width) * camera.height, kNoPoint);
     for (size_t i = 0; i < in.pixels.size(); ++i) {
@@ -47,7 +53,8 @@ std::vector<rigfit::FacePixels> AwayFromBoundaries(const std::vector<rigfit::Fac
       for (int v = q.y() - px; v <= q.y() + px && inside; ++v) {
         for (int u = q.x() - px; u <= q.x() + px && inside; ++u) {
           if (u < 0 || v < 0 || u >= camera.width || v >= camera.height) continue;
-          inside = face[static_cast<size_t>(v) * camera.width + u] == in.faces[i];
+          const int f = face[static_cast<size_t>(v) * camera.width + u];
+          inside = f == kNoPoint || f == in.faces[i];
         }
       }
       if (!inside) continue;
@@ -428,8 +435,8 @@ int main(int argc, char** argv) {
   std::vector<int> boundary_px;
   app.add_option("--bound-boundary-px", boundary_px,
                  "with --crlb and --noise-corr-share: also the correlated-noise bound without the "
-                 "pixels within N px of another face, of the band's edge or of a pixel without "
-                 "depth (one bound per N)")
+                 "band pixels within N px of a band pixel of another face or of none (one bound "
+                 "per N)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--crlb", crlb,
                "also the Cramer-Rao bound of each seed (rig/crlb.h) and RMS of error / bound");
@@ -548,10 +555,17 @@ int main(int argc, char** argv) {
           }
         };
         correlated_bound(pixels, "correlated-noise surface bound", &correlated_surface);
+        size_t all = 0;
+        for (const FacePixels& c : pixels) all += c.points.size();
         for (const int px : boundary_px) {
-          correlated_bound(AwayFromBoundaries(pixels, truth.capture, px),
+          const std::vector<FacePixels> away = AwayFromBoundaries(pixels, truth.capture, px);
+          size_t kept = 0;
+          for (const FacePixels& c : away) kept += c.points.size();
+          correlated_bound(away,
                            "correlated-noise surface bound without the pixels within " +
-                               std::to_string(px) + " px of a boundary",
+                               std::to_string(px) + " px of another face (" +
+                               Fixed(100.0 * kept / std::max<size_t>(all, 1), 1) +
+                               "% of the band's pixels kept)",
                            &away_from_boundaries[px]);
         }
       }
@@ -640,9 +654,9 @@ int main(int argc, char** argv) {
     for (const auto& [px, sum] : away_from_boundaries) {
       if (sum.seeds == 0) continue;  // not available in any run (said per run)
       std::printf(
-          "  without the pixels within %d px of a boundary: RMS %.4f deg %.2f mm tilt %.4f deg; "
-          "RMS of error / bound: %.2f rotation, %.2f translation\n",
-          px, sum.RmsRotationDeg(), sum.RmsTranslationMm(), sum.RmsTiltDeg(),
+          "  without the pixels within %d px of another face (%d runs): RMS %.4f deg %.2f mm tilt "
+          "%.4f deg; RMS of error / bound: %.2f rotation, %.2f translation\n",
+          px, sum.seeds, sum.RmsRotationDeg(), sum.RmsTranslationMm(), sum.RmsTiltDeg(),
           sum.RmsRatioRotation(), sum.RmsRatioTranslation());
     }
   }
