@@ -134,7 +134,7 @@ class BiasSplit {
 
 /// The surface bundle's segmentation against the simulator's truth (--segmentation): which of
 /// the bound's pixels (every band pixel at the true pose on a face two cameras see,
-/// rig/crlb.h ComputeRigSurfaceBound) the bundle's last round used, on the right face or not,
+/// rig/crlb.h RigFacePixels) the bundle's last round used, on the right face or not,
 /// the bound of the pixels it used and of every pixel of the faces it used, and the missed face
 /// that alone would lower the first most.
 class SegmentationDiagnostic {
@@ -527,8 +527,12 @@ int main(int argc, char** argv) {
       const FaceLabeler labeler = [&](const Pose& T, const PointCloud& p,
                                       std::vector<PlanarFace>* f,
                                       std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); };
-      const CramerRaoBound s = ComputeRigSurfaceBound(truth.capture, truth.gt, bound_options,
-                                                      sim.noise, labeler, 2000, sim.seed);
+      // The band's pixels and faces, labelled once for the white and the correlated bounds.
+      std::vector<PlanarFace> faces;
+      const std::vector<FacePixels> pixels =
+          RigFacePixels(truth.capture, truth.gt, bound_options.region, labeler, &faces);
+      const CramerRaoBound s = ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, r.reference,
+                                                            sim.noise, 2000, sim.seed);
       if (s.ok) {
         report(sim.noise_corr_share > 0.0 ? "surface-model bound, white noise of that sigma"
                                           : "surface-model bound",
@@ -540,14 +544,11 @@ int main(int argc, char** argv) {
         std::printf("       surface-model bound: not available: %s\n", s.message.c_str());
       }
       if (sim.noise_corr_share > 0.0) {
-        std::vector<PlanarFace> faces;
-        const std::vector<FacePixels> pixels =
-            RigFacePixels(truth.capture, truth.gt, bound_options.region, labeler, &faces);
         const auto correlated_bound = [&](const std::vector<FacePixels>& cameras,
                                           const std::string& name, AgainstReference* sum) {
           const CramerRaoBound c = ComputeSurfaceCramerRaoBound(
-              cameras, faces, truth.gt, RigReference(truth.capture, bound_options), sim.noise, 2000,
-              sim.seed, {sim.noise_corr_px, sim.noise_corr_share}, threads);
+              cameras, faces, truth.gt, r.reference, sim.noise, 2000, sim.seed,
+              {sim.noise_corr_px, sim.noise_corr_share}, threads);
           if (c.ok) {
             report(name.c_str(), c.rms, sum);
           } else {

@@ -61,12 +61,17 @@ void PrintBound(const SimulateArgs& a) {
   SimOptions clean = a.sim;
   clean.noise = 0.0;
   const SimulatedRig truth = SimulateRig(clean);
-  const CramerRaoBound s = ComputeRigSurfaceBound(
-      truth.capture, truth.gt, options, a.sim.noise,
+  // The band's pixels and faces, labelled once for the white and the correlated bounds.
+  std::vector<PlanarFace> faces;
+  const std::vector<FacePixels> pixels = RigFacePixels(
+      truth.capture, truth.gt, options.region,
       [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f, std::vector<int>* l) {
         LabelFaces(truth.scene, T, p, f, l);
       },
-      kBoundSamples, a.sim.seed);
+      &faces);
+  const std::string reference = RigReference(truth.capture, options);
+  const CramerRaoBound s = ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, reference,
+                                                        a.sim.noise, kBoundSamples, a.sim.seed);
   const std::string noise =
       "noise " + Fixed(a.sim.noise, 4) + ", " + std::to_string(kBoundSamples) + " draws";
   if (s.ok) {
@@ -81,14 +86,11 @@ void PrintBound(const SimulateArgs& a) {
   if (a.sim.noise_corr_share > 0.0) {
     // The bound above is white noise's of the same sigma; this one knows the correlation.
     std::fprintf(stderr,
-                 "computing the bound under the correlated noise (conjugate gradients over every "
-                 "pixel: about a minute per 640x360 camera)...\n");
-    const CramerRaoBound c = ComputeRigSurfaceBound(
-        truth.capture, truth.gt, options, a.sim.noise,
-        [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f, std::vector<int>* l) {
-          LabelFaces(truth.scene, T, p, f, l);
-        },
-        kBoundSamples, a.sim.seed, {a.sim.noise_corr_px, a.sim.noise_corr_share}, 2);
+                 "computing the bound under the correlated noise (conjugate gradients over the "
+                 "faces' pixels: about a minute per 640x360 camera)...\n");
+    const CramerRaoBound c =
+        ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, reference, a.sim.noise, kBoundSamples,
+                                     a.sim.seed, {a.sim.noise_corr_px, a.sim.noise_corr_share}, 2);
     const std::string what = "Cramer-Rao bound of the surface model under the correlated noise (" +
                              Fixed(a.sim.noise_corr_px, 2) + " px, share " +
                              Fixed(a.sim.noise_corr_share, 2) + "; " + noise + ")";

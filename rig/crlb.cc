@@ -336,17 +336,6 @@ std::vector<FacePixels> RigFacePixels(const RigCapture& noise_free, const PoseMa
   return cameras;
 }
 
-CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
-                                      const RefineOptions& options, double depth_noise,
-                                      const FaceLabeler& label, int samples, std::uint64_t seed,
-                                      const CorrelatedNoiseModel& correlated, int num_threads) {
-  std::vector<PlanarFace> faces;
-  const std::vector<FacePixels> cameras =
-      RigFacePixels(noise_free, T_true, options.region, label, &faces);
-  return ComputeSurfaceCramerRaoBound(cameras, faces, T_true, RigReference(noise_free, options),
-                                      depth_noise, samples, seed, correlated, num_threads);
-}
-
 std::string RigReference(const RigCapture& capture, const RefineOptions& options) {
   return options.icp.reference.empty() && !capture.cameras.empty() ? capture.cameras.front().serial
                                                                    : options.icp.reference;

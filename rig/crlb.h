@@ -127,12 +127,4 @@ std::vector<FacePixels> RigFacePixels(const RigCapture& noise_free, const PoseMa
 /// The reference camera of a bound: options.icp.reference, or the capture's first serial.
 std::string RigReference(const RigCapture& capture, const RefineOptions& options);
 
-/// ComputeSurfaceCramerRaoBound of a noise-free capture at its true poses over its
-/// RigFacePixels (options.region), the reference RigReference's.
-CramerRaoBound ComputeRigSurfaceBound(const RigCapture& noise_free, const PoseMap& T_true,
-                                      const RefineOptions& options, double depth_noise,
-                                      const FaceLabeler& label, int samples, std::uint64_t seed,
-                                      const CorrelatedNoiseModel& correlated = {},
-                                      int num_threads = 1);
-
 }  // namespace rigfit
