@@ -20,9 +20,9 @@
 #include "core/stopwatch.h"
 #include "io/capture_h5.h"
 #include "io/config_yaml.h"
-#include "registration/knn.h"
-#include "rig/preprocess.h"
+#include "prepare/preprocess.h"
 #include "rig/refine.h"
+#include "search/knn.h"
 
 namespace {
 

@@ -27,9 +27,9 @@
 #include <tuple>
 
 #include "core/geometry.h"
-#include "registration/knn.h"
-#include "registration/point_grid.h"
-#include "rig/preprocess.h"
+#include "prepare/preprocess.h"
+#include "search/knn.h"
+#include "search/point_grid.h"
 
 namespace rigfit {
 namespace {
@@ -264,7 +264,7 @@ void BM_Nearest(benchmark::State& state, KnnBackend backend) {
   RunNearest(state, tree, queries, 1.4 * MeanSpacing(n));
 }
 
-/// The correspondence search's grid (registration/point_grid.h) on the same queries, built for
+/// The correspondence search's grid (search/point_grid.h) on the same queries, built for
 /// the query radius.
 void BM_GridNearest(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));

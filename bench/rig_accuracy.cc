@@ -14,14 +14,14 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/crlb.h"
 #include "core/evaluate.h"
 #include "core/format.h"
 #include "core/geometry.h"
 #include "io/config_yaml.h"
-#include "rig/crlb.h"
+#include "prepare/region.h"
+#include "registration/surface_bundle.h"
 #include "rig/refine.h"
-#include "rig/region.h"
-#include "rig/surface_bundle.h"
 #include "sim/scene.h"
 #include "sim/simulate_rig.h"
 
@@ -134,7 +134,7 @@ class BiasSplit {
 
 /// The surface bundle's segmentation against the simulator's truth (--segmentation): which of
 /// the bound's pixels (every band pixel at the true pose on a face two cameras see,
-/// rig/crlb.h RigFacePixels) the bundle's last round used, on the right face or not,
+/// analysis/crlb.h RigFacePixels) the bundle's last round used, on the right face or not,
 /// the bound of the pixels it used and of every pixel of the faces it used, and the missed face
 /// that alone would lower the first most.
 class SegmentationDiagnostic {
@@ -439,7 +439,7 @@ int main(int argc, char** argv) {
                  "per N)")
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--crlb", crlb,
-               "also the Cramer-Rao bound of each seed (rig/crlb.h) and RMS of error / bound");
+               "also the Cramer-Rao bound of each seed (analysis/crlb.h) and RMS of error / bound");
   app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
   app.add_flag("--from-gt", from_gt, "start at the true poses (measures the estimator's bias)");
   app.add_flag("--verbose", verbose, "solver progress to stderr");

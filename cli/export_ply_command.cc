@@ -15,9 +15,9 @@
 #include "io/extrinsics_json.h"
 #include "io/ply.h"
 #include "io/text_table.h"
+#include "prepare/region.h"
 #include "report/palette.h"
 #include "rig/refine.h"
-#include "rig/region.h"
 
 namespace rigfit::cli {
 namespace {

@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
+#include "core/log.h"
 #include "core/rgbd.h"
 #include "core/trajectory.h"
 #include "io/rgbd_sequence.h"
-#include "registration/log.h"
 #include "rgbd/frame.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"

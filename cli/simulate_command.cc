@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "analysis/crlb.h"
 #include "cli/commands.h"
 #include "cli/simulate_common.h"
 #include "core/errors.h"
@@ -20,7 +21,6 @@
 #include "io/config_yaml.h"
 #include "io/extrinsics_json.h"
 #include "io/text_table.h"
-#include "rig/crlb.h"
 #include "sim/simulate_rig.h"
 
 namespace rigfit::cli {
@@ -49,7 +49,7 @@ void PrintSampled(const std::string& what, const SampledErrors& e) {
       what.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3, e.tilt_rad * kRadToDeg);
 }
 
-/// Prints the Cramer-Rao bounds of the simulated rig (rig/crlb.h), measured like
+/// Prints the Cramer-Rao bounds of the simulated rig (analysis/crlb.h), measured like
 /// `rigfit evaluate`: the surface model's (the physical limit), then the point-to-plane
 /// information bound of the joint problem and the joint estimator's own prediction.
 void PrintBound(const SimulateArgs& a) {

@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "registration/log.h"
+#include "core/log.h"
 
 namespace rigfit::cli {
 

@@ -83,7 +83,7 @@ struct IcpOptions {
   double gravity_weight = 1500.0;
   /// Joint mode: a direction of a camera's pose whose information is below this fraction
   /// of the best-constrained direction's (eigenvalues of the noise-weighted constraint
-  /// matrix, rig/degeneracy.h) is reported as weakly constrained; 0 turns the analysis
+  /// matrix, uncertainty/degeneracy.h) is reported as weakly constrained; 0 turns the analysis
   /// off.
   double degeneracy_threshold = 0.002;
   /// Joint mode: hold weakly constrained directions at the leveled pose (a 0.1 mm prior)

@@ -13,8 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/log.h"
 #include "core/types.h"
-#include "registration/log.h"
 
 namespace rigfit::python {
 

@@ -11,9 +11,9 @@
 #include <vector>
 
 #include "core/evaluate.h"
+#include "core/log.h"
 #include "core/types.h"
 #include "options/refine_options.h"
-#include "registration/log.h"
 #include "rig/diagnostics.h"
 #include "rig/refine.h"
 

@@ -5,9 +5,9 @@
 #include <cstdint>
 
 #include "core/format.h"
+#include "prepare/region.h"
 #include "report/canvas.h"
 #include "report/plot_parts.h"
-#include "rig/region.h"
 
 namespace rigfit {
 namespace {

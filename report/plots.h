@@ -35,7 +35,7 @@ struct GroundWindow {
 };
 
 /// The smallest window that holds, in every view given, each camera's points (between
-/// their 0.5th and 99.5th percentiles per axis, rig/region.h RobustGroundBox) and each
+/// their 0.5th and 99.5th percentiles per axis, prepare/region.h RobustGroundBox) and each
 /// camera centre, with a margin of 5% of its size on every side. Views drawn in one window
 /// can be compared pixel for pixel.
 GroundWindow FitGroundWindow(const std::vector<const std::vector<TopDownCamera>*>& views);

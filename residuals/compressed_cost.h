@@ -50,7 +50,7 @@ class CompressedCost final : public ceres::CostFunction {
   /// rounding made negative count as zero.
   void Compress() {
     // Dynamic sizes: a fixed-size 24 x 24 solver more than doubled the compile time of
-    // every file that uses this header (rig/correspondences.cc 34 s -> 18 s).
+    // every file that uses this header (prepare/correspondences.cc 34 s -> 18 s).
     const Eigen::MatrixXd normal = normal_;
     const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(normal);
     const Eigen::VectorXd root = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();

@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "core/log.h"
 #include "core/rgbd.h"
 #include "core/trajectory.h"
-#include "registration/log.h"
 #include "rgbd/frame.h"
 #include "rgbd/projective_icp.h"
 

@@ -8,10 +8,10 @@
 #include <functional>
 #include <vector>
 
+#include "core/log.h"
 #include "core/pose.h"
 #include "core/rgbd.h"
 #include "core/trajectory.h"
-#include "registration/log.h"
 #include "rgbd/frame.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "rig/correspondences.h"
+#include "prepare/correspondences.h"
 
 namespace rigfit {
 namespace {

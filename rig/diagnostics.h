@@ -9,9 +9,9 @@
 
 #include "core/types.h"
 #include "options/refine_options.h"
-#include "rig/preprocess.h"
+#include "prepare/preprocess.h"
+#include "prepare/region.h"
 #include "rig/refine.h"
-#include "rig/region.h"
 
 namespace rigfit {
 

@@ -13,14 +13,14 @@
 #include "core/geometry.h"
 #include "core/parallel.h"
 #include "core/stopwatch.h"
+#include "prepare/correspondences.h"
+#include "prepare/preprocess.h"
+#include "prepare/region.h"
+#include "registration/joint.h"
+#include "registration/pairwise.h"
+#include "registration/pose_graph.h"
+#include "registration/surface_bundle.h"
 #include "residuals/relative_pose.h"
-#include "rig/correspondences.h"
-#include "rig/joint.h"
-#include "rig/pairwise.h"
-#include "rig/pose_graph.h"
-#include "rig/preprocess.h"
-#include "rig/region.h"
-#include "rig/surface_bundle.h"
 
 namespace rigfit {
 namespace {

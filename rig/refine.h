@@ -6,13 +6,13 @@
 #include <string>
 #include <vector>
 
+#include "core/log.h"
 #include "core/types.h"
 #include "options/refine_options.h"
-#include "registration/log.h"
-#include "rig/degeneracy.h"
-#include "rig/ground.h"
-#include "rig/preprocess.h"
-#include "rig/region.h"
+#include "prepare/ground.h"
+#include "prepare/preprocess.h"
+#include "prepare/region.h"
+#include "uncertainty/degeneracy.h"
 
 namespace rigfit {
 

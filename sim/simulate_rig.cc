@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "core/errors.h"
-#include "core/noise_field.h"
+#include "sim/noise_field.h"
 #include "sim/random.h"
 
 namespace rigfit {

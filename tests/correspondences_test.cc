@@ -1,4 +1,4 @@
-#include "rig/correspondences.h"
+#include "prepare/correspondences.h"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
-// rig/covariance.h: the shared-noise covariance against the inverse information where they
+// uncertainty/covariance.h: the shared-noise covariance against the inverse information where they
 // must agree and against its dense definition; a free camera in no term has none. The
 // poses' covariance with planes marginalised against ceres::Covariance, and its robust version
 // against the scatter of the poses over draws of errors the noise model does not know.
-#include "rig/covariance.h"
+#include "uncertainty/covariance.h"
 
 #include <ceres/covariance.h>
 #include <ceres/manifold.h>

@@ -1,4 +1,4 @@
-#include "rig/crlb.h"
+#include "analysis/crlb.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -9,9 +9,9 @@
 #include <stdexcept>
 
 #include "core/geometry.h"
-#include "core/noise_field.h"
+#include "prepare/region.h"
 #include "rig/refine.h"
-#include "rig/region.h"
+#include "sim/noise_field.h"
 #include "sim/scene.h"
 #include "sim/simulate_rig.h"
 

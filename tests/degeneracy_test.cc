@@ -1,4 +1,4 @@
-#include "rig/degeneracy.h"
+#include "uncertainty/degeneracy.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "rig/ground.h"
+#include "prepare/ground.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <random>
 
 #include "core/geometry.h"
-#include "rig/region.h"
+#include "prepare/region.h"
 
 namespace rigfit {
 namespace {

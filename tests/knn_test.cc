@@ -1,4 +1,4 @@
-#include "registration/knn.h"
+#include "search/knn.h"
 
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-#include "registration/point_grid.h"
+#include "search/point_grid.h"
 
 #include <gtest/gtest.h>
 
@@ -8,8 +8,8 @@
 #include <random>
 #include <stdexcept>
 
-#include "registration/knn.h"
-#include "rig/preprocess.h"
+#include "prepare/preprocess.h"
+#include "search/knn.h"
 
 namespace rigfit {
 namespace {

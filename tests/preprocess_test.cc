@@ -1,4 +1,4 @@
-#include "rig/preprocess.h"
+#include "prepare/preprocess.h"
 
 #include <gtest/gtest.h>
 

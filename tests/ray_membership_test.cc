@@ -1,4 +1,4 @@
-#include "rig/ray_membership.h"
+#include "registration/ray_membership.h"
 
 #include <gtest/gtest.h>
 

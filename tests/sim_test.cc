@@ -8,7 +8,7 @@
 #include <tuple>
 
 #include "core/geometry.h"
-#include "core/noise_field.h"
+#include "sim/noise_field.h"
 #include "sim/random.h"
 #include "sim/scene.h"
 #include "sim/simulate_rig.h"
@@ -274,7 +274,7 @@ TEST(GaussianNoiseField, UnitVarianceAndTheGaussianCorrelation) {
   // Blurred white noise: exp(-d^2 / (4 sigma^2)), 0.78 at d = sigma, 0.018 at 4 sigma.
   EXPECT_NEAR(correlation(4), std::exp(-0.25), 0.06);
   EXPECT_NEAR(correlation(16), std::exp(-4.0), 0.04);
-  // The model the bound uses (core/noise_field.h): the same, exactly for the truncated kernel.
+  // The model the bound uses (sim/noise_field.h): the same, exactly for the truncated kernel.
   const std::vector<double> rho = NoiseFieldCorrelation(kCorrPx);
   ASSERT_EQ(rho.size(), 25u);  // up to twice the kernel's radius, 2 ceil(3 sigma)
   EXPECT_NEAR(correlation(4), rho[4], 0.06);

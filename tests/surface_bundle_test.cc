@@ -1,4 +1,4 @@
-#include "rig/surface_bundle.h"
+#include "registration/surface_bundle.h"
 
 #include <gtest/gtest.h>
 
@@ -7,9 +7,9 @@
 #include <limits>
 
 #include "core/evaluate.h"
-#include "rig/plane_segmentation.h"
+#include "prepare/region.h"
+#include "registration/plane_segmentation.h"
 #include "rig/refine.h"
-#include "rig/region.h"
 #include "sim/simulate_rig.h"
 
 namespace rigfit {

@@ -24,11 +24,12 @@
 //
 // Errors (core/errors.h): I/O throws InputError naming the file and field; the solvers return
 // a result with `success` and `message` instead of throwing on bad geometry. Progress and
-// warnings go to a Log (registration/log.h), silent when default-constructed.
+// warnings go to a Log (core/log.h), silent when default-constructed.
 #pragma once
 
 #include "core/errors.h"
 #include "core/evaluate.h"
+#include "core/log.h"
 #include "core/pose.h"
 #include "core/rgbd.h"
 #include "core/trajectory.h"
@@ -39,7 +40,6 @@
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
 #include "options/refine_options.h"
-#include "registration/log.h"
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
 #include "rgbd/tracking_options.h"

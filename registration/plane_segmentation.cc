@@ -1,0 +1,360 @@
+#include "registration/plane_segmentation.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <tuple>
+
+#include "core/geometry.h"
+
+namespace rigfit {
+namespace {
+
+struct Box {
+  Vec3 min = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 max = Vec3::Constant(-std::numeric_limits<double>::infinity());
+
+  void Extend(const Box& other) {
+    min = min.cwiseMin(other.min);
+    max = max.cwiseMax(other.max);
+  }
+  bool Touches(const Box& other, double margin) const {
+    for (int k = 0; k < 3; ++k) {
+      if (min[k] > other.max[k] + margin || other.min[k] > max[k] + margin) return false;
+    }
+    return true;
+  }
+  bool Contains(const Vec3& p, double margin) const {
+    return (p.array() >= min.array() - margin).all() && (p.array() <= max.array() + margin).all();
+  }
+};
+
+struct PlaneFit {
+  Vec3 normal = Vec3::UnitY();
+  double offset = 0.0;
+  double chi2 = 0.0;
+  int dof = 0;
+  /// Per camera: the chi-square and count of its points (a crease that a far, noisy camera
+  /// cannot tell from a plane shows in a near camera's points).
+  std::vector<double> camera_chi2;
+  std::vector<int> camera_count;
+};
+
+/// A set of points with the plane fitted to them and the cells they came from.
+struct Patch {
+  PlaneFit fit;
+  std::vector<int> points;
+  Box box;
+};
+
+class Segmenter {
+ public:
+  Segmenter(const std::vector<SegmentPoint>& points, int num_cameras,
+            const PlaneSegmentationOptions& options)
+      : points_(points), num_cameras_(num_cameras), options_(options) {
+    base_variance_ = BaseVariance(options);
+    min_cell_ = options.min_cell_voxels * options.voxel_size;
+  }
+
+  /// Variance of point i along the normal n.
+  double Variance(int i, const Vec3& n) const {
+    const SegmentPoint& p = points_[i];
+    const double along = p.sigma_z * n.dot(p.ray_world);
+    return along * along + base_variance_;
+  }
+
+  /// Noise-weighted least squares: weights from the worst direction first, then from the
+  /// fitted normal, and the chi-square of the whitened distances.
+  PlaneFit Fit(const std::vector<int>& indices) const {
+    PlaneFit fit;
+    std::vector<double> weight(indices.size());
+    for (size_t k = 0; k < indices.size(); ++k) {
+      const SegmentPoint& p = points_[indices[k]];
+      weight[k] = 1.0 / (p.sigma_z * p.sigma_z * p.ray_world.squaredNorm() + base_variance_);
+    }
+    for (int pass = 0; pass < 2; ++pass) {
+      double sum_w = 0.0;
+      Vec3 centroid = Vec3::Zero();
+      for (size_t k = 0; k < indices.size(); ++k) {
+        sum_w += weight[k];
+        centroid += weight[k] * points_[indices[k]].world;
+      }
+      centroid /= sum_w;
+      Mat3 scatter = Mat3::Zero();
+      for (size_t k = 0; k < indices.size(); ++k) {
+        const Vec3 x = points_[indices[k]].world - centroid;
+        scatter.noalias() += weight[k] * x * x.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Mat3> eigen(scatter);
+      fit.normal = eigen.eigenvectors().col(0);
+      fit.offset = -fit.normal.dot(centroid);
+      for (size_t k = 0; k < indices.size(); ++k) {
+        weight[k] = 1.0 / Variance(indices[k], fit.normal);
+      }
+    }
+    fit.chi2 = 0.0;
+    fit.camera_chi2.assign(num_cameras_, 0.0);
+    fit.camera_count.assign(num_cameras_, 0);
+    for (size_t k = 0; k < indices.size(); ++k) {
+      const double r = fit.normal.dot(points_[indices[k]].world) + fit.offset;
+      fit.chi2 += weight[k] * r * r;
+      const int camera = points_[indices[k]].camera;
+      fit.camera_chi2[camera] += weight[k] * r * r;
+      ++fit.camera_count[camera];
+    }
+    fit.dof = static_cast<int>(indices.size()) - 3;
+    return fit;
+  }
+
+  /// Whether point i's ray meets the planes a and b within gate_sigmas of its depth noise of
+  /// each other: near their crease, where its measured position (which its noise moves)
+  /// cannot say which plane it lies on. Unlike a test of the measured position, the choice
+  /// does not depend on the point's own noise. False for points without a ray.
+  bool NearCrease(int i, const PlaneFit& a, const PlaneFit& b) const {
+    const SegmentPoint& s = points_[i];
+    if (!(s.depth > 0.0)) return false;
+    const Vec3 centre = s.world - s.depth * s.ray_world;
+    const double difference = RayPlaneDepth(centre, s.ray_world, a.normal, a.offset) -
+                              RayPlaneDepth(centre, s.ray_world, b.normal, b.offset);
+    const double gate = options_.gate_sigmas;
+    return difference * difference <= gate * gate * (s.sigma_z * s.sigma_z + base_variance_);
+  }
+
+  /// The plane explains all the points, and the points of each camera that sees it.
+  bool Planar(const PlaneFit& fit) const {
+    if (!WithinNoise(fit.chi2, fit.dof, options_.chi2_sigmas)) return false;
+    for (int c = 0; c < num_cameras_; ++c) {
+      if (fit.camera_count[c] >= options_.min_points_per_camera &&
+          !WithinNoise(fit.camera_chi2[c], fit.camera_count[c], options_.chi2_sigmas)) {
+        return false;
+      }
+    }
+    return true;
+  }
+
+  /// Whether some camera has min_points_per_camera of the points.
+  bool SeenByACamera(const std::vector<int>& indices) const {
+    std::vector<int> count(num_cameras_, 0);
+    for (const int i : indices) ++count[points_[i].camera];
+    return std::any_of(count.begin(), count.end(),
+                       [&](int c) { return c >= options_.min_points_per_camera; });
+  }
+
+  /// The octree below one cell: kept when planar, else split in eight while the children are
+  /// at least the smallest cell.
+  void Split(const std::vector<int>& indices, const Vec3& corner, double size) {
+    if (!SeenByACamera(indices)) return;  // splitting cannot add points
+    const PlaneFit fit = Fit(indices);
+    if (Planar(fit)) {
+      Patch& patch = cells_.emplace_back();
+      patch.fit = fit;
+      patch.points = indices;
+      patch.box.min = corner;
+      patch.box.max = corner + Vec3::Constant(size);
+      return;
+    }
+    const double half = 0.5 * size;
+    if (half < min_cell_ * (1.0 - 1e-9)) return;
+    std::array<std::vector<int>, 8> children;
+    const Vec3 middle = corner + Vec3::Constant(half);
+    for (const int i : indices) {
+      const Vec3& x = points_[i].world;
+      children[(x.x() >= middle.x()) | (x.y() >= middle.y()) << 1 | (x.z() >= middle.z()) << 2]
+          .push_back(i);
+    }
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 child(c & 1 ? middle.x() : corner.x(), c & 2 ? middle.y() : corner.y(),
+                       c & 4 ? middle.z() : corner.z());
+      Split(children[c], child, half);
+    }
+  }
+
+  /// Planar cells of the whole cloud, top cells of max_cell_voxels.
+  void FindCells() {
+    if (points_.empty()) return;
+    const double top = options_.max_cell_voxels * options_.voxel_size;
+    Vec3 origin = points_.front().world;
+    for (const SegmentPoint& p : points_) origin = origin.cwiseMin(p.world);
+    std::map<std::array<long long, 3>, std::vector<int>> cells;
+    const double gate2 = options_.gate_sigmas * options_.gate_sigmas;
+    Patch floor;
+    for (int i = 0; i < static_cast<int>(points_.size()); ++i) {
+      const double y = points_[i].world.y();
+      if (options_.leveled_floor && std::abs(y) <= options_.floor_height_m &&
+          y * y <= gate2 * Variance(i, Vec3::UnitY())) {
+        floor.points.push_back(i);
+        floor.box.Extend({points_[i].world, points_[i].world});
+        continue;
+      }
+      const double margin =
+          std::min(options_.floor_margin_m,
+                   options_.floor_margin_sigmas * std::sqrt(Variance(i, Vec3::UnitY())));
+      if (options_.leveled_floor && std::abs(y) <= margin) continue;
+      const Vec3 cell = ((points_[i].world - origin) / top).array().floor();
+      cells[{static_cast<long long>(cell.x()), static_cast<long long>(cell.y()),
+             static_cast<long long>(cell.z())}]
+          .push_back(i);
+    }
+    for (const auto& [key, indices] : cells) {
+      Split(indices, origin + top * Vec3(key[0], key[1], key[2]), top);
+    }
+    // The floor joins the near-horizontal patches near y = 0 in JoinFloor; it is not merged
+    // with its neighbours before (MergeCells skips it: floor_cell_).
+    if (!floor.points.empty()) {
+      floor.fit.normal = Vec3::UnitY();
+      floor_cell_ = static_cast<int>(cells_.size());
+      cells_.push_back(std::move(floor));
+    }
+  }
+
+  /// Merges touching cells whose planes agree (the merged fit passes the planarity test),
+  /// most parallel pairs first.
+  std::vector<Patch> MergeCells() const {
+    const double cos_merge = std::cos(options_.merge_angle_deg * M_PI / 180.0);
+    std::vector<std::tuple<double, int, int>> candidates;
+    for (size_t i = 0; i < cells_.size(); ++i) {
+      for (size_t j = i + 1; j < cells_.size(); ++j) {
+        const double c = std::abs(cells_[i].fit.normal.dot(cells_[j].fit.normal));
+        if (static_cast<int>(i) == floor_cell_ || static_cast<int>(j) == floor_cell_) continue;
+        if (c >= cos_merge && cells_[i].box.Touches(cells_[j].box, 1e-9)) {
+          candidates.emplace_back(-c, static_cast<int>(i), static_cast<int>(j));
+        }
+      }
+    }
+    std::sort(candidates.begin(), candidates.end());
+    std::vector<int> parent(cells_.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    const auto root = [&](int i) {
+      while (parent[i] != i) i = parent[i] = parent[parent[i]];
+      return i;
+    };
+    std::vector<Patch> merged = cells_;
+    for (const auto& [angle, i, j] : candidates) {
+      const int a = root(i), b = root(j);
+      if (a == b) continue;
+      std::vector<int> both = merged[a].points;
+      both.insert(both.end(), merged[b].points.begin(), merged[b].points.end());
+      const PlaneFit fit = Fit(both);
+      if (!Planar(fit)) continue;
+      parent[b] = a;
+      merged[a].fit = fit;
+      merged[a].points = std::move(both);
+      merged[a].box.Extend(merged[b].box);
+    }
+    std::vector<Patch> out;
+    for (size_t i = 0; i < merged.size(); ++i) {
+      if (root(static_cast<int>(i)) == static_cast<int>(i)) out.push_back(std::move(merged[i]));
+    }
+    return out;
+  }
+
+  /// The floor patches (near-horizontal, near y = 0) as one plane with normal +Y.
+  std::vector<Patch> JoinFloor(std::vector<Patch> patches) {
+    const double cos_floor = std::cos(options_.floor_angle_deg * M_PI / 180.0);
+    Patch floor;
+    std::vector<Patch> out;
+    for (Patch& patch : patches) {
+      const Vec3& n = patch.fit.normal;
+      if (std::abs(n.y()) >= cos_floor &&
+          std::abs(patch.fit.offset / n.y()) <= options_.floor_height_m) {
+        floor.points.insert(floor.points.end(), patch.points.begin(), patch.points.end());
+        floor.box.Extend(patch.box);
+      } else {
+        out.push_back(std::move(patch));
+      }
+    }
+    if (floor.points.empty()) return out;
+    double sum_w = 0.0, sum_wy = 0.0;
+    for (const int i : floor.points) {
+      const double w = 1.0 / Variance(i, Vec3::UnitY());
+      sum_w += w;
+      sum_wy += w * points_[i].world.y();
+    }
+    floor.fit.normal = Vec3::UnitY();
+    floor.fit.offset = -sum_wy / sum_w;
+    floor_index_ = static_cast<int>(out.size());
+    out.push_back(std::move(floor));
+    return out;
+  }
+
+  /// Each patch keeps the points within gate_sigmas of its plane that neither fit a touching
+  /// plane as well nor lie near its crease with it (NearCrease), and the cameras with enough
+  /// of them; patches seen by too few cameras go.
+  std::vector<SegmentedPlane> Assign(const std::vector<Patch>& patches) const {
+    const double gate2 = options_.gate_sigmas * options_.gate_sigmas;
+    const auto fits = [&](int i, const PlaneFit& fit) {
+      const double r = fit.normal.dot(points_[i].world) + fit.offset;
+      return r * r <= gate2 * Variance(i, fit.normal);
+    };
+    std::vector<SegmentedPlane> planes;
+    for (size_t p = 0; p < patches.size(); ++p) {
+      std::vector<const Patch*> neighbours;
+      for (size_t q = 0; q < patches.size(); ++q) {
+        if (q != p && patches[p].box.Touches(patches[q].box, min_cell_)) {
+          neighbours.push_back(&patches[q]);
+        }
+      }
+      std::vector<int> kept;
+      std::vector<int> count(num_cameras_, 0);
+      for (const int i : patches[p].points) {
+        if (!fits(i, patches[p].fit)) continue;
+        const bool ambiguous =
+            std::any_of(neighbours.begin(), neighbours.end(), [&](const Patch* q) {
+              return q->box.Contains(points_[i].world, min_cell_) &&
+                     (fits(i, q->fit) || NearCrease(i, patches[p].fit, q->fit));
+            });
+        if (ambiguous) continue;
+        kept.push_back(i);
+        ++count[points_[i].camera];
+      }
+      SegmentedPlane plane;
+      plane.normal = patches[p].fit.normal;
+      plane.offset = patches[p].fit.offset;
+      plane.floor = static_cast<int>(p) == floor_index_;
+      for (const int i : kept) {
+        if (count[points_[i].camera] >= options_.min_points_per_camera) plane.points.push_back(i);
+      }
+      const int cameras = static_cast<int>(std::count_if(
+          count.begin(), count.end(), [&](int c) { return c >= options_.min_points_per_camera; }));
+      if (cameras >= options_.min_cameras) planes.push_back(std::move(plane));
+    }
+    return planes;
+  }
+
+  std::vector<SegmentedPlane> Run() {
+    FindCells();
+    return Assign(JoinFloor(MergeCells()));
+  }
+
+ private:
+  const std::vector<SegmentPoint>& points_;
+  int num_cameras_;
+  PlaneSegmentationOptions options_;
+  double base_variance_ = 0.0;
+  double min_cell_ = 0.0;
+  std::vector<Patch> cells_;
+  int floor_index_ = -1;  ///< the floor's index among JoinFloor's patches, -1 if none
+  int floor_cell_ = -1;   ///< the leveled floor's index among cells_, -1 if none
+};
+
+}  // namespace
+
+bool WithinNoise(double chi2, int dof, double sigmas) {
+  return dof > 0 && chi2 / dof <= 1.0 + sigmas * std::sqrt(2.0 / dof);
+}
+
+double BaseVariance(const PlaneSegmentationOptions& options) {
+  const double model = options.model_sigma_voxels * options.voxel_size;
+  return model * model + options.min_noise_m * options.min_noise_m;
+}
+
+std::vector<SegmentedPlane> SegmentPlanes(const std::vector<SegmentPoint>& points, int num_cameras,
+                                          const PlaneSegmentationOptions& options) {
+  return Segmenter(points, num_cameras, options).Run();
+}
+
+}  // namespace rigfit

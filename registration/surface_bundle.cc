@@ -1,0 +1,657 @@
+#include "registration/surface_bundle.h"
+
+#include <ceres/autodiff_cost_function.h>
+#include <ceres/manifold.h>
+#include <ceres/ordered_groups.h>
+#include <ceres/product_manifold.h>
+#include <ceres/solver.h>
+#include <ceres/sphere_manifold.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <utility>
+
+#include "core/format.h"
+#include "core/geometry.h"
+#include "prepare/correspondences.h"
+#include "registration/plane_segmentation.h"
+#include "registration/ray_membership.h"
+#include "residuals/gravity_prior.h"
+#include "residuals/plane_cluster.h"
+#include "uncertainty/covariance.h"
+
+namespace rigfit {
+namespace {
+
+using PoseBlock = std::array<double, kPoseAmbientSize>;
+
+/// Model error of the segmentation per round, in voxels: the joint start is about a
+/// centimetre off; each solve sharpens the surfaces, so the next round may be stricter (on a
+/// noise-free rig the last round's 1 mm keeps the pixels of neighbouring faces out: 0.05 mm
+/// against 0.18 mm with 3 mm).
+constexpr std::array<double, 3> kRoundModelVoxels = {0.5, 0.15, 0.05};
+/// A camera needs this many planes, whose normals spread over all three directions (the
+/// smallest eigenvalue of sum n n^T at least this share of the largest), for its six pose
+/// directions to be fixed by planes; otherwise it keeps its start pose.
+constexpr int kMinPlanesPerCamera = 3;
+constexpr double kMinNormalSpread = 0.02;
+/// Levenberg-Marquardt iterations per round.
+constexpr int kIterationsPerRound = 25;
+
+/// The inverse depth sigma of a pixel at depth z: the sensor's k, and the metric noise floor
+/// seen in inverse depth (min_noise / z^2).
+double InverseDepthSigma(double k, double z, double min_noise_m) {
+  const double floor = min_noise_m / (z * z);
+  return std::sqrt(k * k + floor * floor);
+}
+
+/// The measured inverse depth of a pixel: with noise Gaussian in z, E[1/z_m] = 1/z + k^2 z to
+/// second order, so 1/z_m - k^2 z_m is unbiased to that order; disparity noise needs none.
+double InverseDepth(double z, double k, DepthNoiseModel model) {
+  return model == DepthNoiseModel::kGaussianDepth ? 1.0 / z - k * k * z : 1.0 / z;
+}
+
+/// A prior on a pose: r = W [2 vec(q q0^-1); t - t0] (the PoseManifold tangent: world
+/// rotation vector to first order, world translation), W^T W the information.
+struct PosePriorFunctor {
+  Eigen::Quaterniond q0;
+  Vec3 t0;
+  Mat6 W;
+
+  template <typename T>
+  bool operator()(const T* pose, T* residual) const {
+    const Eigen::Quaternion<T> q(pose[3], pose[0], pose[1], pose[2]);
+    const Eigen::Quaternion<T> dq = q * q0.conjugate().cast<T>();
+    const T sign = dq.w() < T(0) ? T(-1) : T(1);
+    Eigen::Matrix<T, 6, 1> e;
+    e.template head<3>() = T(2) * sign * dq.vec();
+    for (int k = 0; k < 3; ++k) e(3 + k) = pose[4 + k] - T(t0(k));
+    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
+    r = W.cast<T>() * e;
+    return true;
+  }
+};
+
+/// The start's prior along the directions where the planes know the pose less well than the
+/// start does: with the start's covariance S = C C^T and the planes' Q, the eigenvectors u_k
+/// of C^-1 Q C^-T with eigenvalues lambda_k above 1 give the rows
+/// sqrt(1 - 1 / lambda_k) u_k^T C^-1 of W (zero rows elsewhere); an empty matrix when there
+/// are none. The prior adds what the start knows beyond the planes (1 - 1 / lambda_k of its
+/// information), so that the planes and the prior together know the direction as well as the
+/// start, not better: the two come from the same pixels, and adding the start's whole
+/// information counted them twice (seeds 0..9 x 3 at ee4335c: 3.76 mm against 3.40, held out
+/// 6.40 against 6.36, the covariance optimistic by 1.30 against 1.03).
+Mat6 WeakDirectionPrior(const Mat6& start, const Mat6& planes, int* directions) {
+  *directions = 0;
+  const Eigen::SelfAdjointEigenSolver<Mat6> start_eigen(start);
+  const Vec6 values = start_eigen.eigenvalues();
+  if (!(values(5) > 0.0)) return Mat6::Zero();
+  const Mat6 whiten = values.cwiseMax(1e-12 * values(5)).cwiseSqrt().cwiseInverse().asDiagonal() *
+                      start_eigen.eigenvectors().transpose();  // C^-1
+  const Eigen::SelfAdjointEigenSolver<Mat6> ratio(whiten * planes * whiten.transpose());
+  Mat6 W = Mat6::Zero();
+  for (int k = 0; k < 6; ++k) {
+    if (ratio.eigenvalues()(k) <= 1.0) continue;
+    const double excess = std::sqrt(1.0 - 1.0 / ratio.eigenvalues()(k));
+    W.row(k) = excess * ratio.eigenvectors().col(k).transpose() * whiten;
+    ++*directions;
+  }
+  return W;
+}
+
+/// A plane parameter block [n; d] (residuals/plane_cluster.h).
+struct PlaneBlock {
+  Vec4 x;
+  bool floor;
+  Vec3 Normal() const { return x.head<3>(); }
+};
+
+/// One camera's pixels on one plane.
+struct ClusterTerm {
+  int camera;
+  int plane;
+  PlaneCluster cluster;
+  std::vector<int> pixels;  ///< indices into the camera's points
+};
+
+/// The segmentation's input at the given poses, and which camera point each entry is.
+struct MergedCloud {
+  std::vector<SegmentPoint> points;
+  std::vector<std::pair<int, int>> source;  ///< (camera, point index)
+};
+
+MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses) {
+  MergedCloud cloud;
+  size_t total = 0;
+  for (const SurfaceCamera& camera : cameras) total += camera.points.size();
+  cloud.points.reserve(total);
+  cloud.source.reserve(total);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const Pose& T = poses[c];
+    const SurfaceCamera& camera = cameras[c];
+    for (size_t i = 0; i < camera.points.size(); ++i) {
+      const Vec3& p = camera.points[i];
+      SegmentPoint s;
+      s.world = T * p;
+      s.camera = static_cast<int>(c);
+      if (camera.ray_model) {
+        s.ray_world = T.linear() * (p / p.z());
+        s.sigma_z = camera.depth_noise * p.z() * p.z();
+        s.depth = p.z();
+      }
+      cloud.points.push_back(s);
+      cloud.source.emplace_back(static_cast<int>(c), static_cast<int>(i));
+    }
+  }
+  return cloud;
+}
+
+/// Sums each term's pixels into its cluster, each pixel's variance times its camera's
+/// noise correlation.
+void FillClusters(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                  const std::vector<double>& correlation, std::vector<ClusterTerm>* terms) {
+  for (ClusterTerm& t : *terms) {
+    t.cluster = PlaneCluster{};
+    const SurfaceCamera& camera = cameras[t.camera];
+    const double inflation = std::sqrt(correlation[t.camera]);
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      if (camera.ray_model) {
+        t.cluster.AddRay(
+            p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
+            inflation * InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
+      } else {
+        t.cluster.AddPoint(p, inflation * options.min_noise_m);
+      }
+    }
+  }
+}
+
+/// The side of the image tiles over which the noise's correlation is measured, pixels.
+constexpr double kCorrelationTilePx = 32.0;
+
+/// Per camera, the noise correlation (SurfaceBundleResult::noise_correlation) at the blocks:
+/// the pixels of each term are grouped by image tile, and the squared sums of their whitened
+/// residuals over the groups are divided by the number of pixels: the variance of a tile's
+/// sum against what the noise model predicts for independent pixels (correlated pixels add
+/// their covariances). Against the model, not against the residuals' own scale: noise-free
+/// data, whose tiny residuals are all structure, stay at 1. At least 1; 1 for cameras
+/// without a pixel angle.
+std::vector<double> NoiseCorrelation(const std::vector<ClusterTerm>& terms,
+                                     const std::vector<SurfaceCamera>& cameras,
+                                     const std::vector<PoseBlock>& poses,
+                                     const std::vector<PlaneBlock>& planes,
+                                     const IcpOptions& options) {
+  std::vector<double> squared_sums(cameras.size(), 0.0);
+  std::vector<int> pixels(cameras.size(), 0);
+  for (const ClusterTerm& t : terms) {
+    const SurfaceCamera& camera = cameras[t.camera];
+    if (!camera.ray_model || !(camera.pixel_angle > 0.0)) continue;
+    const Pose T = PoseFromParameters(poses[t.camera].data());
+    const Vec3 n = planes[t.plane].Normal();
+    Vec4 plane_camera;  // [R^T n; n^T t + d]
+    plane_camera << T.linear().transpose() * n, n.dot(T.translation()) + planes[t.plane].x(3);
+    const double tile = kCorrelationTilePx * camera.pixel_angle;
+    std::map<std::pair<long long, long long>, double> tile_sums;
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      const Vec3 a = p / p.z();
+      Vec4 b;
+      b << a, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model);
+      const double r = b.dot(plane_camera) / plane_camera(3) /
+                       InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m);
+      tile_sums[{static_cast<long long>(std::floor(a.x() / tile)),
+                 static_cast<long long>(std::floor(a.y() / tile))}] += r;
+      ++pixels[t.camera];
+    }
+    for (const auto& [key, sum] : tile_sums) squared_sums[t.camera] += sum * sum;
+  }
+  std::vector<double> correlation(cameras.size(), 1.0);
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (pixels[c] > 0) {
+      correlation[c] = std::max(1.0, squared_sums[c] / pixels[c]);
+    }
+  }
+  return correlation;
+}
+
+/// The pixels of every (camera, plane) with points (clusters not yet summed).
+std::vector<ClusterTerm> Clusters(const std::vector<SurfaceCamera>& cameras,
+                                  const MergedCloud& cloud,
+                                  const std::vector<SegmentedPlane>& planes) {
+  std::vector<ClusterTerm> terms;
+  for (size_t j = 0; j < planes.size(); ++j) {
+    std::vector<int> term_of(cameras.size(), -1);
+    for (const int s : planes[j].points) {
+      const auto [c, i] = cloud.source[s];
+      if (term_of[c] < 0) {
+        term_of[c] = static_cast<int>(terms.size());
+        terms.push_back({c, static_cast<int>(j), PlaneCluster{}, {}});
+      }
+      terms[term_of[c]].pixels.push_back(i);
+    }
+  }
+  return terms;
+}
+
+/// Keeps the pixels of each non-floor term whose predicted point lies within kWindowSigmas of
+/// the band's top (inside the points' own, wider, top: SurfaceCamera::points_top) and of the
+/// segmentation's floor margin; a term left with too few pixels goes.
+void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
+                           const std::vector<Pose>& poses, const std::vector<PlaneBlock>& planes,
+                           const PlaneSegmentationOptions& segmentation,
+                           std::vector<ClusterTerm>* terms) {
+  const double base = BaseVariance(segmentation);
+  std::vector<ClusterTerm> kept;
+  for (ClusterTerm& t : *terms) {
+    const SurfaceCamera& camera = cameras[t.camera];
+    if (planes[t.plane].floor || !camera.ray_model) {
+      kept.push_back(std::move(t));
+      continue;
+    }
+    const Pose& T = poses[t.camera];
+    const Vec3 n = planes[t.plane].Normal();
+    const double d = planes[t.plane].x(3);
+    std::vector<int> inside;
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      const Vec3 ray = T.linear() * (p / p.z());
+      const double z = RayPlaneDepth(T.translation(), ray, n, d);  // predicted depth
+      if (!std::isfinite(z) || z <= 0.0) continue;
+      const double y = T.translation().y() + z * ray.y();
+      const double sigma_v = VerticalSigma(camera, z, ray, base);
+      double bottom = camera.band_bottom;
+      if (segmentation.leveled_floor) {
+        bottom = std::max(bottom, std::min(segmentation.floor_margin_m,
+                                           segmentation.floor_margin_sigmas * sigma_v));
+      }
+      if (y >= bottom + kWindowSigmas * sigma_v && y <= PredictedTop(camera, sigma_v)) {
+        inside.push_back(i);
+      }
+    }
+    if (static_cast<int>(inside.size()) < segmentation.min_points_per_camera) continue;
+    t.pixels = std::move(inside);
+    kept.push_back(std::move(t));
+  }
+  *terms = std::move(kept);
+}
+
+/// The planes of the blocks.
+std::vector<SurfacePlane> PlaneList(const std::vector<PlaneBlock>& planes) {
+  std::vector<SurfacePlane> list;
+  for (const PlaneBlock& plane : planes) list.push_back({plane.Normal(), plane.x(3), plane.floor});
+  return list;
+}
+
+/// The terms' pixels assigned anew by their rays (registration/ray_membership.h).
+void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
+                  const std::vector<PlaneBlock>& planes,
+                  const PlaneSegmentationOptions& segmentation, int num_threads,
+                  std::vector<ClusterTerm>* terms) {
+  std::vector<SurfaceTerm> segmented;
+  for (ClusterTerm& t : *terms) segmented.push_back({t.camera, t.plane, std::move(t.pixels)});
+  terms->clear();
+  for (SurfaceTerm& t :
+       MembershipByRays(cameras, poses, PlaneList(planes), segmented, segmentation, num_threads)) {
+    terms->push_back({t.camera, t.plane, PlaneCluster{}, std::move(t.pixels)});
+  }
+}
+
+/// LevelOnFloor's Gauss-Newton: at most this many iterations, until a step is below
+/// kLevelStepRad (the start is a few hundredths of a degree off).
+constexpr int kLevelIterations = 20;
+constexpr double kLevelStepRad = 1e-12;
+
+/// `block` turned about world X and Z through its centre, its yaw and centre held, so that its
+/// pixels of `cluster` lie best on the plane `floor` (held): Gauss-Newton on the plane-cluster
+/// residual over the two tilt angles of the pose's tangent (core/pose.h).
+void LevelOnFloor(const PlaneCluster& cluster, bool ray_model, const Vec4& floor,
+                  PoseBlock* block) {
+  const std::unique_ptr<ceres::CostFunction> cost(PlaneClusterCost::Create(cluster, ray_model));
+  for (int iteration = 0; iteration < kLevelIterations; ++iteration) {
+    Vec4 r;
+    Eigen::Matrix<double, 4, kPoseAmbientSize, Eigen::RowMajor> J;
+    const double* parameters[2] = {block->data(), floor.data()};
+    double* jacobians[2] = {J.data(), nullptr};
+    if (!cost->Evaluate(parameters, r.data(), jacobians)) return;
+    Eigen::Matrix<double, kPoseAmbientSize, 6, Eigen::RowMajor> plus;
+    SharedPoseManifold()->PlusJacobian(block->data(), plus.data());
+    const Eigen::Matrix<double, 4, 6> J_tangent = J * plus;
+    Eigen::Matrix<double, 4, 2> J_tilt;
+    J_tilt << J_tangent.col(0), J_tangent.col(2);  // rotations about world X and Z
+    const Eigen::Vector2d step =
+        -(J_tilt.transpose() * J_tilt).ldlt().solve(J_tilt.transpose() * r);
+    if (!step.allFinite()) return;
+    Vec6 delta;
+    delta << step(0), 0.0, step(1), 0.0, 0.0, 0.0;
+    PoseBlock next;
+    SharedPoseManifold()->Plus(block->data(), delta.data(), next.data());
+    *block = next;
+    if (step.norm() < kLevelStepRad) return;
+  }
+}
+
+/// The reference leveled again on the bundle's floor: the cameras that are not free and see
+/// the leveled floor (the reference: a camera the joint solve could not link holds no pixels)
+/// are turned by LevelOnFloor on their floor pixels. Leveling fitted each camera's floor alone,
+/// with the feet of walls and boxes in it; the bundle's floor leaves them out and is shared by
+/// every camera. Marks them in `leveled`; returns the world correction C applied to the
+/// reference (T <- C T; the identity when none).
+Pose LevelReference(const std::vector<SurfaceCamera>& cameras,
+                    const std::vector<ClusterTerm>& terms, const std::vector<PlaneBlock>& planes,
+                    std::vector<PoseBlock>* blocks, std::vector<bool>* leveled) {
+  Pose correction = Pose::Identity();
+  for (const ClusterTerm& t : terms) {
+    const SurfaceCamera& camera = cameras[t.camera];
+    if (camera.free || !camera.floor_leveled || !planes[t.plane].floor) continue;
+    PoseBlock& block = (*blocks)[t.camera];
+    const Pose before = PoseFromParameters(block.data());
+    LevelOnFloor(t.cluster, camera.ray_model, planes[t.plane].x, &block);
+    correction = PoseFromParameters(block.data()) * before.inverse();
+    (*leveled)[t.camera] = true;
+  }
+  return correction;
+}
+
+/// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
+std::vector<bool> PlanesFixPose(const std::vector<ClusterTerm>& terms,
+                                const std::vector<PlaneBlock>& planes, size_t num_cameras) {
+  std::vector<Mat3> scatter(num_cameras, Mat3::Zero());
+  std::vector<int> count(num_cameras, 0);
+  for (const ClusterTerm& t : terms) {
+    const Vec3 n = planes[t.plane].Normal();
+    scatter[t.camera] += n * n.transpose();
+    ++count[t.camera];
+  }
+  std::vector<bool> fixed(num_cameras, false);
+  for (size_t c = 0; c < num_cameras; ++c) {
+    if (count[c] < kMinPlanesPerCamera) continue;
+    const Vec3 eigenvalues = Eigen::SelfAdjointEigenSolver<Mat3>(scatter[c]).eigenvalues();
+    fixed[c] = eigenvalues(0) >= kMinNormalSpread * eigenvalues(2);
+  }
+  return fixed;
+}
+
+/// Squared whitened residual of every term at the blocks.
+std::vector<double> TermCosts(const std::vector<ClusterTerm>& terms,
+                              const std::vector<SurfaceCamera>& cameras,
+                              const std::vector<PoseBlock>& poses,
+                              const std::vector<PlaneBlock>& planes) {
+  std::vector<double> costs;
+  for (const ClusterTerm& t : terms) {
+    const PlaneClusterCost cost(t.cluster.SquareRoot(), cameras[t.camera].ray_model);
+    const double* parameters[] = {poses[t.camera].data(), planes[t.plane].x.data()};
+    Vec4 r;
+    cost.Evaluate(parameters, r.data(), nullptr);
+    costs.push_back(r.squaredNorm());
+  }
+  return costs;
+}
+
+/// RMS whitened residual per camera ("plane thickness").
+std::vector<double> Thickness(const std::vector<ClusterTerm>& terms,
+                              const std::vector<double>& costs, size_t num_cameras) {
+  std::vector<double> sum(num_cameras, 0.0);
+  std::vector<int> pixels(num_cameras, 0);
+  for (size_t k = 0; k < terms.size(); ++k) {
+    sum[terms[k].camera] += costs[k];
+    pixels[terms[k].camera] += terms[k].cluster.Count();
+  }
+  std::vector<double> rms(num_cameras, 0.0);
+  for (size_t c = 0; c < num_cameras; ++c) {
+    if (pixels[c] > 0) rms[c] = std::sqrt(sum[c] / pixels[c]);
+  }
+  return rms;
+}
+
+SurfaceBundleObserver& Observer() {
+  static SurfaceBundleObserver observer;
+  return observer;
+}
+
+/// The last round's planes and pixels (SurfaceBundleResult::plane_list, terms).
+void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterTerm>& terms,
+               SurfaceBundleResult* result) {
+  result->plane_list = PlaneList(planes);
+  result->terms.clear();
+  for (const ClusterTerm& t : terms) result->terms.push_back({t.camera, t.plane, t.pixels});
+}
+
+SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                          int num_threads, const Log& log);
+
+}  // namespace
+
+void SetSurfaceBundleObserver(SurfaceBundleObserver observer) { Observer() = std::move(observer); }
+
+SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
+                                          const IcpOptions& options, int num_threads,
+                                          const Log& log) {
+  SurfaceBundleResult result = Solve(cameras, options, num_threads, log);
+  if (Observer()) Observer()(cameras, result);
+  return result;
+}
+
+namespace {
+
+SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                          int num_threads, const Log& log) {
+  const size_t n = cameras.size();
+  SurfaceBundleResult result;
+  result.fallback.assign(n, false);
+  result.leveled.assign(n, false);
+  result.covariance.assign(n, Mat6::Zero());
+  result.thickness_before.assign(n, 0.0);
+  result.thickness_after.assign(n, 0.0);
+  std::vector<Pose> poses(n);
+  std::vector<PoseBlock> blocks(n);
+  for (size_t c = 0; c < n; ++c) {
+    poses[c] = cameras[c].T_world_camera;
+    PoseToParameters(poses[c], blocks[c].data());
+  }
+  result.poses = poses;
+
+  ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
+  ceres::SubsetManifold floor_manifold(4, {0, 1, 2});  // the floor's normal stays +Y
+  std::unique_ptr<ceres::Problem> problem;
+  std::vector<ClusterTerm> terms;
+  std::vector<PlaneBlock> planes;
+  const int rounds = std::max(1, options.surface_rounds);
+  // The noise correlation the current terms are weighted with, and the one measured at the
+  // last solve (for the next round's terms).
+  std::vector<double> correlation(n, 1.0);
+  std::vector<double> measured(n, 1.0);
+
+  // Solves poses and planes over the terms; false when Ceres fails (summary says why).
+  ceres::Solver::Summary summary;
+  std::vector<bool> fixed;
+  // The correction of the world that LevelReference applied to the reference: the start's
+  // poses, which the joint solve found against the reference's leveled pose, move with it
+  // where the start holds a direction (a camera that keeps its joint pose stays where it is:
+  // moving it too changed nothing on the held-out seed that has one).
+  Pose gauge = Pose::Identity();
+  const auto solve = [&](const std::vector<Mat6>& priors) {
+    problem = NewProblem();
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (size_t c = 0; c < n; ++c) {
+      problem->AddParameterBlock(blocks[c].data(), kPoseAmbientSize, SharedPoseManifold());
+      ordering->AddElementToGroup(blocks[c].data(), 1);
+      result.fallback[c] = cameras[c].free && !fixed[c];
+      if (!cameras[c].free || result.fallback[c]) {
+        problem->SetParameterBlockConstant(blocks[c].data());
+      }
+    }
+    for (PlaneBlock& plane : planes) {
+      problem->AddParameterBlock(
+          plane.x.data(), 4,
+          plane.floor ? static_cast<ceres::Manifold*>(&floor_manifold) : &plane_manifold);
+      ordering->AddElementToGroup(plane.x.data(), 0);
+    }
+    for (const ClusterTerm& t : terms) {
+      problem->AddResidualBlock(PlaneClusterCost::Create(t.cluster, cameras[t.camera].ray_model),
+                                nullptr, blocks[t.camera].data(), planes[t.plane].x.data());
+    }
+    if (options.gravity_weight > 0.0) {
+      for (size_t c = 0; c < n; ++c) {
+        if (!cameras[c].free || result.fallback[c]) continue;
+        problem->AddResidualBlock(
+            GravityPriorCost::Create(cameras[c].T_world_leveled.linear(), options.gravity_weight),
+            nullptr, blocks[c].data());
+      }
+    }
+    for (size_t c = 0; c < n; ++c) {
+      if (priors.empty() || priors[c].isZero() || !cameras[c].free || result.fallback[c]) continue;
+      const Pose T0 = gauge * cameras[c].T_world_camera;
+      problem->AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
+              new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
+          nullptr, blocks[c].data());
+    }
+    ceres::Solver::Options solver_options;
+    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+    solver_options.linear_solver_ordering = ordering;
+    solver_options.max_num_iterations = kIterationsPerRound;
+    // One thread: Ceres' Schur eliminator adds the chunks of a multi-threaded elimination
+    // in whatever order the threads finish, so the last digits of the poses changed from
+    // run to run; the reduced problem (a few hundred 4-dimensional blocks) is small.
+    solver_options.num_threads = 1;
+    solver_options.logging_type = ceres::SILENT;
+    summary = ceres::Solver::Summary{};
+    ceres::Solve(solver_options, problem.get(), &summary);
+    return summary.IsSolutionUsable();
+  };
+
+  for (int round = 0; round < rounds; ++round) {
+    const MergedCloud cloud = Merge(cameras, poses);
+    PlaneSegmentationOptions segmentation;
+    segmentation.voxel_size = options.voxel_size;
+    segmentation.min_noise_m = options.min_noise_m;
+    segmentation.leveled_floor =
+        std::any_of(cameras.begin(), cameras.end(),
+                    [](const SurfaceCamera& camera) { return camera.floor_leveled; });
+    segmentation.model_sigma_voxels =
+        kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
+    const std::vector<SegmentedPlane> segmented =
+        SegmentPlanes(cloud.points, static_cast<int>(n), segmentation);
+    if (segmented.empty()) {
+      result.message = "surface bundle: no plane is seen by two cameras";
+      break;
+    }
+    planes.clear();
+    for (const SegmentedPlane& s : segmented) {
+      planes.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
+    }
+    terms = Clusters(cameras, cloud, segmented);
+    PredictedHeightWindow(cameras, poses, planes, segmentation, &terms);
+    // The last round's pixels by their rays, from the segmentation at the poses of the
+    // previous rounds' solves.
+    if (round == rounds - 1) {
+      AssignByRays(cameras, poses, planes, segmentation, num_threads, &terms);
+    }
+    correlation = measured;
+    FillClusters(cameras, options, correlation, &terms);
+    if (round == 0) {
+      result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
+    }
+    fixed = PlanesFixPose(terms, planes, n);
+    const bool ok = solve({});
+    if (!ok) {
+      // The previous round's poses stand (the start's in the first round).
+      result.message = "surface bundle: " + summary.message;
+      result.poses = poses;
+      return result;
+    }
+    gauge = LevelReference(cameras, terms, planes, &blocks, &result.leveled) * gauge;
+    for (size_t c = 0; c < n; ++c) poses[c] = PoseFromParameters(blocks[c].data());
+    measured = NoiseCorrelation(terms, cameras, blocks, planes, options);
+    int pixels = 0;
+    for (const ClusterTerm& t : terms) pixels += t.cluster.Count();
+    result.planes = static_cast<int>(planes.size());
+    result.pixels = pixels;
+    result.rounds = round + 1;
+    result.usable = true;
+    if (Observer()) RecordUse(planes, terms, &result);
+    log.Debug("surface bundle: round " + std::to_string(round) + ": " +
+              std::to_string(planes.size()) + " planes, " + std::to_string(pixels) +
+              " pixels, cost " + Fixed(2.0 * summary.final_cost / std::max(pixels, 1), 4) +
+              " per pixel, " + std::to_string(summary.iterations.size()) + " iterations");
+    std::string measured_text;
+    for (const double m : measured) measured_text += " " + Fixed(m, 1);
+    log.Debug("surface bundle: noise correlation per camera" + measured_text);
+  }
+  if (!result.usable) return result;
+  result.poses = poses;
+  result.noise_correlation = correlation;
+
+  // The noise scale, the thickness and the poses' covariance (planes marginalised) at the
+  // blocks.
+  const auto statistics = [&] {
+    // Each pixel's own squared whitened residual, without the correlation's weight.
+    std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
+    for (size_t k = 0; k < terms.size(); ++k) costs[k] *= correlation[terms[k].camera];
+    result.thickness_after = Thickness(terms, costs, n);
+    int parameters = 0;
+    for (size_t c = 0; c < n; ++c) {
+      if (cameras[c].free && !result.fallback[c]) parameters += 6;
+    }
+    for (const PlaneBlock& plane : planes) parameters += plane.floor ? 1 : 3;
+    double total = 0.0;
+    for (const double cost : costs) total += cost;
+    const int dof = result.pixels - parameters;
+    result.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
+    std::vector<double*> free_poses, plane_blocks;
+    std::vector<size_t> free_cameras;
+    for (size_t c = 0; c < n; ++c) {
+      if (!cameras[c].free || result.fallback[c]) continue;
+      free_poses.push_back(blocks[c].data());
+      free_cameras.push_back(c);
+    }
+    for (PlaneBlock& plane : planes) plane_blocks.push_back(plane.x.data());
+    // The noise model's covariance, scaled by the residuals' spread, raised where the planes'
+    // residuals scatter more than it says (the cluster-robust covariance: each plane's model
+    // error and wrong pixels, which the noise model does not know).
+    Eigen::MatrixXd robust;
+    Eigen::MatrixXd covariance =
+        MarginalPoseCovariance(problem.get(), free_poses, plane_blocks, &robust);
+    result.covariance_ok = covariance.size() > 0;
+    if (!result.covariance_ok) return;
+    covariance *= result.noise_scale * result.noise_scale;
+    if (robust.size() > 0 && result.noise_scale > 0.0) {
+      covariance = CovarianceAtLeast(covariance, robust);
+    }
+    for (size_t k = 0; k < free_cameras.size(); ++k) {
+      result.covariance[free_cameras[k]] = covariance.block<6, 6>(6 * k, 6 * k);
+    }
+  };
+  statistics();
+
+  // Planes do not see their own boundaries, which the joint point-to-plane solve (the start)
+  // does: along the directions where the planes know a camera's pose less well than the start
+  // does, the start enters as a prior with its covariance, and the last round is solved again.
+  if (!result.covariance_ok) return result;
+  std::vector<Mat6> priors(n, Mat6::Zero());
+  int held = 0;
+  for (size_t c = 0; c < n; ++c) {
+    if (!cameras[c].free || result.fallback[c] || cameras[c].start_covariance.isZero()) continue;
+    int directions = 0;
+    priors[c] = WeakDirectionPrior(cameras[c].start_covariance, result.covariance[c], &directions);
+    held += directions;
+  }
+  if (held == 0) return result;
+  log.Debug("surface bundle: the start holds " + std::to_string(held) + " weak directions");
+  if (!solve(priors)) {
+    result.message = "surface bundle: " + summary.message;
+    return result;
+  }
+  for (size_t c = 0; c < n; ++c) result.poses[c] = PoseFromParameters(blocks[c].data());
+  statistics();
+  return result;
+}
+
+}  // namespace
+}  // namespace rigfit

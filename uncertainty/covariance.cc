@@ -1,0 +1,377 @@
+#include "uncertainty/covariance.h"
+
+#include <ceres/crs_matrix.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <stdexcept>
+#include <type_traits>
+
+#include "core/parallel.h"
+#include "core/pose.h"
+#include "residuals/gicp.h"
+#include "residuals/point_to_plane.h"
+
+namespace rigfit {
+
+void EvaluateJacobian(ceres::Problem* problem, const std::vector<double*>& blocks,
+                      const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                      std::vector<double>* residuals, ceres::CRSMatrix* J) {
+  ceres::Problem::EvaluateOptions eval;
+  eval.parameter_blocks = blocks;
+  eval.residual_blocks = residual_blocks;
+  eval.apply_loss_function = false;
+  std::vector<double*> made_variable;
+  for (double* block : blocks) {
+    if (!problem->IsParameterBlockConstant(block)) continue;
+    problem->SetParameterBlockVariable(block);
+    made_variable.push_back(block);
+  }
+  problem->Evaluate(eval, nullptr, residuals, nullptr, J);
+  for (double* block : made_variable) problem->SetParameterBlockConstant(block);
+}
+
+Eigen::MatrixXd InverseOrEmpty(const Eigen::MatrixXd& H) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(H);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  if (!(lambda.minCoeff() > 1e-12 * lambda.maxCoeff())) return {};
+  return eig.eigenvectors() * lambda.cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+}
+
+namespace {
+
+/// J^T J of a sparse Jacobian (dense, J.num_cols square).
+Eigen::MatrixXd Gram(const ceres::CRSMatrix& J) {
+  Eigen::MatrixXd JtJ = Eigen::MatrixXd::Zero(J.num_cols, J.num_cols);
+  for (int row = 0; row < J.num_rows; ++row) {
+    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+      for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
+        JtJ(J.cols[a], J.cols[b]) += J.values[a] * J.values[b];
+      }
+    }
+  }
+  return JtJ;
+}
+
+}  // namespace
+
+Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>& blocks,
+                            const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                            bool scale_by_residuals) {
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
+  const Eigen::MatrixXd JtJ = Gram(J);
+  if (!scale_by_residuals) return JtJ;
+  double sum_sq = 0.0;
+  for (double r : residuals) sum_sq += r * r;
+  const double dof = static_cast<double>(residuals.size()) - J.num_cols;
+  if (dof <= 0.0 || sum_sq <= 0.0) return JtJ;
+  return JtJ / (sum_sq / dof);
+}
+
+Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
+                                       const std::vector<double*>& nuisance,
+                                       Eigen::MatrixXd* robust) {
+  if (robust != nullptr) robust->resize(0, 0);
+  if (poses.empty()) return {};
+  std::vector<double*> blocks = poses;
+  blocks.insert(blocks.end(), nuisance.begin(), nuisance.end());
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  problem->GetResidualBlocks(&residual_blocks);
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
+  const int p = 6 * static_cast<int>(poses.size());
+  // Nuisance block j holds the columns [start[j], start[j + 1]).
+  std::vector<int> start(nuisance.size() + 1, p);
+  std::vector<int> block_of(J.num_cols - p);
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    start[j + 1] = start[j] + problem->ParameterBlockTangentSize(nuisance[j]);
+    std::fill(block_of.begin() + (start[j] - p), block_of.begin() + (start[j + 1] - p), j);
+  }
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
+  std::vector<Eigen::MatrixXd> B(nuisance.size()), D(nuisance.size());
+  // For `robust`: per nuisance block, its rows' pose information A_j and gradients g_pose
+  // (poses) and g_block (the block); the information of the rows without one, P.
+  const bool clusters = robust != nullptr;
+  std::vector<Eigen::MatrixXd> A_own(clusters ? nuisance.size() : 0);
+  std::vector<Eigen::VectorXd> g_pose(A_own.size()), g_block(A_own.size());
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(p, p);
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    B[j] = Eigen::MatrixXd::Zero(p, start[j + 1] - start[j]);
+    D[j] = Eigen::MatrixXd::Zero(start[j + 1] - start[j], start[j + 1] - start[j]);
+    if (!clusters) continue;
+    A_own[j] = Eigen::MatrixXd::Zero(p, p);
+    g_pose[j] = Eigen::VectorXd::Zero(p);
+    g_block[j] = Eigen::VectorXd::Zero(start[j + 1] - start[j]);
+  }
+  for (int row = 0; row < J.num_rows; ++row) {
+    int cluster = -1;  // the row's nuisance block
+    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+      if (J.cols[a] < p) continue;
+      const int j = block_of[J.cols[a] - p];
+      if (cluster >= 0 && j != cluster) {
+        throw std::logic_error(
+            "MarginalPoseCovariance: a residual block holds two nuisance blocks");
+      }
+      cluster = j;
+    }
+    if (clusters && cluster >= 0) {
+      for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+        const int ca = J.cols[a];
+        if (ca < p) {
+          g_pose[cluster](ca) += J.values[a] * residuals[row];
+        } else {
+          g_block[cluster](ca - start[cluster]) += J.values[a] * residuals[row];
+        }
+      }
+    }
+    // Where the row's pose information also goes for `robust`: its cluster's A_j, or P.
+    Eigen::MatrixXd* own = !clusters ? nullptr : cluster >= 0 ? &A_own[cluster] : &P;
+    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+      const int ca = J.cols[a];
+      for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
+        const int cb = J.cols[b];
+        const double v = J.values[a] * J.values[b];
+        if (cb < p) {
+          if (ca < p) A(ca, cb) += v;  // ca >= p: the transpose of B's entry below
+          if (ca < p && own != nullptr) (*own)(ca, cb) += v;
+        } else if (ca < p) {
+          const int j = block_of[cb - p];
+          B[j](ca, cb - start[j]) += v;
+        } else {
+          const int j = block_of[ca - p];  // the row's only one (checked above)
+          D[j](ca - start[j], cb - start[j]) += v;
+        }
+      }
+    }
+  }
+  std::vector<Eigen::VectorXd> scores;
+  std::vector<Eigen::MatrixXd> leverages;  // L_j
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    if (D[j].isZero(0.0) && B[j].isZero(0.0)) continue;  // in no residual block
+    const Eigen::MatrixXd D_inverse = InverseOrEmpty(D[j]);
+    if (D_inverse.size() == 0) return {};
+    const Eigen::MatrixXd reduction = B[j] * D_inverse * B[j].transpose();
+    A -= reduction;
+    // A block only fixed cameras see tells nothing of the poses: not a cluster.
+    if (!clusters || B[j].isZero(0.0)) continue;
+    scores.push_back(g_pose[j] - B[j] * (D_inverse * g_block[j]));
+    leverages.push_back(A_own[j] - reduction);
+  }
+  const Eigen::MatrixXd covariance = InverseOrEmpty(A);
+  if (!clusters || covariance.size() == 0 || scores.size() < 2) return covariance;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> C(covariance);
+  const Eigen::MatrixXd S = C.eigenvectors() *
+                            C.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
+                            C.eigenvectors().transpose();
+  Eigen::MatrixXd sum = covariance * P * covariance;
+  for (size_t j = 0; j < scores.size(); ++j) {
+    const Eigen::MatrixXd M = Eigen::MatrixXd::Identity(p, p) - S * leverages[j] * S;
+    const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> m(0.5 * (M + M.transpose()));
+    constexpr double kMinRemaining = 0.01;  // leverage at most 0.99
+    const Eigen::VectorXd d =
+        S *
+        (m.eigenvectors() *
+         m.eigenvalues().cwiseMax(kMinRemaining).cwiseSqrt().cwiseInverse().asDiagonal() *
+         m.eigenvectors().transpose()) *
+        S * scores[j];
+    sum += d * d.transpose();
+  }
+  *robust = sum;
+  return covariance;
+}
+
+Eigen::MatrixXd CovarianceAtLeast(const Eigen::MatrixXd& model, const Eigen::MatrixXd& other) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> m(model);
+  if (!(m.eigenvalues().minCoeff() > 0.0)) {
+    throw std::invalid_argument("CovarianceAtLeast: the model covariance is not positive definite");
+  }
+  const Eigen::VectorXd root = m.eigenvalues().cwiseSqrt();
+  const Eigen::MatrixXd half = m.eigenvectors() * root.asDiagonal();  // model = half half^T
+  const Eigen::MatrixXd half_inverse =
+      root.cwiseInverse().asDiagonal() * m.eigenvectors().transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> w(half_inverse * other *
+                                                         half_inverse.transpose());
+  const Eigen::MatrixXd raised = half * w.eigenvectors() *
+                                 w.eigenvalues().cwiseMax(1.0).asDiagonal() *
+                                 w.eigenvectors().transpose() * half.transpose();
+  return 0.5 * (raised + raised.transpose());
+}
+
+namespace {
+
+/// One term linearised at the views' poses: its whitened Jacobians with respect to the
+/// tangents of the source and target poses, and with respect to the source and target points
+/// (their camera frames).
+template <typename Term>
+struct Linearised {
+  static constexpr int kRows = Term::kNumResiduals;
+  Eigen::Matrix<double, kRows, 6> J_source, J_target;
+  Eigen::Matrix<double, kRows, 3> D_source, D_target;
+};
+
+/// The term's linearisation at the views' pose blocks; plus_* are the blocks' PlusJacobians
+/// and R_* their rotations.
+template <typename Term>
+Linearised<Term> Linearise(const Term& term, const CameraView& source, const CameraView& target,
+                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_source,
+                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_target,
+                           const Mat3& R_source, const Mat3& R_target) {
+  constexpr int kRows = Term::kNumResiduals;
+  double r[kRows];
+  Eigen::Matrix<double, kRows, 7, Eigen::RowMajor> Ja, Jb;
+  term.Evaluate(source.pose_block, target.pose_block, r, Ja.data(), Jb.data());
+  Linearised<Term> l;
+  l.J_source = Ja * plus_source;
+  l.J_target = Jb * plus_target;
+  // r depends on p through T_source p and on q through T_target q only (both methods), so
+  // its derivative with respect to a point is that with respect to the pose's translation
+  // (the point in the world) times the pose's rotation.
+  l.D_source = Ja.template rightCols<3>() * R_source;
+  l.D_target = Jb.template rightCols<3>() * R_target;
+  return l;
+}
+
+/// M_uw += A_u^T B_w for the free views u, w (6 x 6 blocks at their columns).
+template <typename A, typename B>
+void AddBlock(Eigen::MatrixXd* M, int u, int w, const A& a, const B& b) {
+  if (u < 0 || w < 0) return;
+  M->block<6, 6>(u, w) += a.transpose() * b;
+}
+
+template <typename Term, typename MakeTerm>
+Eigen::MatrixXd SharedNoise(const std::vector<CameraView>& views, const std::vector<int>& column,
+                            const std::vector<MatchedViews>& terms, const IcpOptions& options,
+                            const Eigen::MatrixXd& prior_information, const MakeTerm& make_term,
+                            double term_floor_share, double point_floor_share, int num_threads) {
+  using Plus = Eigen::Matrix<double, 7, 6, Eigen::RowMajor>;
+  using Score = Eigen::Matrix<double, 6, 3>;
+  const size_t n = views.size();
+  std::vector<Plus> plus(n);
+  std::vector<Mat3> rotation(n);
+  for (size_t v = 0; v < n; ++v) {
+    SharedPoseManifold()->PlusJacobian(views[v].pose_block, plus[v].data());
+    rotation[v] = PoseFromParameters(views[v].pose_block).linear();
+  }
+  const auto index = [&](const CameraView* view) {
+    return static_cast<size_t>(view - views.data());
+  };
+  const double floor2 = options.min_noise_m * options.min_noise_m;
+  const int free = static_cast<int>(prior_information.rows()) / 6;
+  // Per view v (in parallel): the information H and independent noise of the terms whose
+  // source is v, and the points' shared noise of v's points: s_p per free view w, the sum of
+  // J_w^T D_p over the terms of point p, then M += s_p C_p s_p^T blockwise, as
+  // (s_p L)(s_p L)^T with L L^T = C_p = PointNoise.
+  std::vector<Eigen::MatrixXd> H(
+      n, Eigen::MatrixXd::Zero(prior_information.rows(), prior_information.cols()));
+  std::vector<Eigen::MatrixXd> M = H;
+  ParallelFor(
+      static_cast<int>(n), num_threads,
+      [&](int v) {
+        const CameraView& view = views[v];
+        const size_t count = view.level->points.size();
+        std::vector<Score> scores;  // [point * free + free index of the view]
+        for (const MatchedViews& m : terms) {
+          const size_t s = index(m.source), t = index(m.target);
+          if (s != static_cast<size_t>(v) && t != static_cast<size_t>(v)) continue;
+          if (scores.empty()) scores.assign(count * free, Score::Zero());
+          const int cs = column[s], ct = column[t];
+          // Adds J^T D to the score of point i for the free view at column c.
+          const auto score = [&](size_t i, int c, const auto& J, const auto& D) {
+            if (c >= 0) scores[i * free + c / 6] += J.transpose() * D;
+          };
+          for (const Correspondence& c : *m.matches) {
+            const Term term = make_term(*m.source, *m.target, c);
+            const Linearised<Term> l =
+                Linearise(term, *m.source, *m.target, plus[s], plus[t], rotation[s], rotation[t]);
+            if (s == static_cast<size_t>(v)) {
+              // Each term once, with its source's view.
+              AddBlock(&H[v], cs, cs, l.J_source, l.J_source);
+              AddBlock(&H[v], cs, ct, l.J_source, l.J_target);
+              AddBlock(&H[v], ct, cs, l.J_target, l.J_source);
+              AddBlock(&H[v], ct, ct, l.J_target, l.J_target);
+              if constexpr (std::is_same_v<Term, PointToPlaneTerm>) {
+                // The term's own floor, whitened: floor^2 / sigma^2, sigma = 1 / |n| of the
+                // whitened normal.
+                const double f = term_floor_share * floor2 * term.normal_b.squaredNorm();
+                AddBlock(&M[v], cs, cs, f * l.J_source, l.J_source);
+                AddBlock(&M[v], cs, ct, f * l.J_source, l.J_target);
+                AddBlock(&M[v], ct, cs, f * l.J_target, l.J_source);
+                AddBlock(&M[v], ct, ct, f * l.J_target, l.J_target);
+              }
+              score(c.source, cs, l.J_source, l.D_source);
+              score(c.source, ct, l.J_target, l.D_source);
+            }
+            if (t == static_cast<size_t>(v)) {
+              score(c.target, cs, l.J_source, l.D_target);
+              score(c.target, ct, l.J_target, l.D_target);
+            }
+          }
+        }
+        if (scores.empty()) return;
+        std::vector<Score> factors(free);
+        std::vector<int> used;
+        for (size_t i = 0; i < count; ++i) {
+          const Mat3 C = PointNoise(view, view.level->points[i], options, point_floor_share);
+          const Eigen::LLT<Mat3> llt(C);
+          Mat3 L = llt.matrixL();
+          if (llt.info() != Eigen::Success || !L.allFinite()) {
+            // Singular (no depth noise, or no plane share): L = V sqrt(lambda).
+            Eigen::SelfAdjointEigenSolver<Mat3> eig;
+            eig.computeDirect(C);
+            L = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+          }
+          used.clear();
+          for (int w = 0; w < free; ++w) {
+            if (scores[i * free + w].isZero(0.0)) continue;
+            factors[w] = scores[i * free + w] * L;
+            used.push_back(w);
+          }
+          for (int u : used) {
+            for (int w : used)
+              M[v].block<6, 6>(6 * u, 6 * w) += factors[u] * factors[w].transpose();
+          }
+        }
+      },
+      /*min_per_thread=*/1);
+  Eigen::MatrixXd H_total = prior_information;
+  Eigen::MatrixXd M_total = prior_information;
+  for (size_t v = 0; v < n; ++v) {
+    H_total += H[v];
+    M_total += M[v];
+  }
+  const Eigen::MatrixXd H_inverse = InverseOrEmpty(H_total);
+  if (H_inverse.size() == 0) return {};
+  Eigen::MatrixXd covariance = H_inverse * M_total * H_inverse;
+  if (!covariance.allFinite()) return {};
+  return covariance;
+}
+
+}  // namespace
+
+Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
+                                      const std::vector<int>& column,
+                                      const std::vector<MatchedViews>& terms,
+                                      const IcpOptions& options,
+                                      const Eigen::MatrixXd& prior_information, int num_threads) {
+  if (prior_information.rows() == 0 || terms.empty()) return {};
+  if (options.method == RegistrationMethod::kGicp) {
+    return SharedNoise<GicpTerm>(
+        views, column, terms, options, prior_information,
+        [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
+          return MakeGicpTerm(s, t, c, options);
+        },
+        /*term_floor_share=*/0.0, /*point_floor_share=*/0.5, num_threads);
+  }
+  return SharedNoise<PointToPlaneTerm>(
+      views, column, terms, options, prior_information,
+      [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
+        return MakePointToPlaneTerm(s, t, c, options);
+      },
+      /*term_floor_share=*/1.0, /*point_floor_share=*/0.0, num_threads);
+}
+
+}  // namespace rigfit
