@@ -134,71 +134,132 @@ BoundFaces::BoundFaces(const std::vector<FacePixels>& cameras, size_t num_faces)
 
 namespace {
 
-/// ComputeSurfaceCramerRaoBound's covariance under correlated noise: per camera, the rays a_i
-/// of its counted pixels, three columns per face (the face's indicator times each component),
-/// give G = A^T S^-1 A (CorrelatedGram); since w_i = e_f^T a_i on face f (e_f = -n_c / d_c),
-/// b_i = E_f a_i with E_f = [I; e_f^T], and the information of the stacked per-face
-/// residual vectors pi_c / d_c (PlaneClusterCost with L = I: w_i - h_i = b_i^T pi_c / d_c) is
-/// E G E^T / k^2. The faces are eliminated densely. Empty with a message on failure.
-Eigen::MatrixXd CorrelatedPoseCovariance(
-    const std::vector<FacePixels>& cameras, const std::vector<PlanarFace>& faces,
-    const BoundFaces& counted, const PoseMap& T_true, double depth_noise,
-    const CorrelatedNoiseModel& correlated, int num_threads, ceres::Problem* problem,
-    std::vector<std::array<double, kPoseAmbientSize>>& poses, std::vector<Vec4>& planes,
-    const std::vector<double*>& free_blocks, const std::vector<double*>& plane_blocks,
-    std::string* message) {
-  std::vector<ceres::ResidualBlockId> residual_blocks;
-  std::vector<Eigen::MatrixXd> weights;  // per camera: 4 F_c x 4 F_c
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    const FacePixels& camera = cameras[c];
-    if (camera.pixels.size() != camera.points.size()) {
-      *message = "correlated noise needs every point's pixel (camera " + camera.serial + ")";
-      return {};
-    }
-    std::vector<int> slot(faces.size(), -1), seen, rows;
-    for (size_t i = 0; i < camera.points.size(); ++i) {
-      const int f = camera.faces[i];
-      if (!counted.Counts(c, f)) continue;
-      if (slot[f] < 0) {
-        slot[f] = static_cast<int>(seen.size());
-        seen.push_back(f);
-      }
-      rows.push_back(static_cast<int>(i));
-    }
-    if (seen.empty()) continue;
-    std::vector<Eigen::Vector2i> pixels(rows.size());
-    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows.size()),
-                                              3 * static_cast<Eigen::Index>(seen.size()));
-    for (size_t k = 0; k < rows.size(); ++k) {
-      const Vec3& p = camera.points[rows[k]];
-      pixels[k] = camera.pixels[rows[k]];
-      A.block<1, 3>(static_cast<Eigen::Index>(k), 3 * slot[camera.faces[rows[k]]]) =
-          (p / p.z()).transpose();
-    }
-    const Eigen::MatrixXd G = CorrelatedGram(pixels, A, correlated, num_threads);
-    if (G.size() == 0) {
-      *message = "the correlated noise's solve did not converge (camera " + camera.serial + ")";
-      return {};
-    }
-    const Pose& T = T_true.at(camera.serial);
-    Eigen::MatrixXd E = Eigen::MatrixXd::Zero(4 * G.rows() / 3, G.rows());
-    for (size_t s = 0; s < seen.size(); ++s) {
-      const PlanarFace& face = faces[seen[s]];
-      const Vec3 n_c = T.linear().transpose() * face.normal;
-      const double d_c = face.normal.dot(T.translation()) + face.offset;
-      E.block<3, 3>(4 * s, 3 * s).setIdentity();
-      E.block<1, 3>(4 * s + 3, 3 * s) = -n_c.transpose() / d_c;
-      residual_blocks.push_back(
-          problem->AddResidualBlock(new PlaneClusterCost(Mat4::Identity(), true), nullptr,
-                                    poses[c].data(), planes[seen[s]].data()));
-    }
-    weights.push_back(E * G * E.transpose() / (depth_noise * depth_noise));
+/// The joint problem of the surface bound: every camera's pose at the truth (the reference
+/// constant) and every used face's plane.
+struct SurfaceBoundProblem {
+  std::vector<std::array<double, kPoseAmbientSize>> poses;
+  std::vector<Vec4> planes;
+  ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
+  ceres::SubsetManifold floor_manifold{4, {0, 1, 2}};
+  std::unique_ptr<ceres::Problem> problem = NewProblem();
+  std::vector<double*> free_blocks;
+  std::vector<double*> plane_blocks;
+
+  /// The serials of the free cameras go to `serials`.
+  SurfaceBoundProblem(const std::vector<FacePixels>& cameras, const std::vector<PlanarFace>& faces,
+                      const BoundFaces& counted, const PoseMap& T_true,
+                      const std::string& reference, std::vector<std::string>* serials);
+};
+
+SurfaceBoundProblem::SurfaceBoundProblem(const std::vector<FacePixels>& cameras,
+                                         const std::vector<PlanarFace>& faces,
+                                         const BoundFaces& counted, const PoseMap& T_true,
+                                         const std::string& reference,
+                                         std::vector<std::string>* serials)
+    : poses(cameras.size()), planes(faces.size()) {
+  for (size_t f = 0; f < faces.size(); ++f) {
+    planes[f] << faces[f].normal, faces[f].offset;
   }
-  std::vector<double*> blocks = free_blocks;
-  blocks.insert(blocks.end(), plane_blocks.begin(), plane_blocks.end());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    PoseToParameters(T_true.at(cameras[c].serial), poses[c].data());
+    problem->AddParameterBlock(poses[c].data(), kPoseAmbientSize, SharedPoseManifold());
+    if (cameras[c].serial == reference) {
+      problem->SetParameterBlockConstant(poses[c].data());
+    } else {
+      serials->push_back(cameras[c].serial);
+      free_blocks.push_back(poses[c].data());
+    }
+  }
+  for (size_t f = 0; f < faces.size(); ++f) {
+    if (!counted.used[f]) continue;
+    problem->AddParameterBlock(
+        planes[f].data(), 4,
+        faces[f].floor ? static_cast<ceres::Manifold*>(&floor_manifold) : &plane_manifold);
+  }
+  for (size_t f = 0; f < faces.size(); ++f) {
+    if (counted.used[f]) plane_blocks.push_back(planes[f].data());
+  }
+}
+
+/// What the correlated-noise covariance reads besides the problem.
+struct CorrelatedBoundInputs {
+  const std::vector<FacePixels>& cameras;
+  const std::vector<PlanarFace>& faces;
+  const BoundFaces& counted;
+  const PoseMap& T_true;
+  double depth_noise;
+  const CorrelatedNoiseModel& correlated;
+  int num_threads;
+};
+
+/// One camera's counted pixels: their rows and the faces they are on (`seen`, in order of
+/// first appearance; slot[f] is face f's place in it).
+struct CountedRows {
+  std::vector<int> slot, seen, rows;
+};
+
+CountedRows CountedRowsOf(const FacePixels& camera, size_t c, size_t num_faces,
+                          const BoundFaces& counted) {
+  CountedRows out;
+  out.slot.assign(num_faces, -1);
+  for (size_t i = 0; i < camera.points.size(); ++i) {
+    const int f = camera.faces[i];
+    if (!counted.Counts(c, f)) continue;
+    if (out.slot[f] < 0) {
+      out.slot[f] = static_cast<int>(out.seen.size());
+      out.seen.push_back(f);
+    }
+    out.rows.push_back(static_cast<int>(i));
+  }
+  return out;
+}
+
+/// Camera c's weight E G E^T / k^2 over its faces' residual blocks (added to the problem), or
+/// empty with a message.
+Eigen::MatrixXd CameraWeight(const CorrelatedBoundInputs& in, size_t c, const CountedRows& counted,
+                             SurfaceBoundProblem* bound,
+                             std::vector<ceres::ResidualBlockId>* residual_blocks,
+                             std::string* message) {
+  const FacePixels& camera = in.cameras[c];
+  const std::vector<int>& rows = counted.rows;
+  std::vector<Eigen::Vector2i> pixels(rows.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows.size()),
+                                            3 * static_cast<Eigen::Index>(counted.seen.size()));
+  for (size_t k = 0; k < rows.size(); ++k) {
+    const Vec3& p = camera.points[rows[k]];
+    pixels[k] = camera.pixels[rows[k]];
+    A.block<1, 3>(static_cast<Eigen::Index>(k), 3 * counted.slot[camera.faces[rows[k]]]) =
+        (p / p.z()).transpose();
+  }
+  const Eigen::MatrixXd G = CorrelatedGram(pixels, A, in.correlated, in.num_threads);
+  if (G.size() == 0) {
+    *message = "the correlated noise's solve did not converge (camera " + camera.serial + ")";
+    return {};
+  }
+  const Pose& T = in.T_true.at(camera.serial);
+  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(4 * G.rows() / 3, G.rows());
+  for (size_t s = 0; s < counted.seen.size(); ++s) {
+    const PlanarFace& face = in.faces[counted.seen[s]];
+    const Vec3 n_c = T.linear().transpose() * face.normal;
+    const double d_c = face.normal.dot(T.translation()) + face.offset;
+    E.block<3, 3>(4 * s, 3 * s).setIdentity();
+    E.block<1, 3>(4 * s + 3, 3 * s) = -n_c.transpose() / d_c;
+    residual_blocks->push_back(bound->problem->AddResidualBlock(
+        new PlaneClusterCost(Mat4::Identity(), true), nullptr, bound->poses[c].data(),
+        bound->planes[counted.seen[s]].data()));
+  }
+  return E * G * E.transpose() / (in.depth_noise * in.depth_noise);
+}
+
+/// sum_c J_c^T W_c J_c over the cameras' stacked rows (dense).
+Eigen::MatrixXd WeightedInformation(SurfaceBoundProblem* bound,
+                                    const std::vector<ceres::ResidualBlockId>& residual_blocks,
+                                    const std::vector<Eigen::MatrixXd>& weights) {
+  std::vector<double*> blocks = bound->free_blocks;
+  blocks.insert(blocks.end(), bound->plane_blocks.begin(), bound->plane_blocks.end());
   std::vector<double> residuals;
   ceres::CRSMatrix crs;
-  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &crs);
+  EvaluateJacobian(bound->problem.get(), blocks, residual_blocks, &residuals, &crs);
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(crs.num_rows, crs.num_cols);
   for (int row = 0; row < crs.num_rows; ++row) {
     for (int a = crs.rows[row]; a < crs.rows[row + 1]; ++a) J(row, crs.cols[a]) = crs.values[a];
@@ -210,7 +271,33 @@ Eigen::MatrixXd CorrelatedPoseCovariance(
     information += Jc.transpose() * W * Jc;
     row += W.rows();
   }
-  const Eigen::Index p = 6 * static_cast<Eigen::Index>(free_blocks.size());
+  return information;
+}
+
+/// ComputeSurfaceCramerRaoBound's covariance under correlated noise: per camera, the rays a_i
+/// of its counted pixels, three columns per face (the face's indicator times each component),
+/// give G = A^T S^-1 A (CorrelatedGram); since w_i = e_f^T a_i on face f (e_f = -n_c / d_c),
+/// b_i = E_f a_i with E_f = [I; e_f^T], and the information of the stacked per-face
+/// residual vectors pi_c / d_c (PlaneClusterCost with L = I: w_i - h_i = b_i^T pi_c / d_c) is
+/// E G E^T / k^2. The faces are eliminated densely. Empty with a message on failure.
+Eigen::MatrixXd CorrelatedPoseCovariance(const CorrelatedBoundInputs& in,
+                                         SurfaceBoundProblem* bound, std::string* message) {
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  std::vector<Eigen::MatrixXd> weights;  // per camera: 4 F_c x 4 F_c
+  for (size_t c = 0; c < in.cameras.size(); ++c) {
+    const FacePixels& camera = in.cameras[c];
+    if (camera.pixels.size() != camera.points.size()) {
+      *message = "correlated noise needs every point's pixel (camera " + camera.serial + ")";
+      return {};
+    }
+    const CountedRows counted = CountedRowsOf(camera, c, in.faces.size(), in.counted);
+    if (counted.seen.empty()) continue;
+    Eigen::MatrixXd W = CameraWeight(in, c, counted, bound, &residual_blocks, message);
+    if (W.size() == 0) return {};
+    weights.push_back(std::move(W));
+  }
+  const Eigen::MatrixXd information = WeightedInformation(bound, residual_blocks, weights);
+  const Eigen::Index p = 6 * static_cast<Eigen::Index>(bound->free_blocks.size());
   const Eigen::Index q = information.rows() - p;
   if (q == 0) {
     *message = "no face is seen by two cameras";
@@ -231,6 +318,27 @@ Eigen::MatrixXd CorrelatedPoseCovariance(
   return covariance;
 }
 
+/// The white-noise covariance: each camera's counted pixels of a face as one plane cluster.
+Eigen::MatrixXd WhitePoseCovariance(const std::vector<FacePixels>& cameras, size_t num_faces,
+                                    const BoundFaces& counted, double depth_noise,
+                                    SurfaceBoundProblem* bound) {
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    std::vector<PlaneCluster> clusters(num_faces);
+    for (size_t i = 0; i < cameras[c].points.size(); ++i) {
+      const int f = cameras[c].faces[i];
+      if (!counted.Counts(c, f)) continue;
+      const Vec3& p = cameras[c].points[i];
+      clusters[f].AddRay(p, 1.0 / p.z(), depth_noise);
+    }
+    for (size_t f = 0; f < num_faces; ++f) {
+      if (clusters[f].Count() == 0) continue;
+      bound->problem->AddResidualBlock(PlaneClusterCost::Create(clusters[f], true), nullptr,
+                                       bound->poses[c].data(), bound->planes[f].data());
+    }
+  }
+  return MarginalPoseCovariance(bound->problem.get(), bound->free_blocks, bound->plane_blocks);
+}
+
 }  // namespace
 
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
@@ -247,65 +355,22 @@ CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& camer
     return bound;
   }
   const BoundFaces counted(cameras, faces.size());
-  const std::vector<bool>& used = counted.used;
-  std::vector<std::array<double, kPoseAmbientSize>> poses(n);
-  std::vector<Vec4> planes(faces.size());
-  for (size_t f = 0; f < faces.size(); ++f) {
-    planes[f] << faces[f].normal, faces[f].offset;
-  }
-  ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
-  ceres::SubsetManifold floor_manifold(4, {0, 1, 2});
-  std::unique_ptr<ceres::Problem> problem = NewProblem();
-  std::vector<double*> free_blocks;
-  for (size_t c = 0; c < n; ++c) {
-    PoseToParameters(T_true.at(cameras[c].serial), poses[c].data());
-    problem->AddParameterBlock(poses[c].data(), kPoseAmbientSize, SharedPoseManifold());
-    if (cameras[c].serial == reference) {
-      problem->SetParameterBlockConstant(poses[c].data());
-    } else {
-      bound.serials.push_back(cameras[c].serial);
-      free_blocks.push_back(poses[c].data());
-    }
-  }
+  SurfaceBoundProblem problem(cameras, faces, counted, T_true, reference, &bound.serials);
   if (bound.serials.size() + 1 != n) {
     bound.message = "the reference '" + reference + "' is not one of the cameras";
     return bound;
-  }
-  for (size_t f = 0; f < faces.size(); ++f) {
-    if (!used[f]) continue;
-    problem->AddParameterBlock(
-        planes[f].data(), 4,
-        faces[f].floor ? static_cast<ceres::Manifold*>(&floor_manifold) : &plane_manifold);
-  }
-  std::vector<double*> plane_blocks;
-  for (size_t f = 0; f < faces.size(); ++f) {
-    if (used[f]) plane_blocks.push_back(planes[f].data());
   }
   if (correlated.share > 0.0) {
     if (!(correlated.share < 1.0) || !(correlated.corr_px > 0.0)) {
       bound.message = "correlated noise needs a white share (share < 1) and corr_px > 0";
       return bound;
     }
-    bound.covariance = CorrelatedPoseCovariance(cameras, faces, counted, T_true, depth_noise,
-                                                correlated, num_threads, problem.get(), poses,
-                                                planes, free_blocks, plane_blocks, &bound.message);
+    const CorrelatedBoundInputs in{cameras,     faces,      counted,    T_true,
+                                   depth_noise, correlated, num_threads};
+    bound.covariance = CorrelatedPoseCovariance(in, &problem, &bound.message);
     if (bound.covariance.size() == 0) return bound;
   } else {
-    for (size_t c = 0; c < n; ++c) {
-      std::vector<PlaneCluster> clusters(faces.size());
-      for (size_t i = 0; i < cameras[c].points.size(); ++i) {
-        const int f = cameras[c].faces[i];
-        if (!counted.Counts(c, f)) continue;
-        const Vec3& p = cameras[c].points[i];
-        clusters[f].AddRay(p, 1.0 / p.z(), depth_noise);
-      }
-      for (size_t f = 0; f < faces.size(); ++f) {
-        if (clusters[f].Count() == 0) continue;
-        problem->AddResidualBlock(PlaneClusterCost::Create(clusters[f], true), nullptr,
-                                  poses[c].data(), planes[f].data());
-      }
-    }
-    bound.covariance = MarginalPoseCovariance(problem.get(), free_blocks, plane_blocks);
+    bound.covariance = WhitePoseCovariance(cameras, faces.size(), counted, depth_noise, &problem);
   }
   if (bound.covariance.size() == 0) {
     bound.message = "the information is singular: some camera or face is not constrained";

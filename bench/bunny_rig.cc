@@ -211,7 +211,8 @@ int main(int argc, char** argv) {
     for (int m = 0; m < 2; ++m) {
       options.icp.mode = m == 0 ? RefineMode::kJoint : RefineMode::kPairwise;
       const auto start = std::chrono::steady_clock::now();
-      const RefineResult result = Refine(capture, init, options, true, threads, {});
+      options.threads = threads;
+      const RefineResult result = Refine(capture, init, options);
       errors[m + 1] = EvaluateRig(result.refined, gt);
       seconds[m] = SecondsSince(start);
       if (m == 1) reports = result.pairs;

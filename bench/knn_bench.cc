@@ -1,5 +1,5 @@
-// Nearest-neighbour backends (nanoflann vs FLANN) and per-camera preprocessing on rigfit's
-// workload. Results and the command are recorded in docs/benchmarks.md.
+// Nearest-neighbour search (the k-d tree and the uniform grid) and per-camera preprocessing on
+// rigfit's workload. Results and the command are recorded in docs/benchmarks.md.
 //
 // Clouds:
 // - "band": N points sampled uniformly (by area) on the near-floor band (height 0 to 0.3 m)
@@ -216,10 +216,10 @@ const RealPair& Real() {
 // ---------------------------------------------------------------------------------------
 // k-d tree: build, bounded nearest neighbour, k = 20 nearest neighbours.
 
-void BM_Build(benchmark::State& state, KnnBackend backend) {
+void BM_Build(benchmark::State& state) {
   const PointCloud& points = CachedBand(static_cast<int>(state.range(0)));
   for (auto _ : state) {
-    KdTree tree(points, backend);
+    KdTree tree(points);
     benchmark::DoNotOptimize(tree);
   }
   state.counters["points"] = static_cast<double>(points.size());
@@ -257,9 +257,9 @@ void RunKNearest(benchmark::State& state, const KdTree& tree, const PointCloud& 
   state.counters["queries"] = static_cast<double>(queries.size());
 }
 
-void BM_Nearest(benchmark::State& state, KnnBackend backend) {
+void BM_Nearest(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
-  const KdTree tree(CachedBand(n), backend);
+  const KdTree tree(CachedBand(n));
   static const PointCloud queries = MovedQueries(30000);
   RunNearest(state, tree, queries, 1.4 * MeanSpacing(n));
 }
@@ -274,25 +274,25 @@ void BM_GridNearest(benchmark::State& state) {
   RunNearest(state, grid, queries, radius);
 }
 
-void BM_KNearest20(benchmark::State& state, KnnBackend backend) {
+void BM_KNearest20(benchmark::State& state) {
   const PointCloud& points = CachedBand(static_cast<int>(state.range(0)));
-  const KdTree tree(points, backend);
+  const KdTree tree(points);
   RunKNearest(state, tree, points, 20);
 }
 
-void BM_RealBuild(benchmark::State& state, KnnBackend backend) {
+void BM_RealBuild(benchmark::State& state) {
   const PointCloud& points = Real().target;
   if (points.empty()) return state.SkipWithError("small_gicp/target.ply not readable");
   for (auto _ : state) {
-    KdTree tree(points, backend);
+    KdTree tree(points);
     benchmark::DoNotOptimize(tree);
   }
   state.counters["points"] = static_cast<double>(points.size());
 }
 
-void BM_RealNearest(benchmark::State& state, KnnBackend backend) {
+void BM_RealNearest(benchmark::State& state) {
   if (Real().target.empty()) return state.SkipWithError("small_gicp data not readable");
-  const KdTree tree(Real().target, backend);
+  const KdTree tree(Real().target);
   RunNearest(state, tree, Real().source_in_target, 1.0);
 }
 
@@ -302,31 +302,31 @@ void BM_RealGridNearest(benchmark::State& state) {
   RunNearest(state, grid, Real().source_in_target, 1.0);
 }
 
-void BM_RealKNearest20(benchmark::State& state, KnnBackend backend) {
+void BM_RealKNearest20(benchmark::State& state) {
   if (Real().target.empty()) return state.SkipWithError("small_gicp data not readable");
-  const KdTree tree(Real().target, backend);
+  const KdTree tree(Real().target);
   RunKNearest(state, tree, Real().target, 20);
 }
 
-#define RIGFIT_BACKENDS(bm, ...)                                        \
-  BENCHMARK_CAPTURE(bm, nanoflann, KnnBackend::kNanoflann) __VA_ARGS__; \
-  BENCHMARK_CAPTURE(bm, flann, KnnBackend::kFlann) __VA_ARGS__
-
-RIGFIT_BACKENDS(BM_Build, ->Arg(5000)->Arg(10000)->Arg(20000)->Arg(40000)->Arg(100000)->Unit(
-                              benchmark::kMillisecond));
-RIGFIT_BACKENDS(
-    BM_Nearest, ->Arg(5000)->Arg(20000)->Arg(40000)->Arg(100000)->Unit(benchmark::kMillisecond));
+BENCHMARK(BM_Build)->Arg(5000)->Arg(10000)->Arg(20000)->Arg(40000)->Arg(100000)->Unit(
+    benchmark::kMillisecond);
+BENCHMARK(BM_Nearest)
+    ->Arg(5000)
+    ->Arg(20000)
+    ->Arg(40000)
+    ->Arg(100000)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_GridNearest)
     ->Arg(5000)
     ->Arg(20000)
     ->Arg(40000)
     ->Arg(100000)
     ->Unit(benchmark::kMillisecond);
-RIGFIT_BACKENDS(BM_KNearest20, ->Arg(5000)->Arg(20000)->Arg(40000)->Unit(benchmark::kMillisecond));
-RIGFIT_BACKENDS(BM_RealBuild, ->Unit(benchmark::kMillisecond));
-RIGFIT_BACKENDS(BM_RealNearest, ->Unit(benchmark::kMillisecond));
+BENCHMARK(BM_KNearest20)->Arg(5000)->Arg(20000)->Arg(40000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RealBuild)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_RealNearest)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_RealGridNearest)->Unit(benchmark::kMillisecond);
-RIGFIT_BACKENDS(BM_RealKNearest20, ->Unit(benchmark::kMillisecond));
+BENCHMARK(BM_RealKNearest20)->Unit(benchmark::kMillisecond);
 
 // ---------------------------------------------------------------------------------------
 // Eigen solvers for the 3x3 neighbourhood covariance: time per decomposition and the
@@ -490,18 +490,18 @@ void BM_CameraVoxel(benchmark::State& state) {
   state.counters["points"] = static_cast<double>(points.size());
 }
 
-void BM_CameraTree(benchmark::State& state, KnnBackend backend) {
+void BM_CameraTree(benchmark::State& state) {
   const PointCloud points = VoxelDownsample(Camera().band, VoxelArg(state));
   for (auto _ : state) {
-    KdTree tree(points, backend);
+    KdTree tree(points);
     benchmark::DoNotOptimize(tree);
   }
   state.counters["points"] = static_cast<double>(points.size());
 }
 
-void BM_CameraGeometry(benchmark::State& state, KnnBackend backend) {
+void BM_CameraGeometry(benchmark::State& state) {
   const PointCloud points = VoxelDownsample(Camera().band, VoxelArg(state));
-  const KdTree tree(points, backend);
+  const KdTree tree(points);
   const int threads = static_cast<int>(state.range(1));
   for (auto _ : state) {
     benchmark::DoNotOptimize(EstimateLocalGeometry(points, tree, 20, Vec3::Zero(), threads));
@@ -521,13 +521,14 @@ void BM_CameraPyramid(benchmark::State& state) {
 
 BENCHMARK(BM_CameraUnproject)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_CameraVoxel)->Arg(80)->Arg(40)->Arg(20)->Unit(benchmark::kMillisecond);
-RIGFIT_BACKENDS(BM_CameraTree, ->Arg(80)->Arg(40)->Arg(20)->Unit(benchmark::kMillisecond));
+BENCHMARK(BM_CameraTree)->Arg(80)->Arg(40)->Arg(20)->Unit(benchmark::kMillisecond);
 // Wall-clock time, and CPU time summed over all threads (the compute cost, which stays
 // meaningful when other jobs share the cores).
-RIGFIT_BACKENDS(BM_CameraGeometry, ->ArgsProduct({{80, 40, 20}, {1, 2}})
-                                       ->Unit(benchmark::kMillisecond)
-                                       ->UseRealTime()
-                                       ->MeasureProcessCPUTime());
+BENCHMARK(BM_CameraGeometry)
+    ->ArgsProduct({{80, 40, 20}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
 BENCHMARK(BM_CameraPyramid)
     ->Arg(1)
     ->Arg(2)

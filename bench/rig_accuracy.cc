@@ -489,7 +489,8 @@ int main(int argc, char** argv) {
             diagnostic.seen = result.usable;
           });
     }
-    const RefineResult r = Refine(rig.capture, start, options, true, threads, log);
+    options.threads = threads;
+    const RefineResult r = Refine(rig.capture, start, options, log);
     const RigErrors before = EvaluateRig(start, rig.gt);
     const RigErrors after = EvaluateRig(r.refined, rig.gt);
     std::printf("%*s | %8.3f %8.2f %7.3f | %8.4f %8.2f %7.4f %8.2f | %6.3f %6.3f %6.3f | %s\n",

@@ -83,7 +83,7 @@ int main(int argc, char** argv) {
       options.icp.mode = m == 0 ? RefineMode::kJoint : RefineMode::kPairwise;
       options.icp.method = m == 0 || method != "surface_bundle" ? RegistrationMethodNamed(method)
                                                                 : RegistrationMethod::kPointToPlane;
-      const RefineResult result = Refine(capture, init, options, true, 2, {});
+      const RefineResult result = Refine(capture, init, options);
       for (const std::string& warning : result.warnings) {
         std::fprintf(stderr, "seed %d, %s: %s\n", seed, m == 0 ? "joint" : "pairwise",
                      warning.c_str());

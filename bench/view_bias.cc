@@ -60,7 +60,8 @@ int main(int argc, char** argv) {
                                {serial, truth}};
         RefineOptions options = base;
         options.icp.reference = kReference;
-        const RefineResult r = Refine(capture, start, options, true, 1, Log());
+        options.threads = 1;
+        const RefineResult r = Refine(capture, start, options);
         const bool refined = r.success && r.cameras[1].accepted;
         if (!refined) {
           ++failures;

@@ -21,8 +21,6 @@
 namespace rigfit::cli {
 namespace {
 
-constexpr int kMaxThreads = 256;
-
 struct CompareArgs {
   std::string capture_path;
   std::string extrinsics_path;
@@ -34,8 +32,8 @@ struct CompareArgs {
 };
 
 int RunCompare(const CompareArgs& a) {
-  if (a.threads < 1 || a.threads > kMaxThreads) {
-    throw InputError("compare: --threads must be in [1, " + std::to_string(kMaxThreads) +
+  if (a.threads < 1 || a.threads > kMaxRefineThreads) {
+    throw InputError("compare: --threads must be in [1, " + std::to_string(kMaxRefineThreads) +
                      "], got " + std::to_string(a.threads));
   }
   std::vector<std::string> inputs = {a.capture_path, a.extrinsics_path};
@@ -43,7 +41,8 @@ int RunCompare(const CompareArgs& a) {
     if (!path->empty()) inputs.push_back(*path);
   }
   if (!a.json_path.empty()) RefuseToOverwriteInputs(a.json_path, inputs, "compare: --json");
-  const RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
+  RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
+  options.threads = a.threads;
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
   CheckRefineInput(capture, initial.poses, options,
@@ -64,7 +63,7 @@ int RunCompare(const CompareArgs& a) {
   CheckCompareInput(capture, truth, sources);
 
   const CompareResult result =
-      Compare(capture, initial.poses, options, truth, a.threads,
+      Compare(capture, initial.poses, options, truth,
               StderrLog("compare: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal));
   if (!a.json_path.empty()) {
     nlohmann::json json = CompareToJson(result, sources);

@@ -36,8 +36,6 @@ namespace fs = std::filesystem;
 using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-constexpr int kMaxThreads = 256;
-
 struct RefineArgs {
   std::string capture_path;
   std::string extrinsics_path;
@@ -68,8 +66,8 @@ void CheckFlags(const RefineArgs& a) {
     problems.push_back("--voxel-size must be a finite number > 0, got " +
                        a.voxel_size_option->as<std::string>());
   }
-  if (a.threads < 1 || a.threads > kMaxThreads) {
-    problems.push_back("--threads must be in [1, " + std::to_string(kMaxThreads) + "], got " +
+  if (a.threads < 1 || a.threads > kMaxRefineThreads) {
+    problems.push_back("--threads must be in [1, " + std::to_string(kMaxRefineThreads) + "], got " +
                        std::to_string(a.threads));
   }
   if (!problems.empty()) throw InputError("refine: " + Join(problems, "; "));
@@ -109,6 +107,8 @@ RefineOptions EffectiveOptions(const RefineArgs& a) {
   if (a.voxel_size_option->count() > 0) options.icp.voxel_size = a.voxel_size;
   if (a.reference_option->count() > 0) options.icp.reference = a.reference;
   if (a.no_ground) options.ground.enabled = false;
+  options.run_registration = !a.no_icp;
+  options.threads = a.threads;
   const std::vector<std::string> problems = OptionProblems(options);
   if (!problems.empty()) {
     throw InputError("refine: invalid options (config file with command-line overrides):\n  " +
@@ -136,90 +136,100 @@ Json TimingsJson(const Timings& t) {
           {"total", t.total_s}};
 }
 
-/// The summary the command prints (and the report's page shows).
-std::string Summary(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
-                    const Timings& t) {
-  std::string text;
-  // Leveling, registration and against the rig (deg, mm each), the 1-sigma, the result.
+/// A camera's result column of the summary.
+std::string CameraStatus(const CameraReport& c, const RefineOptions& options, const RefineArgs& a) {
+  const GroundResult& g = c.ground;
+  std::string status;
+  if (!options.ground.enabled) {
+    status = "not leveled (skipped)";
+  } else if (!g.accepted) {
+    status = "not leveled: " + g.message;
+  } else if (a.no_icp) {
+    status = "leveled";
+  }
+  if (!a.no_icp) {
+    const std::string reference = c.surface_leveled
+                                      ? "reference (yaw and centre held, tilt from the floor)"
+                                      : "reference (held fixed)";
+    const std::string registration = c.reference  ? reference
+                                     : c.accepted ? "refined"
+                                                  : "kept leveled pose: " + c.message;
+    status += (status.empty() ? "" : "; ") + registration;
+  }
+  return status;
+}
+
+/// The cameras' table: leveling, registration and against the rig (deg, mm each), the
+/// 1-sigma, the result.
+std::string CameraTable(const RefineResult& result, const RefineOptions& options,
+                        const RefineArgs& a) {
   std::vector<TextColumn> columns = {{16, Align::kLeft, ""}};
   for (size_t width : {7, 6, 7, 7, 7, 7, 8, 8, 6, 6, 6}) columns.push_back({width});
   columns.push_back({0, Align::kLeft, "  "});
-  TextTable camera_table(columns);
-  camera_table.AddSpans({{"", 1},
-                         {"leveling", 2, Align::kCentre},
-                         {"registration", 2, Align::kCentre},
-                         {"against the rig", 2, Align::kCentre},
-                         {"1-sigma (joint covariance)", 5, Align::kCentre}});
-  camera_table.AddRow({"camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg",
-                       "x mm", "y mm", "z mm", "result"});
-  int leveled = 0;
+  TextTable table(columns);
+  table.AddSpans({{"", 1},
+                  {"leveling", 2, Align::kCentre},
+                  {"registration", 2, Align::kCentre},
+                  {"against the rig", 2, Align::kCentre},
+                  {"1-sigma (joint covariance)", 5, Align::kCentre}});
+  table.AddRow({"camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg", "x mm",
+                "y mm", "z mm", "result"});
   for (const CameraReport& c : result.cameras) {
     const GroundResult& g = c.ground;
     const bool level_shown = options.ground.enabled && g.accepted;
-    leveled += level_shown ? 1 : 0;
-    std::string status;
-    if (!options.ground.enabled) {
-      status = "not leveled (skipped)";
-    } else if (!g.accepted) {
-      status = "not leveled: " + g.message;
-    } else if (a.no_icp) {
-      status = "leveled";
-    }
-    if (!a.no_icp) {
-      const std::string reference = c.surface_leveled
-                                        ? "reference (yaw and centre held, tilt from the floor)"
-                                        : "reference (held fixed)";
-      const std::string registration = c.reference  ? reference
-                                       : c.accepted ? "refined"
-                                                    : "kept leveled pose: " + c.message;
-      status += (status.empty() ? "" : "; ") + registration;
-    }
     const bool registered = ChangeMeasured(result, c);
     const PoseSigma sigma = SigmaOf(c.covariance);
-    camera_table.AddRow({c.serial, FixedOrDash(level_shown, g.correction_rotation_deg, 3),
-                         FixedOrDash(level_shown, g.correction_translation_m * 1e3, 1),
-                         FixedOrDash(registered, c.delta_rotation_deg, 3),
-                         FixedOrDash(registered, c.delta_translation_m * 1e3, 1),
-                         FixedOrDash(registered, c.own_rotation_deg, 3),
-                         FixedOrDash(registered, c.own_translation_m * 1e3, 1),
-                         FixedOrDash(c.has_covariance, sigma.yaw_deg, 3),
-                         FixedOrDash(c.has_covariance, sigma.tilt_deg, 3),
-                         FixedOrDash(c.has_covariance, sigma.x_mm, 2),
-                         FixedOrDash(c.has_covariance, sigma.y_mm, 2),
-                         FixedOrDash(c.has_covariance, sigma.z_mm, 2), status});
+    table.AddRow({c.serial, FixedOrDash(level_shown, g.correction_rotation_deg, 3),
+                  FixedOrDash(level_shown, g.correction_translation_m * 1e3, 1),
+                  FixedOrDash(registered, c.delta_rotation_deg, 3),
+                  FixedOrDash(registered, c.delta_translation_m * 1e3, 1),
+                  FixedOrDash(registered, c.own_rotation_deg, 3),
+                  FixedOrDash(registered, c.own_translation_m * 1e3, 1),
+                  FixedOrDash(c.has_covariance, sigma.yaw_deg, 3),
+                  FixedOrDash(c.has_covariance, sigma.tilt_deg, 3),
+                  FixedOrDash(c.has_covariance, sigma.x_mm, 2),
+                  FixedOrDash(c.has_covariance, sigma.y_mm, 2),
+                  FixedOrDash(c.has_covariance, sigma.z_mm, 2), CameraStatus(c, options, a)});
   }
-  text += "\n" + camera_table.text();
-  if (!a.no_icp) {
-    // Pairwise ICP moves b onto a; the joint mode moves both.
-    const std::string link = result.mode == RefineMode::kPairwise ? " <- " : " - ";
-    TextTable pair_table({{35, Align::kLeft, ""}, {7}, {22}, {6}, {0, Align::kLeft, "  "}});
-    pair_table.AddRow({"pair", "fitness", "RMSE before->after mm", "iters", "result"});
-    for (const PairReport& p : result.pairs) {
-      pair_table.AddRow({p.serial_a + link + p.serial_b, Fixed(p.fitness, 3),
-                         Fixed(p.rmse_before_m * 1e3, 2) + " -> " + Fixed(p.rmse_after_m * 1e3, 2),
-                         std::to_string(p.iterations),
-                         p.accepted ? "accepted" : "rejected: " + p.message});
-    }
-    text += "\n" + pair_table.text();
-    if (result.pairs.empty()) text += "(no candidate pairs)\n";
-    if (result.surface.ran) {
-      const SurfaceBundleReport& sb = result.surface;
-      Appendf(&text,
-              "\nsurface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the "
-              "noise model\n",
-              sb.planes, sb.pixels, sb.rounds, sb.noise_scale);
-      TextTable surface_table({{35, Align::kLeft, ""}, {22}, {18}, {0, Align::kLeft, "  "}});
-      surface_table.AddRow({"camera", "plane thickness (sigma)", "noise correlation"});
-      for (const CameraReport& c : result.cameras) {
-        surface_table.AddRow(
-            {c.serial,
-             Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2),
-             Fixed(c.surface_noise_correlation, 1),
-             c.surface_fallback ? "kept its joint pose" : ""});
-      }
-      text += surface_table.text();
-    }
+  return table.text();
+}
+
+/// The pairs' table and, when it ran, the surface bundle's.
+std::string RegistrationTables(const RefineResult& result) {
+  // Pairwise ICP moves b onto a; the joint mode moves both.
+  const std::string link = result.mode == RefineMode::kPairwise ? " <- " : " - ";
+  TextTable pair_table({{35, Align::kLeft, ""}, {7}, {22}, {6}, {0, Align::kLeft, "  "}});
+  pair_table.AddRow({"pair", "fitness", "RMSE before->after mm", "iters", "result"});
+  for (const PairReport& p : result.pairs) {
+    pair_table.AddRow({p.serial_a + link + p.serial_b, Fixed(p.fitness, 3),
+                       Fixed(p.rmse_before_m * 1e3, 2) + " -> " + Fixed(p.rmse_after_m * 1e3, 2),
+                       std::to_string(p.iterations),
+                       p.accepted ? "accepted" : "rejected: " + p.message});
   }
+  std::string text = "\n" + pair_table.text();
+  if (result.pairs.empty()) text += "(no candidate pairs)\n";
+  if (!result.surface.ran) return text;
+  const SurfaceBundleReport& sb = result.surface;
+  Appendf(&text,
+          "\nsurface bundle: %d planes, %d pixels, %d rounds; residual spread %.3f x the "
+          "noise model\n",
+          sb.planes, sb.pixels, sb.rounds, sb.noise_scale);
+  TextTable surface_table({{35, Align::kLeft, ""}, {22}, {18}, {0, Align::kLeft, "  "}});
+  surface_table.AddRow({"camera", "plane thickness (sigma)", "noise correlation"});
+  for (const CameraReport& c : result.cameras) {
+    surface_table.AddRow(
+        {c.serial,
+         Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2),
+         Fixed(c.surface_noise_correlation, 1), c.surface_fallback ? "kept its joint pose" : ""});
+  }
+  return text + surface_table.text();
+}
+
+/// The summary the command prints (and the report's page shows).
+std::string Summary(const RefineResult& result, const RefineOptions& options, const RefineArgs& a,
+                    const Timings& t) {
+  std::string text = "\n" + CameraTable(result, options, a);
+  if (!a.no_icp) text += RegistrationTables(result);
   Appendf(&text,
           "\ntime (s): load %.2f, leveling %.2f, preprocessing %.2f, registration %.2f, "
           "pose graph %.2f, output %.2f, total %.2f\n",
@@ -227,6 +237,10 @@ std::string Summary(const RefineResult& result, const RefineOptions& options, co
           t.solver.pose_graph_s, t.output_s, t.total_s);
   const int cameras = static_cast<int>(result.cameras.size());
   if (a.no_icp) {
+    int leveled = 0;
+    for (const CameraReport& c : result.cameras) {
+      leveled += options.ground.enabled && c.ground.accepted ? 1 : 0;
+    }
     Appendf(&text, "leveled %d of %d cameras (registration skipped) -> %s\n", leveled, cameras,
             a.out_path.c_str());
     return text;
@@ -267,7 +281,7 @@ int RunRefine(const RefineArgs& a) {
   log.Info("loaded " + std::to_string(capture.cameras.size()) + " cameras in " +
            Fixed(timings.load_s, 2) + " s");
 
-  const RefineResult result = Refine(capture, initial.poses, options, !a.no_icp, a.threads, log);
+  const RefineResult result = Refine(capture, initial.poses, options, log);
   timings.solver = result.times;
   for (const PoseMap* poses : {&result.leveled, &result.refined}) {
     for (const auto& [serial, T] : *poses) {

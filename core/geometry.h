@@ -2,6 +2,7 @@
 // gauge-free pose errors used by tests, benchmarks and `rigfit evaluate`.
 #pragma once
 
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -38,6 +39,30 @@ inline double RayPlaneDepth(const Vec3& origin, const Vec3& ray, const Vec3& n, 
   const double denominator = n.dot(ray);
   return std::abs(denominator) < 1e-9 ? std::numeric_limits<double>::infinity()
                                       : -(n.dot(origin) + d) / denominator;
+}
+
+/// Weighted total least squares plane through `count` points (point(k) the k-th, weight(k) its
+/// weight): the normal is the eigenvector of the smallest eigenvalue of the weighted scatter
+/// about the weighted mean, in the eigen solver's sign.
+template <typename PointAt, typename WeightAt>
+PlanarFace FitPlane(size_t count, const PointAt& point, const WeightAt& weight) {
+  Vec3 mean = Vec3::Zero();
+  double total = 0.0;
+  for (size_t k = 0; k < count; ++k) {
+    mean += weight(k) * point(k);
+    total += weight(k);
+  }
+  mean /= total;
+  Mat3 scatter = Mat3::Zero();
+  for (size_t k = 0; k < count; ++k) {
+    const Vec3 d = point(k) - mean;
+    scatter.noalias() += weight(k) * d * d.transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(scatter);
+  PlanarFace plane;
+  plane.normal = eig.eigenvectors().col(0);
+  plane.offset = -plane.normal.dot(mean);
+  return plane;
 }
 
 /// T * p for every point.

@@ -49,12 +49,15 @@ struct RigCapture {
   std::vector<CameraCapture> cameras;
 };
 
-/// A planar face of a scene in the world, n^T x + offset = 0 (n unit); the floor's normal is
-/// +Y (leveling defines up).
+/// A plane n^T x + offset = 0 (n unit), in whichever frame its user says: the faces of a
+/// scene, a camera's floor, the surface bundle's planes. The floor's normal is +Y in the world
+/// (leveling defines up).
 struct PlanarFace {
   Vec3 normal = Vec3::UnitY();
   double offset = 0.0;
   bool floor = false;
+
+  double SignedDistance(const Vec3& x) const { return normal.dot(x) + offset; }
 };
 
 /// T_world_camera per camera serial.

@@ -76,42 +76,37 @@ struct ReadingChild {
 
 }  // namespace
 
-RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
-  if (std::isnan(timeout_s)) throw std::invalid_argument("ReadCaptureGuarded: timeout is NaN");
-  timeout_s = std::clamp(timeout_s, 0.0, 1e9);  // 1e9 s: no deadline
-  int channel[2];
-  // Close-on-exec: a process another thread starts must not hold the write end open.
-  if (pipe2(channel, O_CLOEXEC) != 0) return ReadCapture(path);  // no pipe, no guard
-  // A wider pipe than the 64 KiB default: fewer switches between writer and reader.
-  fcntl(channel[1], F_SETPIPE_SZ, 1 << 20);
+namespace {
+
+/// The forked child's work: the read, its result sent through fd. _exit: no atexit handlers,
+/// no destructors of the parent's objects. Exit code 0 sends the capture's bytes, 2 and 3 an
+/// error message, each after its length; 4: they could not be sent.
+[[noreturn]] void ReadInChild(const std::string& path, int fd) {
+  int code = 0;
+  std::string bytes;
+  try {
+    bytes = EncodeCapture(ReadCapture(path));
+  } catch (const InputError& e) {
+    code = 2;
+    bytes = e.what();
+  } catch (const std::exception& e) {
+    code = 3;
+    bytes = e.what();
+  }
+  if (!WriteAll(fd, bytes)) code = 4;
+  _exit(code);
+}
+
+/// What came through the pipe: the bytes after their length, and whether they all came.
+struct Received {
+  bool ok = true;  ///< false: the pipe could not be read (no guard)
+  bool complete = false;
+  std::string payload;
+};
+
+/// Reads until the child closes its end (it exits); throws InputError at the deadline.
+Received ReceiveFramed(ReadingChild* child, const std::string& path, double timeout_s) {
   std::vector<char> chunk(1 << 20);
-  const pid_t pid = fork();
-  if (pid < 0) {
-    close(channel[0]);
-    close(channel[1]);
-    return ReadCapture(path);
-  }
-  if (pid == 0) {
-    // The read. _exit: no atexit handlers, no destructors of the parent's objects. Exit code
-    // 0 sends the capture's bytes, 2 and 3 an error message, each after its length.
-    close(channel[0]);
-    int code = 0;
-    std::string bytes;
-    try {
-      bytes = EncodeCapture(ReadCapture(path));
-    } catch (const InputError& e) {
-      code = 2;
-      bytes = e.what();
-    } catch (const std::exception& e) {
-      code = 3;
-      bytes = e.what();
-    }
-    if (!WriteAll(channel[1], bytes)) code = 4;
-    _exit(code);
-  }
-  close(channel[1]);
-  ReadingChild child(pid, channel[0]);
-  // Read until the child closes its end (it exits), or the deadline.
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
   std::string bytes;
   std::uint64_t length = 0;  // of the payload, once its 8 bytes are in
@@ -120,20 +115,17 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
     const double left =
         std::chrono::duration<double>(deadline - std::chrono::steady_clock::now()).count();
     if (left <= 0.0) {
-      child.Stop();
+      child->Stop();
       throw InputError(path + ": reading it did not finish in " +
                        std::to_string(static_cast<long long>(timeout_s)) +
                        " s (a loop inside the HDF5 library?): damaged file?");
     }
-    pollfd wait_for = {child.fd, POLLIN, 0};
+    pollfd wait_for = {child->fd, POLLIN, 0};
     const int ready = poll(&wait_for, 1, static_cast<int>(std::min(left * 1000.0 + 1.0, 1e9)));
     if (ready == 0 || (ready < 0 && errno == EINTR)) continue;
-    const ssize_t got = ready < 0 ? -1 : read(child.fd, chunk.data(), chunk.size());
+    const ssize_t got = ready < 0 ? -1 : read(child->fd, chunk.data(), chunk.size());
     if (got < 0 && (errno == EINTR || errno == EAGAIN)) continue;
-    if (got < 0) {  // cannot wait for the child: no guard, read as usual
-      child.Stop();
-      return ReadCapture(path);
-    }
+    if (got < 0) return {false, false, {}};
     if (got == 0) break;  // end of file: the child is done
     bytes.append(chunk.data(), static_cast<std::size_t>(got));
     if (!have_length && bytes.size() >= sizeof(length)) {
@@ -142,24 +134,26 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
       have_length = true;
     }
   }
-  child.ClosePipe();
-  int status = 0;
-  const pid_t done = Reap(pid, &status);
-  child.pid = -1;
-  // The payload: the bytes after their length, complete if the length says they all came.
-  const bool complete = have_length && length == bytes.size() - sizeof(length);
-  std::string payload = std::move(bytes);
-  payload.erase(0, std::min(payload.size(), sizeof(length)));
-  if (done != pid) return ReadCapture(path);  // the child was reaped elsewhere: no verdict
+  Received out;
+  out.complete = have_length && length == bytes.size() - sizeof(length);
+  out.payload = std::move(bytes);
+  out.payload.erase(0, std::min(out.payload.size(), sizeof(length)));
+  return out;
+}
+
+/// The capture from the child's exit status and what it sent; throws InputError when the
+/// read crashed or failed. Exit code 4 (sent nothing): read again here.
+RigCapture FromChild(const std::string& path, int status, Received received) {
   if (WIFSIGNALED(status)) {
     throw InputError(path + ": the HDF5 library crashed reading it (" +
                      strsignal(WTERMSIG(status)) + "): damaged file?");
   }
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   if (code == 4) return ReadCapture(path);  // the child read the file but could not send it
+  const std::string& payload = received.payload;
   if (code == 0) {
     try {
-      if (complete) return DecodeCapture(std::move(payload));
+      if (received.complete) return DecodeCapture(std::move(received.payload));
     } catch (const std::runtime_error&) {
     }
     throw InputError(path + ": reading it failed (the capture came back incomplete)");
@@ -169,6 +163,41 @@ RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
                    (payload.empty() || code != 3 ? " (exit code " + std::to_string(code) + ")"
                                                  : ": " + payload) +
                    ": damaged file?");
+}
+
+}  // namespace
+
+RigCapture ReadCaptureGuarded(const std::string& path, double timeout_s) {
+  if (std::isnan(timeout_s)) throw std::invalid_argument("ReadCaptureGuarded: timeout is NaN");
+  timeout_s = std::clamp(timeout_s, 0.0, 1e9);  // 1e9 s: no deadline
+  int channel[2];
+  // Close-on-exec: a process another thread starts must not hold the write end open.
+  if (pipe2(channel, O_CLOEXEC) != 0) return ReadCapture(path);  // no pipe, no guard
+  // A wider pipe than the 64 KiB default: fewer switches between writer and reader.
+  fcntl(channel[1], F_SETPIPE_SZ, 1 << 20);
+  const pid_t pid = fork();
+  if (pid < 0) {
+    close(channel[0]);
+    close(channel[1]);
+    return ReadCapture(path);
+  }
+  if (pid == 0) {
+    close(channel[0]);
+    ReadInChild(path, channel[1]);
+  }
+  close(channel[1]);
+  ReadingChild child(pid, channel[0]);
+  Received received = ReceiveFramed(&child, path, timeout_s);
+  if (!received.ok) {  // cannot wait for the child: no guard, read as usual
+    child.Stop();
+    return ReadCapture(path);
+  }
+  child.ClosePipe();
+  int status = 0;
+  const pid_t done = Reap(pid, &status);
+  child.pid = -1;
+  if (done != pid) return ReadCapture(path);  // the child was reaped elsewhere: no verdict
+  return FromChild(path, status, std::move(received));
 }
 
 }  // namespace rigfit

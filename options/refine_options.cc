@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <string>
 
 namespace rigfit {
 namespace {
@@ -127,6 +128,8 @@ std::vector<std::string> OptionProblems(const RefineOptions& options) {
   CheckGround(options.ground, problems);
   CheckRegion(options.region, problems);
   CheckIcp(options.icp, problems);
+  problems.Require(options.threads >= 1 && options.threads <= kMaxRefineThreads, "threads",
+                   "in [1, " + std::to_string(kMaxRefineThreads) + "]", options.threads);
   return problems.Take();
 }
 

@@ -122,7 +122,14 @@ struct RefineOptions {
   GroundOptions ground;
   RegionOptions region;
   IcpOptions icp;
+  /// The stages: false stops after leveling (`rigfit refine --no-icp`).
+  bool run_registration = true;
+  /// Threads of the solve (`--threads`), 1 to kMaxRefineThreads; a run's result does not
+  /// depend on it.
+  int threads = 2;
 };
+
+constexpr int kMaxRefineThreads = 256;
 
 /// Every out-of-range or inconsistent value, one human-readable line each naming the key
 /// as in the config file (e.g. "icp.voxel_size must be > 0, got -1"). Empty when valid.

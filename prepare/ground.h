@@ -10,21 +10,13 @@
 
 namespace rigfit {
 
-/// A plane n . x + d = 0 with unit normal n.
-struct Plane {
-  Vec3 normal = Vec3::UnitY();
-  double d = 0.0;
-
-  double SignedDistance(const Vec3& x) const { return normal.dot(x) + d; }
-};
-
 /// Floor of one camera and the correction that levels it.
 struct GroundResult {
-  bool found = false;     ///< a near-horizontal plane with enough inliers was found
-  bool accepted = false;  ///< the correction is within bounds and was applied
-  std::string message;    ///< why not, when not found or not accepted
-  Plane plane_camera;     ///< the floor in the camera frame
-  Plane plane_world;      ///< the floor in the input world frame
+  bool found = false;       ///< a near-horizontal plane with enough inliers was found
+  bool accepted = false;    ///< the correction is within bounds and was applied
+  std::string message;      ///< why not, when not found or not accepted
+  PlanarFace plane_camera;  ///< the floor in the camera frame
+  PlanarFace plane_world;   ///< the floor in the input world frame
   int inliers = 0;
   double inlier_rms_m = 0.0;
   /// Depth noise k of the stereo model sigma_z = k z^2 (1/m), measured on the floor
@@ -47,12 +39,12 @@ GroundResult LevelCamera(const PointCloud& points_camera, const Pose& T_world_ca
 /// distance to the plane changes by dz (n . p) / z: r_i / (z_i |n . p_i|) ~ N(0, k^2), and
 /// k = 1.4826 median |r_i| / (z_i |n . p_i|) (the MAD estimate, robust to the feet of
 /// walls and boxes). Points farther than `window` from the plane are ignored.
-double EstimateDepthNoise(const PointCloud& points_camera, const Plane& plane_camera,
+double EstimateDepthNoise(const PointCloud& points_camera, const PlanarFace& plane_camera,
                           double window);
 
 /// The correction that maps the world plane onto y = 0 with normal +Y by a rotation about
 /// a horizontal axis through `pivot` (a point on the plane) followed by a vertical shift,
 /// so that the horizontal position of the pivot does not change.
-Pose LevelingCorrection(const Plane& plane_world, const Vec3& pivot);
+Pose LevelingCorrection(const PlanarFace& plane_world, const Vec3& pivot);
 
 }  // namespace rigfit

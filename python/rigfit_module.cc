@@ -134,8 +134,9 @@ RefineOptions OptionsOf(const std::string& command, const std::string& config_ya
                         const std::string& config_path, const std::string& mode,
                         const std::string& method, const std::string& reference, bool level_ground,
                         int threads) {
-  if (threads < 1 || threads > 256) {
-    throw InputError(command + ": threads must be in [1, 256], got " + std::to_string(threads));
+  if (threads < 1 || threads > kMaxRefineThreads) {
+    throw InputError(command + ": threads must be in [1, " + std::to_string(kMaxRefineThreads) +
+                     "], got " + std::to_string(threads));
   }
   RefineOptions options;
   if (!config_path.empty()) {
@@ -152,6 +153,7 @@ RefineOptions OptionsOf(const std::string& command, const std::string& config_ya
   if (!method.empty()) options.icp.method = RegistrationMethodNamed(method);
   if (!reference.empty()) options.icp.reference = reference;
   if (!level_ground) options.ground.enabled = false;
+  options.threads = threads;
   const std::vector<std::string> problems = OptionProblems(options);
   if (!problems.empty()) {
     std::string text = command + ": invalid options (config with keyword overrides):";
@@ -250,7 +252,7 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
   RefineResult result;
   {
     py::gil_scoped_release release;
-    result = Refine(capture, initial, options, /*run_icp=*/true, threads, log);
+    result = Refine(capture, initial, options, log);
   }
   warnings.insert(warnings.end(), result.warnings.begin(), result.warnings.end());
   Json meta = RefineMetaJson(result, options, warnings, {!level_ground, false});
@@ -302,7 +304,7 @@ py::dict RunCompare(const py::dict& cameras, const py::dict& extrinsics,
   CompareResult result;
   {
     py::gil_scoped_release release;
-    result = Compare(capture, initial, options, truth, threads, log);
+    result = Compare(capture, initial, options, truth, log);
   }
   Json document = CompareToJson(result, sources);
   for (const std::string& path : ReplaceNonFinite(document, "compare")) {

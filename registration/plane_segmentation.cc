@@ -77,21 +77,11 @@ class Segmenter {
       weight[k] = 1.0 / (p.sigma_z * p.sigma_z * p.ray_world.squaredNorm() + base_variance_);
     }
     for (int pass = 0; pass < 2; ++pass) {
-      double sum_w = 0.0;
-      Vec3 centroid = Vec3::Zero();
-      for (size_t k = 0; k < indices.size(); ++k) {
-        sum_w += weight[k];
-        centroid += weight[k] * points_[indices[k]].world;
-      }
-      centroid /= sum_w;
-      Mat3 scatter = Mat3::Zero();
-      for (size_t k = 0; k < indices.size(); ++k) {
-        const Vec3 x = points_[indices[k]].world - centroid;
-        scatter.noalias() += weight[k] * x * x.transpose();
-      }
-      const Eigen::SelfAdjointEigenSolver<Mat3> eigen(scatter);
-      fit.normal = eigen.eigenvectors().col(0);
-      fit.offset = -fit.normal.dot(centroid);
+      const PlanarFace plane = FitPlane(
+          indices.size(), [&](size_t k) -> const Vec3& { return points_[indices[k]].world; },
+          [&](size_t k) { return weight[k]; });
+      fit.normal = plane.normal;
+      fit.offset = plane.offset;
       for (size_t k = 0; k < indices.size(); ++k) {
         weight[k] = 1.0 / Variance(indices[k], fit.normal);
       }

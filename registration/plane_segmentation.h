@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/pose.h"
+#include "core/types.h"
 
 namespace rigfit {
 
@@ -25,12 +26,8 @@ struct PlaneSegmentationOptions {
   /// A plane is kept when this many cameras see it. Not asked of the octree's cells: at range
   /// the noise along the ray (2-5 cm at 3-5 m) scatters a face's points over the small cells
   /// around it, so whether a cell held 30 points of a second camera depended on where that
-  /// camera's noise put them, and the cells kept, and the planes' pixels, followed the noise.
-  /// Asked of the cells, the default rig (seeds 0..9 x 3 draws) gave 3.40 mm of RMS relative
-  /// translation error against 2.40 (seeds 20..39: 5.09 against 3.34), with about as much
-  /// information used (the bound of the pixels used 2.09 against 2.15 times the full bound) but
-  /// the error over it 1.75 against 1.25, the bias's share of the squared error 0.50 against
-  /// 0.14; 30 points of all cameras together gave 3.21 (3.56).
+  /// camera's noise put them, and the cells kept, and the planes' pixels, followed the noise
+  /// (measured: docs/benchmarks.md, tried and not kept).
   int min_cameras = 2;
   /// Added to every point's noise along the normal: surface roughness, curvature within a
   /// cell and what is left of the misregistration (the caller inflates it for the first
@@ -53,10 +50,8 @@ struct PlaneSegmentationOptions {
   /// With leveled_floor: points above the floor's gate but within floor_margin_sigmas of
   /// their vertical noise of it (and below floor_margin_m) are left out of every plane. At the
   /// band's range the depth noise (2-4 cm at 3-4 m) spreads the bottom of every face standing on
-  /// the floor into and just above the floor's gate: those points fit neither plane well. On
-  /// the default simulated rig (3 rounds from the joint start; a flat 8 cm margin) the
-  /// translation error went from 10.97 to 8.39 mm (seeds 0..9 x 3 draws) and from 16.26 to
-  /// 14.90 mm on held-out seeds 10..19; scaled by the noise, it leaves noise-free faces whole.
+  /// the floor into and just above the floor's gate: those points fit neither plane well.
+  /// Scaled by the noise, the margin leaves noise-free faces whole.
   double floor_margin_sigmas = 7.0;
   double floor_margin_m = 0.08;
 };
@@ -80,10 +75,8 @@ struct SegmentPoint {
   int camera = 0;
 };
 
-struct SegmentedPlane {
-  Vec3 normal = Vec3::UnitY();  ///< unit; +Y for the floor
-  double offset = 0.0;          ///< n^T x + offset = 0
-  bool floor = false;
+/// A plane found (PlanarFace: +Y for the floor) and its points.
+struct SegmentedPlane : PlanarFace {
   std::vector<int> points;  ///< indices into the segmented points, each in one plane at most
 };
 

@@ -38,7 +38,7 @@ struct PlaneGrid {
   Vec3 e2;
   double size;
 
-  PlaneGrid(const SurfacePlane& plane, double cell) : size(cell) {
+  PlaneGrid(const PlanarFace& plane, double cell) : size(cell) {
     origin = -plane.offset * plane.normal;
     const Vec3 helper = std::abs(plane.normal.y()) < 0.9 ? Vec3::UnitY() : Vec3::UnitX();
     e1 = helper.cross(plane.normal).normalized();
@@ -114,6 +114,155 @@ struct RingCell {
   }
 };
 
+/// What every step of MembershipByRays reads: the cameras at their poses, the planes with
+/// their grids, and the segmentation's noise floor and gate.
+struct RayContext {
+  const std::vector<SurfaceCamera>& cameras;
+  const std::vector<Pose>& poses;
+  const std::vector<PlanarFace>& planes;
+  std::vector<PlaneGrid> grids;
+  double base;  // BaseVariance of the segmentation
+  double gate;  // its gate, sigmas
+
+  /// Pixel i's ray in the world (not normalised: unit camera z).
+  Vec3 Ray(size_t c, int i) const {
+    const Vec3& p = cameras[c].points[i];
+    return Vec3(poses[c].linear() * (p / p.z()));
+  }
+  /// A pixel's depth sigma at depth z.
+  double SigmaZ(size_t c, double z) const {
+    const double s = cameras[c].depth_noise * z * z;
+    return std::sqrt(s * s + base);
+  }
+  /// Whether a plane met at depth z along pixel i's ray is near enough to its measured depth
+  /// to be looked at (twice the gate).
+  bool WithinReach(size_t c, int i, double z) const {
+    const double measured = cameras[c].points[i].z();
+    return std::isfinite(z) && z > 0.0 &&
+           std::abs(z - measured) <= 2.0 * gate * SigmaZ(c, measured);
+  }
+};
+
+using CellsPerPlane = std::vector<Cells>;
+
+/// Camera c's extent of each plane: the cells where its segmented pixels' rays meet the plane,
+/// closed (dilated, then eroded).
+CellsPerPlane OwnCells(const RayContext& ctx, const std::vector<SurfaceTerm>& segmented, int c) {
+  CellsPerPlane own(ctx.planes.size());
+  if (!ctx.cameras[c].ray_model) return own;
+  const Vec3& centre = ctx.poses[c].translation();
+  for (const SurfaceTerm& t : segmented) {
+    if (t.camera != c) continue;
+    const PlanarFace& plane = ctx.planes[t.plane];
+    for (const int i : t.pixels) {
+      const Vec3 ray = ctx.Ray(c, i);
+      const double z = RayPlaneDepth(centre, ray, plane.normal, plane.offset);
+      // Not where a grazing ray meets the plane far from the pixel's own point.
+      if (ctx.WithinReach(c, i, z)) own[t.plane].insert(ctx.grids[t.plane].Key(centre + z * ray));
+    }
+  }
+  for (Cells& cells : own) cells = Eroded(Dilated(cells));
+  return own;
+}
+
+/// Camera c's ring of kMembershipGrowCells cells around its extent of each plane.
+CellsPerPlane RingCells(const CellsPerPlane& own) {
+  CellsPerPlane ring(own.size());
+  for (size_t j = 0; j < own.size(); ++j) {
+    if (own[j].empty()) continue;
+    Cells grown = own[j];
+    for (int g = 0; g < kMembershipGrowCells; ++g) grown = Dilated(grown);
+    for (const CellKey k : grown) {
+      if (!own[j].count(k)) ring[j].insert(k);
+    }
+  }
+  return ring;
+}
+
+/// The nearest plane along a pixel's ray met in the camera's own cells or ring, and the crease
+/// zones it meets on the way (depth, plane).
+struct RayHit {
+  int plane = -1;
+  double z = std::numeric_limits<double>::infinity();
+  bool in_ring = false;
+  CellKey ring_key = 0;  // the ring's cell when the nearest plane is met in the ring
+  std::vector<std::pair<double, int>> near;
+};
+
+void NearestPlane(const RayContext& ctx, int c, int i, const Vec3& ray, const CellsPerPlane& own,
+                  const CellsPerPlane& ring, const CellsPerPlane& zone, RayHit* hit) {
+  const Vec3& centre = ctx.poses[c].translation();
+  hit->plane = -1;
+  hit->z = std::numeric_limits<double>::infinity();
+  hit->in_ring = false;
+  hit->ring_key = 0;
+  hit->near.clear();
+  for (size_t j = 0; j < ctx.planes.size(); ++j) {
+    const double z = RayPlaneDepth(centre, ray, ctx.planes[j].normal, ctx.planes[j].offset);
+    if (!ctx.WithinReach(c, i, z)) continue;
+    const CellKey key = ctx.grids[j].Key(centre + z * ray);
+    if (zone[j].count(key)) hit->near.emplace_back(z, static_cast<int>(j));
+    if (z >= hit->z) continue;
+    const bool own_cell = own[j].count(key) > 0;
+    if (!own_cell && !ring[j].count(key)) continue;
+    hit->z = z, hit->plane = static_cast<int>(j), hit->in_ring = !own_cell, hit->ring_key = key;
+  }
+}
+
+/// Whether pixel i belongs to the plane it hit: within the gate of it, not at a crease with
+/// another plane, and at a height inside the band (the floor: near y = 0).
+bool KeepHit(const RayContext& ctx, const PlaneSegmentationOptions& segmentation, int c, int i,
+             const Vec3& ray, const RayHit& hit) {
+  const SurfaceCamera& camera = ctx.cameras[c];
+  const double measured = camera.points[i].z();
+  const double sigma = ctx.SigmaZ(c, hit.z);
+  if (std::abs(measured - hit.z) > ctx.gate * sigma) return false;
+  const bool crease = std::any_of(hit.near.begin(), hit.near.end(), [&](const auto& other) {
+    return other.second != hit.plane && other.first - hit.z <= ctx.gate * sigma;
+  });
+  if (crease) return false;
+  const double sigma_v = VerticalSigma(camera, hit.z, ray, ctx.base);
+  if (ctx.planes[hit.plane].floor) {
+    const double height = (ctx.poses[c] * camera.points[i]).y();
+    const double limit =
+        std::min({ctx.gate * sigma_v, segmentation.floor_height_m, -camera.band_bottom});
+    return !(std::abs(height) > limit);
+  }
+  const double height = ctx.poses[c].translation().y() + hit.z * ray.y();
+  return !(height < camera.band_bottom || height > PredictedTop(camera, sigma_v));
+}
+
+/// Camera c's pixels of each plane: those whose nearest plane is met in the camera's own cells,
+/// and the ring cells whose pixels as a whole lie on the plane.
+std::vector<std::vector<int>> CameraPixels(const RayContext& ctx,
+                                           const PlaneSegmentationOptions& segmentation, int c,
+                                           const CellsPerPlane& own, const CellsPerPlane& ring,
+                                           const CellsPerPlane& zone) {
+  const SurfaceCamera& camera = ctx.cameras[c];
+  std::vector<std::vector<int>> pixels(ctx.planes.size());
+  // The pixels in the ring, by (plane, cell), with their whitened depth residuals.
+  std::map<std::pair<int, CellKey>, RingCell> ring_cells;
+  RayHit hit;
+  for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
+    const Vec3 ray = ctx.Ray(c, i);
+    NearestPlane(ctx, c, i, ray, own, ring, zone, &hit);
+    if (hit.plane < 0 || !KeepHit(ctx, segmentation, c, i, ray, hit)) continue;
+    if (hit.in_ring) {
+      ring_cells[{hit.plane, hit.ring_key}].Add(
+          i, (camera.points[i].z() - hit.z) / ctx.SigmaZ(c, hit.z));
+    } else {
+      pixels[hit.plane].push_back(i);
+    }
+  }
+  for (const auto& [key, cell] : ring_cells) {
+    if (!cell.OnThePlane(segmentation.chi2_sigmas)) continue;
+    std::vector<int>& on_plane = pixels[key.first];
+    on_plane.insert(on_plane.end(), cell.pixels.begin(), cell.pixels.end());
+  }
+  for (std::vector<int>& on_plane : pixels) std::sort(on_plane.begin(), on_plane.end());
+  return pixels;
+}
+
 }  // namespace
 
 double VerticalSigma(const SurfaceCamera& camera, double z, const Vec3& ray, double base_variance) {
@@ -127,140 +276,41 @@ double PredictedTop(const SurfaceCamera& camera, double sigma_v) {
 
 std::vector<SurfaceTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
                                           const std::vector<Pose>& poses,
-                                          const std::vector<SurfacePlane>& planes,
+                                          const std::vector<PlanarFace>& planes,
                                           const std::vector<SurfaceTerm>& segmented,
                                           const PlaneSegmentationOptions& segmentation,
                                           int num_threads) {
   const size_t n = cameras.size();
   const size_t m = planes.size();
-  const double base = BaseVariance(segmentation);
-  const double gate = segmentation.gate_sigmas;
-  std::vector<PlaneGrid> grids;
-  for (const SurfacePlane& plane : planes) {
-    grids.emplace_back(plane, kMembershipCellVoxels * segmentation.voxel_size);
+  RayContext ctx{cameras, poses, planes, {}, BaseVariance(segmentation), segmentation.gate_sigmas};
+  for (const PlanarFace& plane : planes) {
+    ctx.grids.emplace_back(plane, kMembershipCellVoxels * segmentation.voxel_size);
   }
-  const auto ray_of = [&](size_t c, int i) {
-    const Vec3& p = cameras[c].points[i];
-    return Vec3(poses[c].linear() * (p / p.z()));
-  };
-  // A pixel's depth sigma at depth z, and whether a plane met at depth z along its ray is near
-  // enough to its measured depth to be looked at (twice the gate).
-  const auto sigma_z = [&](size_t c, double z) {
-    const double s = cameras[c].depth_noise * z * z;
-    return std::sqrt(s * s + base);
-  };
-  const auto within_reach = [&](size_t c, int i, double z) {
-    const double measured = cameras[c].points[i].z();
-    return std::isfinite(z) && z > 0.0 &&
-           std::abs(z - measured) <= 2.0 * gate * sigma_z(c, measured);
-  };
-
   // Each camera's extent of each plane (a camera at a time), then every plane's crease zone
-  // (a plane at a time).
-  std::vector<std::vector<Cells>> own(n, std::vector<Cells>(m));
+  // (a plane at a time), then each camera's ring around its extent.
+  std::vector<CellsPerPlane> own(n), ring(n);
   ParallelFor(
-      static_cast<int>(n), num_threads,
-      [&](int c) {
-        if (!cameras[c].ray_model) return;
-        const Vec3& centre = poses[c].translation();
-        for (const SurfaceTerm& t : segmented) {
-          if (t.camera != c) continue;
-          const SurfacePlane& plane = planes[t.plane];
-          for (const int i : t.pixels) {
-            const Vec3 ray = ray_of(c, i);
-            const double z = RayPlaneDepth(centre, ray, plane.normal, plane.offset);
-            // Not where a grazing ray meets the plane far from the pixel's own point.
-            if (within_reach(c, i, z)) own[c][t.plane].insert(grids[t.plane].Key(centre + z * ray));
-          }
-        }
-        for (Cells& cells : own[c]) cells = Eroded(Dilated(cells));
-      },
+      static_cast<int>(n), num_threads, [&](int c) { own[c] = OwnCells(ctx, segmented, c); },
       /*min_per_thread=*/1);
-  std::vector<Cells> zone(m);
+  CellsPerPlane zone(m);
   ParallelFor(
       static_cast<int>(m), num_threads,
       [&](int j) {
         Cells all;
         for (size_t c = 0; c < n; ++c) all.insert(own[c][j].begin(), own[c][j].end());
-        zone[j] = planes[j].floor ? Dilated(all) : DownToFloor(Dilated(all), grids[j]);
+        zone[j] = planes[j].floor ? Dilated(all) : DownToFloor(Dilated(all), ctx.grids[j]);
       },
       /*min_per_thread=*/1);
-
-  // Each camera's ring of kMembershipGrowCells cells around its extent of each plane.
-  std::vector<std::vector<Cells>> ring(n, std::vector<Cells>(m));
   ParallelFor(
-      static_cast<int>(n), num_threads,
-      [&](int c) {
-        for (size_t j = 0; j < m; ++j) {
-          if (own[c][j].empty()) continue;
-          Cells grown = own[c][j];
-          for (int g = 0; g < kMembershipGrowCells; ++g) grown = Dilated(grown);
-          for (const CellKey k : grown) {
-            if (!own[c][j].count(k)) ring[c][j].insert(k);
-          }
-        }
-      },
+      static_cast<int>(n), num_threads, [&](int c) { ring[c] = RingCells(own[c]); },
       /*min_per_thread=*/1);
-
   // Every pixel, a camera at a time.
   std::vector<std::vector<std::vector<int>>> pixels(n);
   ParallelFor(
       static_cast<int>(n), num_threads,
       [&](int c) {
-        const SurfaceCamera& camera = cameras[c];
-        if (!camera.ray_model) return;
-        const Vec3& centre = poses[c].translation();
-        pixels[c].resize(m);
-        // The pixels in the ring, by (plane, cell), with their whitened depth residuals.
-        std::map<std::pair<int, CellKey>, RingCell> ring_cells;
-        std::vector<std::pair<double, int>> near;  // (depth, plane) of the crease zones met
-        for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
-          const Vec3 ray = ray_of(c, i);
-          const double measured = camera.points[i].z();
-          double z1 = std::numeric_limits<double>::infinity();
-          int j1 = -1;
-          CellKey ring_key = 0;  // the ring's cell when the nearest plane is met in the ring
-          bool in_ring = false;
-          near.clear();
-          for (size_t j = 0; j < m; ++j) {
-            const double z = RayPlaneDepth(centre, ray, planes[j].normal, planes[j].offset);
-            if (!within_reach(c, i, z)) continue;
-            const CellKey key = grids[j].Key(centre + z * ray);
-            if (zone[j].count(key)) near.emplace_back(z, static_cast<int>(j));
-            if (z >= z1) continue;
-            const bool own_cell = own[c][j].count(key) > 0;
-            if (!own_cell && !ring[c][j].count(key)) continue;
-            z1 = z, j1 = static_cast<int>(j), in_ring = !own_cell, ring_key = key;
-          }
-          if (j1 < 0) continue;
-          const double sigma = sigma_z(c, z1);
-          if (std::abs(measured - z1) > gate * sigma) continue;
-          const bool crease = std::any_of(near.begin(), near.end(), [&](const auto& hit) {
-            return hit.second != j1 && hit.first - z1 <= gate * sigma;
-          });
-          if (crease) continue;
-          const double sigma_v = VerticalSigma(camera, z1, ray, base);
-          if (planes[j1].floor) {
-            const double height = (poses[c] * camera.points[i]).y();
-            const double limit =
-                std::min({gate * sigma_v, segmentation.floor_height_m, -camera.band_bottom});
-            if (std::abs(height) > limit) continue;
-          } else {
-            const double height = centre.y() + z1 * ray.y();
-            if (height < camera.band_bottom || height > PredictedTop(camera, sigma_v)) continue;
-          }
-          if (in_ring) {
-            ring_cells[{j1, ring_key}].Add(i, (measured - z1) / sigma);
-          } else {
-            pixels[c][j1].push_back(i);
-          }
-        }
-        for (const auto& [key, cell] : ring_cells) {
-          if (!cell.OnThePlane(segmentation.chi2_sigmas)) continue;
-          std::vector<int>& on_plane = pixels[c][key.first];
-          on_plane.insert(on_plane.end(), cell.pixels.begin(), cell.pixels.end());
-        }
-        for (std::vector<int>& on_plane : pixels[c]) std::sort(on_plane.begin(), on_plane.end());
+        if (cameras[c].ray_model)
+          pixels[c] = CameraPixels(ctx, segmentation, c, own[c], ring[c], zone);
       },
       /*min_per_thread=*/1);
 

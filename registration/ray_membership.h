@@ -38,10 +38,7 @@ double PredictedTop(const SurfaceCamera& camera, double sigma_v);
 /// The side of the cells of a plane's extent, in voxels (PlaneSegmentationOptions::voxel_size).
 constexpr double kMembershipCellVoxels = 2.0;
 /// How far, in cells, a camera's extent of a plane may grow where its own pixels agree with the
-/// plane. On the default simulated rig (seeds 0..9 x 3 draws) 0 / 1 / 2 / 4 / 8 cells gave
-/// 4.76 / 4.26 / 4.11 / 3.87 / 4.18 mm (held out, seeds 10..19: 7.00 / - / 6.64 / 6.61 / 6.83),
-/// with the ring cells' mean test |sum r| <= 3 sqrt(N) + 1 (kept without the 1: 4 cells gave
-/// 3.96 / 6.56 mm).
+/// plane (chosen among 0 to 8 on simulated rigs, held-out seeds included).
 constexpr int kMembershipGrowCells = 4;
 
 /// Every pixel of every depth camera (ray_model) assigned anew from `segmented`, the
@@ -74,7 +71,7 @@ constexpr int kMembershipGrowCells = 4;
 /// shared out among them).
 std::vector<SurfaceTerm> MembershipByRays(const std::vector<SurfaceCamera>& cameras,
                                           const std::vector<Pose>& poses,
-                                          const std::vector<SurfacePlane>& planes,
+                                          const std::vector<PlanarFace>& planes,
                                           const std::vector<SurfaceTerm>& segmented,
                                           const PlaneSegmentationOptions& segmentation,
                                           int num_threads = 1);

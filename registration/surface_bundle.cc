@@ -282,8 +282,8 @@ void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
 }
 
 /// The planes of the blocks.
-std::vector<SurfacePlane> PlaneList(const std::vector<PlaneBlock>& planes) {
-  std::vector<SurfacePlane> list;
+std::vector<PlanarFace> PlaneList(const std::vector<PlaneBlock>& planes) {
+  std::vector<PlanarFace> list;
   for (const PlaneBlock& plane : planes) list.push_back({plane.Normal(), plane.x(3), plane.floor});
   return list;
 }

@@ -49,13 +49,6 @@ struct SurfaceCamera {
   Mat6 start_covariance = Mat6::Zero();
 };
 
-/// A plane of the surface bundle (world, n^T x + offset = 0).
-struct SurfacePlane {
-  Vec3 normal = Vec3::UnitY();
-  double offset = 0.0;
-  bool floor = false;
-};
-
 /// One camera's pixels (indices into SurfaceCamera::points) on one plane.
 struct SurfaceTerm {
   int camera = 0;
@@ -97,9 +90,8 @@ struct SurfaceBundleResult {
   /// (bench/rig_accuracy --segmentation compares them with the simulator's faces). Filled
   /// only while an observer is set (SetSurfaceBundleObserver): no refinement needs the copy
   /// of every pixel index.
-  using Plane = SurfacePlane;
   using Term = SurfaceTerm;
-  std::vector<Plane> plane_list;
+  std::vector<PlanarFace> plane_list;
   std::vector<Term> terms;
   int pixels = 0;  ///< in the last round's clusters
   int rounds = 0;

@@ -71,40 +71,46 @@ GroundWindow FitGroundWindow(const std::vector<const std::vector<TopDownCamera>*
   return {min_x - margin, max_x + margin, min_z - margin, max_z + margin};
 }
 
-Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow& window,
-                  double point_size_m, const std::string& title, const std::string& subtitle) {
-  Canvas canvas(kTopDownWidth, kTopDownHeight, kWhite);
-  DrawTitles(&canvas, title, subtitle);
-  constexpr int kLegendWidth = 260;
-  const Rect available{90, 110, kTopDownWidth - kLegendWidth - 20, kTopDownHeight - 80};
+namespace {
+
+constexpr int kLegendWidth = 260;
+
+/// The top-down plot's rectangle and its scale: x to columns, z to rows.
+struct TopDownFrame {
+  GroundWindow window;
+  Rect plot;
+  double px_per_m = 1.0;
+  int width = 0;
+  int height = 0;
+
+  double Column(double x) const { return plot.x0 + (x - window.min_x) * px_per_m; }
+  double Row(double z) const { return plot.y0 + (z - window.min_z) * px_per_m; }
+};
+
+TopDownFrame FrameOf(const GroundWindow& window, const Rect& available) {
+  TopDownFrame f;
+  f.window = window;
   const double span_x = window.max_x - window.min_x;
   const double span_z = window.max_z - window.min_z;
-  const double px_per_m =
+  f.px_per_m =
       std::min((available.x1 - available.x0) / span_x, (available.y1 - available.y0) / span_z);
-  const int width = static_cast<int>(span_x * px_per_m);
-  const int height = static_cast<int>(span_z * px_per_m);
-  const Rect plot{available.x0, available.y0, available.x0 + width, available.y0 + height};
-  const auto column = [&](double x) { return plot.x0 + (x - window.min_x) * px_per_m; };
-  const auto row = [&](double z) { return plot.y0 + (z - window.min_z) * px_per_m; };
+  f.width = static_cast<int>(span_x * f.px_per_m);
+  f.height = static_cast<int>(span_z * f.px_per_m);
+  f.plot = {available.x0, available.y0, available.x0 + f.width, available.y0 + f.height};
+  return f;
+}
 
-  // Grid and tick labels, in metres.
-  const double step = NiceStep(std::max(span_x, span_z), 10);
-  for (double x : Ticks(window.min_x, window.max_x, step)) {
-    XTick(&canvas, plot, static_cast<int>(std::lround(column(x))), TickLabel(x, step));
-  }
-  for (double z : Ticks(window.min_z, window.max_z, step)) {
-    YTick(&canvas, plot, static_cast<int>(std::lround(row(z))), TickLabel(z, step));
-  }
-  AxisLabels(&canvas, plot, "x (m)", "z (m)");
-
-  // Point density per camera and pixel, then one colour per pixel.
+/// Point density per camera and pixel, then one colour per pixel, mixed into the canvas.
+void DrawDensity(const std::vector<TopDownCamera>& cameras, const TopDownFrame& f,
+                 double point_size_m, Canvas* canvas) {
   const size_t n = cameras.size();
-  const int splat = std::max(1, static_cast<int>(std::lround(point_size_m * px_per_m)));
+  const int width = f.width, height = f.height;
+  const int splat = std::max(1, static_cast<int>(std::lround(point_size_m * f.px_per_m)));
   std::vector<std::uint16_t> counts(static_cast<size_t>(width) * height * n, 0);
   for (size_t k = 0; k < n; ++k) {
     for (const Vec3& p : cameras[k].points_world) {
-      const int c0 = static_cast<int>(std::floor(column(p.x()) - 0.5 * splat)) - plot.x0;
-      const int r0 = static_cast<int>(std::floor(row(p.z()) - 0.5 * splat)) - plot.y0;
+      const int c0 = static_cast<int>(std::floor(f.Column(p.x()) - 0.5 * splat)) - f.plot.x0;
+      const int r0 = static_cast<int>(std::floor(f.Row(p.z()) - 0.5 * splat)) - f.plot.y0;
       for (int r = std::max(r0, 0); r < std::min(r0 + splat, height); ++r) {
         for (int c = std::max(c0, 0); c < std::min(c0 + splat, width); ++c) {
           std::uint16_t& count = counts[(static_cast<size_t>(r) * width + c) * n + k];
@@ -113,7 +119,7 @@ Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow&
       }
     }
   }
-  Image image = canvas.ToImage();
+  Image image = canvas->ToImage();
   for (int r = 0; r < height; ++r) {
     for (int c = 0; c < width; ++c) {
       const std::uint16_t* pixel = &counts[(static_cast<size_t>(r) * width + c) * n];
@@ -128,43 +134,70 @@ Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow&
       const Rgb mixed{static_cast<std::uint8_t>(std::lround(red / total)),
                       static_cast<std::uint8_t>(std::lround(green / total)),
                       static_cast<std::uint8_t>(std::lround(blue / total))};
-      image.Set(plot.x0 + c, plot.y0 + r,
-                Mix(image.At(plot.x0 + c, plot.y0 + r), mixed, total / kSaturationPoints));
+      image.Set(f.plot.x0 + c, f.plot.y0 + r,
+                Mix(image.At(f.plot.x0 + c, f.plot.y0 + r), mixed, total / kSaturationPoints));
     }
   }
-  canvas.SetImage(image);
+  canvas->SetImage(image);
+}
 
-  // Camera centres and viewing directions (the camera z axis on the ground).
+/// Camera centres and viewing directions (the camera z axis on the ground).
+void DrawCameraMarks(const std::vector<TopDownCamera>& cameras, const TopDownFrame& f,
+                     Canvas* canvas) {
   constexpr double kHeadingPx = 45.0;
   for (const TopDownCamera& camera : cameras) {
     const Vec3& centre = camera.T_world_camera.translation();
     const Vec3 forward = camera.T_world_camera.linear().col(2);
-    const double cx = column(centre.x()), cy = row(centre.z());
+    const double cx = f.Column(centre.x()), cy = f.Row(centre.z());
     const double norm = std::hypot(forward.x(), forward.z());
     if (norm > 1e-9) {
-      canvas.Line(cx, cy, cx + kHeadingPx * forward.x() / norm,
-                  cy + kHeadingPx * forward.z() / norm, kBlack, 3);
+      canvas->Line(cx, cy, cx + kHeadingPx * forward.x() / norm,
+                   cy + kHeadingPx * forward.z() / norm, kBlack, 3);
     }
-    canvas.Disc(cx, cy, 10.0, kBlack);
-    canvas.Disc(cx, cy, 7.0, camera.color);
+    canvas->Disc(cx, cy, 10.0, kBlack);
+    canvas->Disc(cx, cy, 7.0, camera.color);
   }
-  DrawFrame(&canvas, plot, kAxis);
+}
 
-  plot::DrawScaleBar(&canvas, plot, px_per_m, span_x);
-
-  // Legend.
+void DrawTopDownLegend(const std::vector<TopDownCamera>& cameras, int top, Canvas* canvas) {
   const int legend_x = kTopDownWidth - kLegendWidth + 10;
-  int y = available.y0;
-  canvas.Text(legend_x, y, "cameras", kBlack, kTextSize);
+  int y = top;
+  canvas->Text(legend_x, y, "cameras", kBlack, kTextSize);
   y += kTextHeight + 14;
   for (const TopDownCamera& camera : cameras)
-    y = LegendRow(&canvas, legend_x, y, camera.color, camera.label);
+    y = LegendRow(canvas, legend_x, y, camera.color, camera.label);
   y += 16;
   for (const char* line : {"disc: camera centre", "line: viewing direction", "pale: floor points",
                            "strong: walls, objects", "(many points over", " one spot)"}) {
-    canvas.Text(legend_x, y, line, kMuted, kTextSize);
+    canvas->Text(legend_x, y, line, kMuted, kTextSize);
     y += kTextHeight + 8;
   }
+}
+
+}  // namespace
+
+Image DrawTopDown(const std::vector<TopDownCamera>& cameras, const GroundWindow& window,
+                  double point_size_m, const std::string& title, const std::string& subtitle) {
+  Canvas canvas(kTopDownWidth, kTopDownHeight, kWhite);
+  DrawTitles(&canvas, title, subtitle);
+  const Rect available{90, 110, kTopDownWidth - kLegendWidth - 20, kTopDownHeight - 80};
+  const TopDownFrame f = FrameOf(window, available);
+  const double span_x = window.max_x - window.min_x;
+  const double span_z = window.max_z - window.min_z;
+  // Grid and tick labels, in metres.
+  const double step = NiceStep(std::max(span_x, span_z), 10);
+  for (double x : Ticks(window.min_x, window.max_x, step)) {
+    XTick(&canvas, f.plot, static_cast<int>(std::lround(f.Column(x))), TickLabel(x, step));
+  }
+  for (double z : Ticks(window.min_z, window.max_z, step)) {
+    YTick(&canvas, f.plot, static_cast<int>(std::lround(f.Row(z))), TickLabel(z, step));
+  }
+  AxisLabels(&canvas, f.plot, "x (m)", "z (m)");
+  DrawDensity(cameras, f, point_size_m, &canvas);
+  DrawCameraMarks(cameras, f, &canvas);
+  DrawFrame(&canvas, f.plot, kAxis);
+  plot::DrawScaleBar(&canvas, f.plot, f.px_per_m, span_x);
+  DrawTopDownLegend(cameras, available.y0, &canvas);
   return canvas.ToImage();
 }
 

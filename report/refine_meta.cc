@@ -13,8 +13,8 @@ namespace {
 
 using Json = nlohmann::json;
 
-Json PlaneJson(const Plane& plane) {
-  return {plane.normal.x(), plane.normal.y(), plane.normal.z(), plane.d};
+Json PlaneJson(const PlanarFace& plane) {
+  return {plane.normal.x(), plane.normal.y(), plane.normal.z(), plane.offset};
 }
 
 Json GroundMeta(const RefineResult& result, const RefineOptions& options,

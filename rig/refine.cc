@@ -166,6 +166,47 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   joint->covariance_ok = joint->covariance_ok && bundle.covariance_ok;
 }
 
+/// The joint solve's per-camera results into the report: connectivity, covariance and weak
+/// directions (each warned).
+void ReportJointCameras(const JointResult& joint, const IcpOptions& options, const Log& log,
+                        RefineResult* result) {
+  for (size_t i = 0; i < result->cameras.size(); ++i) {
+    CameraReport& report = result->cameras[i];
+    report.connected = joint.connected[i];
+    report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference;
+    report.covariance = joint.covariance[i];
+    if (report.reference) continue;
+    report.weak_directions = joint.weak[i];
+    for (const WeakDirection& d : joint.weak[i]) {
+      Warn(result, log,
+           "camera " + report.serial + ": " + d.name + " weakly constrained (" +
+               Fixed(100.0 * d.strength, 2) +
+               "% against the best-constrained direction, threshold " +
+               Fixed(100.0 * options.degeneracy_threshold, 2) + "%): " + d.reason +
+               (options.hold_weak_directions ? "; held at its leveled pose" : ""));
+    }
+  }
+}
+
+/// Each pair's fit after the joint solve into the report, logged.
+void ReportJointPairs(const std::vector<CandidatePair>& candidates, const JointResult& joint,
+                      const std::vector<OverlapStats>& overlap, const Log& log,
+                      RefineResult* result) {
+  for (size_t k = 0; k < candidates.size(); ++k) {
+    PairReport& report = result->pairs[k];
+    const OverlapStats& after = overlap[k];
+    report.fitness = after.fitness;
+    report.rmse_after_m = after.rmse_m;
+    report.correspondences = joint.pair_correspondences[k];
+    report.iterations = joint.iterations;
+    report.accepted = joint.connected[candidates[k].a] && joint.connected[candidates[k].b] &&
+                      joint.pair_correspondences[k] > 0;
+    log.Info("pair " + report.serial_a + " - " + report.serial_b + ": fitness " +
+             Fixed(report.fitness, 3) + ", RMSE " + Fixed(report.rmse_before_m * 1e3, 2) + " -> " +
+             Fixed(report.rmse_after_m * 1e3, 2) + " mm");
+  }
+}
+
 std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<RegistrationCamera>& cameras,
                                                     const std::vector<CandidatePair>& candidates,
                                                     int reference, const IcpOptions& options,
@@ -214,22 +255,7 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
   log.Info("joint: " + std::to_string(joint.iterations) + " iterations, correspondences " +
            Fixed(joint.correspondences_s, 3) + " s, solve " + Fixed(joint.solve_s, 3) +
            " s, covariance " + Fixed(joint.covariance_s, 3) + " s");
-  for (size_t i = 0; i < cameras.size(); ++i) {
-    CameraReport& report = result->cameras[i];
-    report.connected = joint.connected[i];
-    report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference;
-    report.covariance = joint.covariance[i];
-    if (report.reference) continue;
-    report.weak_directions = joint.weak[i];
-    for (const WeakDirection& d : joint.weak[i]) {
-      Warn(result, log,
-           "camera " + report.serial + ": " + d.name + " weakly constrained (" +
-               Fixed(100.0 * d.strength, 2) +
-               "% against the best-constrained direction, threshold " +
-               Fixed(100.0 * options.degeneracy_threshold, 2) + "%): " + d.reason +
-               (options.hold_weak_directions ? "; held at its leveled pose" : ""));
-    }
-  }
+  ReportJointCameras(joint, options, log, result);
   std::vector<OverlapStats> overlap(candidates.size());
   ParallelFor(
       pair_count, num_threads,
@@ -239,19 +265,7 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
         overlap[k] = MeasureOverlap(b, a, coarsest_voxel, options, 1);
       },
       /*min_per_thread=*/1);
-  for (size_t k = 0; k < candidates.size(); ++k) {
-    PairReport& report = result->pairs[k];
-    const OverlapStats& after = overlap[k];
-    report.fitness = after.fitness;
-    report.rmse_after_m = after.rmse_m;
-    report.correspondences = joint.pair_correspondences[k];
-    report.iterations = joint.iterations;
-    report.accepted = joint.connected[candidates[k].a] && joint.connected[candidates[k].b] &&
-                      joint.pair_correspondences[k] > 0;
-    log.Info("pair " + report.serial_a + " - " + report.serial_b + ": fitness " +
-             Fixed(report.fitness, 3) + ", RMSE " + Fixed(report.rmse_before_m * 1e3, 2) + " -> " +
-             Fixed(report.rmse_after_m * 1e3, 2) + " mm");
-  }
+  ReportJointPairs(candidates, joint, overlap, log, result);
   result->times.registration_s = SecondsSince(start);
   if (!joint.usable) {
     result->message = joint.message;
@@ -523,8 +537,9 @@ void CheckRefineInput(const RigCapture& capture, const PoseMap& initial,
 }
 
 RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
-                    bool run_icp, int num_threads, const Log& log) {
+                    const Log& log) {
   CheckRefineInput(capture, initial, options);
+  const int num_threads = options.threads;
   RefineResult result;
   const size_t n = capture.cameras.size();
   result.reference = options.icp.reference.empty() && n > 0 ? capture.cameras.front().serial
@@ -535,7 +550,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   const std::vector<Pose> leveled =
       LevelCameras(capture, initial, options, reference, num_threads, log, &points, &result);
   result.refined = result.leveled;
-  if (!run_icp) {
+  if (!options.run_registration) {
     result.success = true;
     result.message = "leveling only";
     return result;

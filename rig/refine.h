@@ -143,9 +143,10 @@ void CheckRefineInput(const RigCapture& capture, const PoseMap& initial,
                       const RefineOptions& options, const RefineInputNames& names = {});
 
 /// Runs the pipeline. Calls CheckRefineInput first (InputError on inputs that do not match).
-/// `run_icp` false stops after leveling. Never throws on bad geometry: the result says what
+/// options.run_registration false stops after leveling; options.threads threads. Progress and
+/// warnings go to `log` (none by default). Never throws on bad geometry: the result says what
 /// was and was not applied.
 RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const RefineOptions& options,
-                    bool run_icp, int num_threads, const Log& log);
+                    const Log& log = Log{});
 
 }  // namespace rigfit

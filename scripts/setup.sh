@@ -8,7 +8,7 @@ packages=(
   libceres-dev libeigen3-dev libsuitesparse-dev
   libhdf5-dev hdf5-tools
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
-  libnanoflann-dev libflann-dev
+  libnanoflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libpng-dev libcairo2-dev fonts-dejavu-core clang-format ccache
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module (docs/python.md)

@@ -2,21 +2,19 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <flann/flann.hpp>
 #include <limits>
 #include <nanoflann.hpp>
 
 namespace rigfit {
 namespace {
 
-/// Points per leaf for both backends (their own default). A leaf of 20 builds 15-20% faster
+/// Points per leaf (nanoflann's default). A leaf of 20 builds 15-20% faster
 /// and answers k = 20 queries 0-4% faster, but its bounded nearest-neighbour queries, the
 /// solvers' hot loop, were 8% slower at 5k points and equal (within 2%) at 20k-40k.
 constexpr int kLeafMaxSize = 10;
 
 /// The k smallest (squared distance, index) pairs strictly below a bound, kept sorted by
-/// insertion into caller-owned arrays. One result set for both backends, so the benchmark
-/// compares the trees and not the bookkeeping. The bound shrinks to the k-th distance once
+/// insertion into caller-owned arrays. The bound shrinks to the k-th distance once
 /// k pairs are held, which is what prunes the tree search.
 class BoundedKnnResult {
  public:
@@ -66,18 +64,25 @@ class NanoflannResult {
   BoundedKnnResult* result_;
 };
 
-/// FLANN's (virtual) ResultSet interface over BoundedKnnResult.
-class FlannResult final : public flann::ResultSet<double> {
+/// nanoflann's RESULTSET concept for the one nearest point strictly below a bound.
+class NearestResult {
  public:
-  explicit FlannResult(BoundedKnnResult* result) : result_(result) {}
-  bool full() const override { return true; }
-  void addPoint(double squared_distance, size_t index) override {
-    result_->Add(squared_distance, static_cast<int>(index));
+  explicit NearestResult(double max_squared_distance) : worst_(max_squared_distance) {}
+  size_t size() const { return index_ < 0 ? 0 : 1; }
+  bool full() const { return true; }
+  bool addPoint(double squared_distance, std::uint32_t index) {
+    if (squared_distance < worst_) {
+      worst_ = squared_distance;
+      index_ = static_cast<int>(index);
+    }
+    return true;
   }
-  double worstDist() const override { return result_->worst(); }
+  double worstDist() const { return worst_; }
+  int index() const { return index_; }
 
  private:
-  BoundedKnnResult* result_;
+  double worst_;
+  int index_ = -1;
 };
 
 /// nanoflann's dataset concept over the cloud's buffer (not the std::vector object, so
@@ -98,25 +103,16 @@ struct CloudAdaptor {
 
 class KdTree::Impl {
  public:
-  virtual ~Impl() = default;
-  /// Searches the tree, feeding every candidate below result->worst() to result.
-  virtual void Search(const Vec3& query, BoundedKnnResult* result) const = 0;
-  virtual size_t size() const = 0;
-};
-
-namespace {
-
-class NanoflannTree final : public KdTree::Impl {
- public:
-  explicit NanoflannTree(const PointCloud& points)
+  explicit Impl(const PointCloud& points)
       : cloud_{points.data(), points.size()},
         tree_(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafMaxSize)) {}
 
-  void Search(const Vec3& query, BoundedKnnResult* result) const override {
-    NanoflannResult adapter(result);
-    tree_.findNeighbors(adapter, query.data(), nanoflann::SearchParams());
+  /// Searches the tree, feeding every candidate below result->worstDist() to result.
+  template <class Result>
+  void Search(const Vec3& query, Result* result) const {
+    tree_.findNeighbors(*result, query.data(), nanoflann::SearchParams());
   }
-  size_t size() const override { return cloud_.count; }
+  size_t size() const { return cloud_.count; }
 
  private:
   using Tree =
@@ -126,40 +122,7 @@ class NanoflannTree final : public KdTree::Impl {
   Tree tree_;
 };
 
-class FlannTree final : public KdTree::Impl {
- public:
-  /// FLANN reads the points through a row-major N x 3 view of the buffer (Vec3 is three
-  /// packed doubles) and, with reorder on (its default), copies them in tree order.
-  explicit FlannTree(const PointCloud& points) : count_(points.size()) {
-    static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
-    if (count_ == 0) return;  // FLANN cannot build over no points
-    const flann::Matrix<double> view(const_cast<double*>(points.front().data()), count_, 3);
-    tree_ = std::make_unique<Tree>(view, flann::KDTreeSingleIndexParams(kLeafMaxSize, true));
-    tree_->buildIndex();
-  }
-
-  void Search(const Vec3& query, BoundedKnnResult* result) const override {
-    if (!tree_) return;
-    FlannResult adapter(result);
-    tree_->findNeighbors(adapter, query.data(), flann::SearchParams());
-  }
-  size_t size() const override { return count_; }
-
- private:
-  using Tree = flann::KDTreeSingleIndex<flann::L2_3D<double>>;
-  size_t count_;
-  std::unique_ptr<Tree> tree_;
-};
-
-}  // namespace
-
-KdTree::KdTree(const PointCloud& points, KnnBackend backend) : backend_(backend) {
-  if (backend == KnnBackend::kFlann) {
-    impl_ = std::make_unique<FlannTree>(points);
-  } else {
-    impl_ = std::make_unique<NanoflannTree>(points);
-  }
-}
+KdTree::KdTree(const PointCloud& points) : impl_(std::make_unique<Impl>(points)) {}
 
 KdTree::~KdTree() = default;
 KdTree::KdTree(KdTree&&) noexcept = default;
@@ -168,13 +131,11 @@ KdTree& KdTree::operator=(KdTree&&) noexcept = default;
 bool KdTree::Nearest(const Vec3& query, double max_distance, int* index,
                      double* squared_distance) const {
   if (!(max_distance > 0.0) || !query.allFinite()) return false;
-  int best_index = -1;
-  double best_squared_distance = 0.0;
-  BoundedKnnResult result(1, max_distance * max_distance, &best_index, &best_squared_distance);
+  NearestResult result(max_distance * max_distance);
   impl_->Search(query, &result);
-  if (result.count() == 0) return false;
-  *index = best_index;
-  *squared_distance = best_squared_distance;
+  if (result.index() < 0) return false;
+  *index = result.index();
+  *squared_distance = result.worstDist();
   return true;
 }
 
@@ -187,13 +148,12 @@ void KdTree::KNearest(const Vec3& query, int k, std::vector<int>* indices,
   if (capacity == 0) return;
   BoundedKnnResult result(capacity, std::numeric_limits<double>::infinity(), indices->data(),
                           squared_distances->data());
-  impl_->Search(query, &result);
+  NanoflannResult adapter(&result);
+  impl_->Search(query, &adapter);
   indices->resize(result.count());
   squared_distances->resize(result.count());
 }
 
 size_t KdTree::size() const { return impl_->size(); }
-
-KnnBackend KdTree::backend() const { return backend_; }
 
 }  // namespace rigfit

@@ -1,15 +1,6 @@
 // Exact nearest-neighbour search over a 3D point cloud: the one adapter every solver uses,
-// so the k-d tree library can be swapped here and nowhere else.
-//
-// Two backends sit behind it, chosen at run time: nanoflann 1.4 (KDTreeSingleIndexAdaptor)
-// and FLANN 1.9 (KDTreeSingleIndex, the exact single-tree index; FLANN's randomised
-// KDTreeIndex is approximate unless its check count is unlimited). Both are exact and
-// return the same neighbours (ties aside). nanoflann is the default: on voxel-ordered
-// near-floor band clouds of 5k-100k points its bounded nearest-neighbour queries (the
-// solvers' inner loop) took 8-14% less time; tree builds were within 8% either way and
-// k = 20 queries level with FLANN's or faster. On the raw 69k-point LiDAR scans of shared/data,
-// FLANN's k = 20 queries were 6-17% faster and neither backend won the bounded queries
-// consistently. docs/benchmarks.md ("Nearest-neighbour backend and preprocessing") has the numbers.
+// so the k-d tree library (nanoflann's KDTreeSingleIndexAdaptor) can be swapped here and
+// nowhere else.
 #pragma once
 
 #include <memory>
@@ -18,11 +9,6 @@
 #include "core/types.h"
 
 namespace rigfit {
-
-enum class KnnBackend { kNanoflann, kFlann };
-
-/// The backend used when none is named: the faster one on rigfit's workload.
-inline constexpr KnnBackend kDefaultKnnBackend = KnnBackend::kNanoflann;
 
 /// A k-d tree over a point cloud.
 ///
@@ -34,7 +20,7 @@ inline constexpr KnnBackend kDefaultKnnBackend = KnnBackend::kNanoflann;
 /// one tree concurrently. Squared distances are Euclidean, in square metres.
 class KdTree {
  public:
-  explicit KdTree(const PointCloud& points, KnnBackend backend = kDefaultKnnBackend);
+  explicit KdTree(const PointCloud& points);
   ~KdTree();
   KdTree(KdTree&&) noexcept;
   KdTree& operator=(KdTree&&) noexcept;
@@ -52,14 +38,12 @@ class KdTree {
                 std::vector<double>* squared_distances) const;
 
   size_t size() const;
-  KnnBackend backend() const;
 
-  /// The backend-specific tree; defined in knn.cc.
+  /// The tree; defined in knn.cc.
   class Impl;
 
  private:
   std::unique_ptr<Impl> impl_;
-  KnnBackend backend_;
 };
 
 }  // namespace rigfit

@@ -25,7 +25,9 @@ class DiagnosticsTest : public ::testing::Test {
     sim.height = 180;
     sim.noise = 0.0;
     rig_ = new SimulatedRig(SimulateRig(sim));
-    const RefineResult leveling = Refine(rig_->capture, rig_->gt, RefineOptions{}, false, 2, {});
+    RefineOptions leveling_only;
+    leveling_only.run_registration = false;
+    const RefineResult leveling = Refine(rig_->capture, rig_->gt, leveling_only);
     diagnostics_ = new DiagnosticRig(PrepareDiagnostics(rig_->capture, leveling, {}, 2));
   }
   static void TearDownTestSuite() {

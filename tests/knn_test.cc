@@ -38,14 +38,11 @@ std::vector<std::pair<double, int>> BruteForceSorted(const PointCloud& points, c
   return all;
 }
 
-class KdTreeTest : public ::testing::TestWithParam<KnnBackend> {};
-
-TEST_P(KdTreeTest, NearestMatchesBruteForceWithAndWithoutBound) {
+TEST(KdTreeTest, NearestMatchesBruteForceWithAndWithoutBound) {
   const PointCloud points = RandomCloud(3000, 1);
   const PointCloud queries = RandomCloud(400, 2);
-  const KdTree tree(points, GetParam());
+  const KdTree tree(points);
   ASSERT_EQ(tree.size(), points.size());
-  EXPECT_EQ(tree.backend(), GetParam());
 
   // The mean spacing is about 0.04, so a 0.03 bound leaves many queries without a match.
   int found_with_bound = 0;
@@ -73,10 +70,10 @@ TEST_P(KdTreeTest, NearestMatchesBruteForceWithAndWithoutBound) {
   EXPECT_LT(found_with_bound, 350);
 }
 
-TEST_P(KdTreeTest, KNearestMatchesBruteForceSorted) {
+TEST(KdTreeTest, KNearestMatchesBruteForceSorted) {
   const PointCloud points = RandomCloud(2000, 3);
   const PointCloud queries = RandomCloud(200, 4);
-  const KdTree tree(points, GetParam());
+  const KdTree tree(points);
   std::vector<int> indices;
   std::vector<double> squared_distances;
   for (const int k : {1, 5, 20}) {
@@ -93,9 +90,9 @@ TEST_P(KdTreeTest, KNearestMatchesBruteForceSorted) {
   }
 }
 
-TEST_P(KdTreeTest, KLargerThanCloudReturnsAllPointsSorted) {
+TEST(KdTreeTest, KLargerThanCloudReturnsAllPointsSorted) {
   const PointCloud points = RandomCloud(7, 5);
-  const KdTree tree(points, GetParam());
+  const KdTree tree(points);
   const Vec3 q(0.1, -0.2, 0.0);
   std::vector<int> indices;
   std::vector<double> squared_distances;
@@ -113,9 +110,9 @@ TEST_P(KdTreeTest, KLargerThanCloudReturnsAllPointsSorted) {
   EXPECT_TRUE(indices.empty());
 }
 
-TEST_P(KdTreeTest, EmptyCloudFindsNothing) {
+TEST(KdTreeTest, EmptyCloudFindsNothing) {
   const PointCloud points;
-  const KdTree tree(points, GetParam());
+  const KdTree tree(points);
   EXPECT_EQ(tree.size(), 0u);
   int index = -1;
   double squared_distance = -1.0;
@@ -128,9 +125,9 @@ TEST_P(KdTreeTest, EmptyCloudFindsNothing) {
   EXPECT_TRUE(squared_distances.empty());
 }
 
-TEST_P(KdTreeTest, SinglePointAndInvalidArguments) {
+TEST(KdTreeTest, SinglePointAndInvalidArguments) {
   const PointCloud points = {Vec3(1.0, 2.0, 3.0)};
-  const KdTree tree(points, GetParam());
+  const KdTree tree(points);
   int index = -1;
   double squared_distance = -1.0;
   ASSERT_TRUE(tree.Nearest(Vec3(1.0, 2.0, 3.5), 1.0, &index, &squared_distance));
@@ -148,10 +145,10 @@ TEST_P(KdTreeTest, SinglePointAndInvalidArguments) {
   EXPECT_TRUE(indices.empty());
 }
 
-TEST_P(KdTreeTest, DuplicatePointsReturnEitherCopyAtTheSameDistance) {
+TEST(KdTreeTest, DuplicatePointsReturnEitherCopyAtTheSameDistance) {
   PointCloud points = RandomCloud(500, 6);
   points.push_back(points[17]);  // index 500 duplicates index 17
-  const KdTree tree(points, GetParam());
+  const KdTree tree(points);
   int index = -1;
   double squared_distance = -1.0;
   ASSERT_TRUE(tree.Nearest(points[17], kInf, &index, &squared_distance));
@@ -165,10 +162,10 @@ TEST_P(KdTreeTest, DuplicatePointsReturnEitherCopyAtTheSameDistance) {
   EXPECT_EQ(std::max(indices[0], indices[1]), 500);
 }
 
-TEST_P(KdTreeTest, MovingTheCloudOrTheTreeKeepsItValid) {
+TEST(KdTreeTest, MovingTheCloudOrTheTreeKeepsItValid) {
   PointCloud points = RandomCloud(1000, 7);
   const PointCloud copy = points;
-  KdTree tree(points, GetParam());
+  KdTree tree(points);
   const PointCloud moved = std::move(points);
   const KdTree moved_tree = std::move(tree);
   const Vec3 q(0.2, 0.1, 0.0);
@@ -178,10 +175,10 @@ TEST_P(KdTreeTest, MovingTheCloudOrTheTreeKeepsItValid) {
   EXPECT_EQ(index, BruteForceSorted(copy, q).front().second);
 }
 
-TEST_P(KdTreeTest, ConcurrentQueriesAgreeWithSerialOnes) {
+TEST(KdTreeTest, ConcurrentQueriesAgreeWithSerialOnes) {
   const PointCloud points = RandomCloud(5000, 8);
   const PointCloud queries = RandomCloud(4000, 9);
-  const KdTree tree(points, GetParam());
+  const KdTree tree(points);
   std::vector<int> serial(queries.size(), -1);
   for (size_t i = 0; i < queries.size(); ++i) {
     double squared_distance;
@@ -209,39 +206,6 @@ TEST_P(KdTreeTest, ConcurrentQueriesAgreeWithSerialOnes) {
     EXPECT_EQ(knn[i], indices);
   }
 }
-
-TEST(KdTreeBackends, AgreeOnAStructuredCloud) {
-  // A noisy floor grid with a box: many near-equal distances, both backends exact.
-  std::mt19937 rng(10);
-  std::normal_distribution<double> noise(0.0, 0.002);
-  PointCloud points;
-  for (int i = 0; i < 60; ++i) {
-    for (int j = 0; j < 60; ++j) {
-      points.emplace_back(0.02 * i + noise(rng), noise(rng), 0.02 * j + noise(rng));
-      if (i > 20 && i < 30 && j < 10) points.emplace_back(0.4 + noise(rng), 0.02 * j, 0.02 * i);
-    }
-  }
-  const KdTree nano(points, KnnBackend::kNanoflann);
-  const KdTree flann(points, KnnBackend::kFlann);
-  std::vector<int> a, b;
-  std::vector<double> da, db;
-  for (size_t i = 0; i < points.size(); i += 7) {
-    const Vec3 q = points[i] + Vec3(0.005, 0.003, -0.004);
-    nano.KNearest(q, 20, &a, &da);
-    flann.KNearest(q, 20, &b, &db);
-    EXPECT_EQ(da, db);
-    int ia = -1, ib = -1;
-    double sa = 0.0, sb = 0.0;
-    EXPECT_EQ(nano.Nearest(q, 0.01, &ia, &sa), flann.Nearest(q, 0.01, &ib, &sb));
-    EXPECT_EQ(sa, sb);
-  }
-}
-
-INSTANTIATE_TEST_SUITE_P(Backends, KdTreeTest,
-                         ::testing::Values(KnnBackend::kNanoflann, KnnBackend::kFlann),
-                         [](const ::testing::TestParamInfo<KnnBackend>& info) {
-                           return info.param == KnnBackend::kFlann ? "Flann" : "Nanoflann";
-                         });
 
 }  // namespace
 }  // namespace rigfit

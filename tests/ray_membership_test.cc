@@ -21,7 +21,7 @@ constexpr double kNoise = 0.0025;      // k of sigma_z = k z^2
 /// model) and its ray.
 struct Scene {
   SurfaceCamera camera;
-  std::vector<SurfacePlane> planes;
+  std::vector<PlanarFace> planes;
   std::vector<int> truth;  ///< per point: 0 floor, 1 wall, 2 the object
   std::vector<int> column;
   std::vector<Vec3> ray;  ///< world direction, unit camera z

@@ -66,8 +66,7 @@ class PairRecovery : public ::testing::TestWithParam<RegistrationMethod> {};
 
 TEST_P(PairRecovery, NoiseFreeToAMillimetre) {
   const SimulatedRig rig = PairRig(0.0, 1);
-  const RefineResult r =
-      Refine(rig.capture, rig.init, PairwiseOptions(GetParam()), true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, PairwiseOptions(GetParam()), StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   const MaxErrors before = Errors(rig.init, rig.gt);
   const MaxErrors after = Errors(r.refined, rig.gt);
@@ -80,8 +79,7 @@ TEST_P(PairRecovery, NoiseFreeToAMillimetre) {
 
 TEST_P(PairRecovery, DefaultNoiseToACentimetre) {
   const SimulatedRig rig = PairRig(SimOptions{}.noise, 2);
-  const RefineResult r =
-      Refine(rig.capture, rig.init, PairwiseOptions(GetParam()), true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, PairwiseOptions(GetParam()), StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   const MaxErrors after = Errors(r.refined, rig.gt);
   std::printf("default noise: after %.4f deg %.3f mm, tilt %.4f deg\n", after.rotation_deg,
@@ -109,7 +107,7 @@ TEST(JointRefine, RecoversANoiseFreeThreeCameraRig) {
   const SimulatedRig rig = Rig(3, 0.0, 4);
   RefineOptions options;
   ASSERT_EQ(options.icp.mode, RefineMode::kJoint);  // the default
-  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, options, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_EQ(r.mode, RefineMode::kJoint);
   const MaxErrors after = Errors(r.refined, rig.gt);
@@ -130,8 +128,8 @@ TEST(JointRefine, CovarianceShrinksWhenMorePointsAreUsed) {
   sparse.region.pixel_stride = 4;
   RefineOptions dense;
   dense.region.pixel_stride = 2;
-  const RefineResult r_sparse = Refine(rig.capture, rig.init, sparse, true, 2, StderrLog());
-  const RefineResult r_dense = Refine(rig.capture, rig.init, dense, true, 2, StderrLog());
+  const RefineResult r_sparse = Refine(rig.capture, rig.init, sparse, StderrLog());
+  const RefineResult r_dense = Refine(rig.capture, rig.init, dense, StderrLog());
   for (size_t i = 1; i < r_dense.cameras.size(); ++i) {
     ASSERT_TRUE(r_sparse.cameras[i].has_covariance && r_dense.cameras[i].has_covariance);
     // Four times the pixels: every variance smaller, the trace by a clear margin.
@@ -168,7 +166,7 @@ TEST(JointRefine, DegeneracyIsReportedOnABareRoomAndHeldOnRequest) {
   log.sink = [&logged](LogLevel level, const std::string& m) {
     if (level == LogLevel::kWarning) logged.push_back(m);
   };
-  const RefineResult r = Refine(bare.capture, bare.init, options, true, 2, log);
+  const RefineResult r = Refine(bare.capture, bare.init, options, log);
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_FALSE(DegeneracyWarnings(r).empty());
   for (const std::string& w : DegeneracyWarnings(r)) {
@@ -188,7 +186,7 @@ TEST(JointRefine, NoDegeneracyInAFurnishedRoom) {
   // The default rig (640x360): at 320x180 the furniture's share of a camera's information
   // can fall to the threshold (docs/benchmarks.md).
   const SimulatedRig room = SimulateRig(SimOptions{});
-  const RefineResult r = Refine(room.capture, room.init, RefineOptions(), true, 2, StderrLog());
+  const RefineResult r = Refine(room.capture, room.init, RefineOptions(), StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   EXPECT_TRUE(DegeneracyWarnings(r).empty()) << DegeneracyWarnings(r).front();
 }
@@ -200,7 +198,7 @@ TEST_P(BothModes, ReferenceCameraNeverMoves) {
   RefineOptions options;
   options.icp.mode = GetParam();
   options.icp.reference = SimSerial(1);
-  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, options, StderrLog());
   EXPECT_EQ(r.reference, SimSerial(1));
   EXPECT_TRUE(r.refined.at(SimSerial(1)).isApprox(r.leveled.at(SimSerial(1)), 1e-12));
 }
@@ -211,7 +209,7 @@ TEST_P(BothModes, CameraWithoutOverlapIsReportedAndKeepsItsLeveledPose) {
   rig.init.at(SimSerial(2)).translation() += Vec3(40.0, 0.0, 0.0);
   RefineOptions options;
   options.icp.mode = GetParam();
-  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, options, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   const CameraReport& lonely = r.cameras[2];
   EXPECT_FALSE(lonely.connected);
@@ -229,7 +227,7 @@ TEST_P(BothModes, PairsBelowMinFitnessDoNotLink) {
   RefineOptions options;
   options.icp.mode = GetParam();
   options.icp.min_fitness = 1.0;
-  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, options, StderrLog());
   ASSERT_FALSE(r.pairs.empty());
   for (const PairReport& p : r.pairs) {
     EXPECT_FALSE(p.accepted) << p.serial_a << " - " << p.serial_b;
@@ -247,7 +245,7 @@ TEST_P(BothModes, SafetyBoundsKeepTheLeveledPose) {
   RefineOptions options;
   options.icp.mode = GetParam();
   options.icp.max_translation_m = 1e-4;  // far below the perturbation of the simulated rig
-  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, options, StderrLog());
   EXPECT_FALSE(r.success);
   for (const CameraReport& c : r.cameras) {
     EXPECT_TRUE(r.refined.at(c.serial).isApprox(r.leveled.at(c.serial), 1e-12)) << c.serial;
@@ -270,7 +268,7 @@ TEST_P(BothModes, DefaultBoundsAdmitTheSupportedStartRange) {
   const SimulatedRig rig = SimulateRig(sim);
   RefineOptions options;
   options.icp.mode = GetParam();
-  const RefineResult r = Refine(rig.capture, rig.init, options, true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, options, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   double largest = 0.0;
   for (const CameraReport& c : r.cameras) {
@@ -348,7 +346,7 @@ TEST(JointRefine, ScansWithoutANoiseModelAreWeightedByTheirFit) {
   options.icp.gravity_weight = 0.0;
   options.icp.overlap_margin = 0.05;
   options.icp.min_overlap_area = 0.0;
-  const RefineResult r = Refine(capture, gt, options, true, 2, StderrLog());
+  const RefineResult r = Refine(capture, gt, options, StderrLog());
   ASSERT_TRUE(r.success) << r.message;
   const RelativePoseError e =
       RelativeError(r.refined.at("scan0"), r.refined.at("scan1"), gt.at("scan0"), gt.at("scan1"));
@@ -360,7 +358,7 @@ TEST(JointRefine, ScansWithoutANoiseModelAreWeightedByTheirFit) {
 
 TEST(Refine, OneCameraIsLeveledAndReported) {
   const SimulatedRig rig = Rig(1, 0.0, 8);
-  const RefineResult r = Refine(rig.capture, rig.init, RefineOptions{}, true, 2, StderrLog());
+  const RefineResult r = Refine(rig.capture, rig.init, RefineOptions{}, StderrLog());
   EXPECT_FALSE(r.success);
   EXPECT_NE(r.message.find("one camera"), std::string::npos) << r.message;
   const Pose& leveled = r.refined.at(SimSerial(0));
@@ -373,9 +371,10 @@ TEST(RefineInput, UnknownReferenceAndMissingPosesAreRefusedByTheLibrary) {
   sim.width = 64;
   sim.height = 36;
   const SimulatedRig rig = SimulateRig(sim);
-  const auto message = [&](const PoseMap& initial, const RefineOptions& options) {
+  const auto message = [&](const PoseMap& initial, RefineOptions options) {
+    options.threads = 1;
     try {
-      Refine(rig.capture, initial, options, /*run_icp=*/true, 1, Log{});
+      Refine(rig.capture, initial, options);
     } catch (const InputError& e) {
       return std::string(e.what());
     }

@@ -182,7 +182,9 @@ TEST_F(ReportTest, RefineReportShowsEveryCamera) {
   sim.width = 320;
   sim.height = 180;
   const SimulatedRig rig = SimulateRig(sim);
-  const RefineResult leveling = Refine(rig.capture, rig.init, RefineOptions{}, false, 2, {});
+  RefineOptions leveling_only;
+  leveling_only.run_registration = false;
+  const RefineResult leveling = Refine(rig.capture, rig.init, leveling_only);
   const fs::path report = dir_ / "report";  // created by the report
   const std::vector<std::string> files = WriteRefineReport(
       report.string(), rig.capture, leveling, rig.gt, RefineOptions{}, 2, "camera 0 & <1>\n");

@@ -36,7 +36,7 @@ RefinedRig RefineSmallRig(SimOptions sim) {
   RefinedRig out{SimulateRig(sim), {}};
   RefineOptions options;
   options.icp.method = RegistrationMethod::kSurfaceBundle;
-  out.result = Refine(out.rig.capture, out.rig.init, options, true, 2, Log{});
+  out.result = Refine(out.rig.capture, out.rig.init, options);
   return out;
 }
 
@@ -49,7 +49,7 @@ TEST(SurfaceBundle, NoiseFreeRigsAreRecovered) {
     const SimulatedRig rig = NoiseFreeRig(cameras);
     RefineOptions options;
     options.icp.method = RegistrationMethod::kSurfaceBundle;
-    const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+    const RefineResult result = Refine(rig.capture, rig.init, options);
     ASSERT_TRUE(result.success) << result.message;
     ASSERT_TRUE(result.surface.ran);
     EXPECT_GE(result.surface.planes, 3);
@@ -142,7 +142,7 @@ TEST(SurfaceBundle, TheObserverSeesEveryPixelOfTheLastRound) {
         points.clear();
         for (const SurfaceCamera& camera : cameras) points.push_back(camera.points.size());
       });
-  const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+  const RefineResult result = Refine(rig.capture, rig.init, options);
   SetSurfaceBundleObserver(nullptr);
   ASSERT_TRUE(result.surface.ran);
   EXPECT_EQ(calls, 1);
@@ -156,7 +156,7 @@ TEST(SurfaceBundle, TheObserverSeesEveryPixelOfTheLastRound) {
   }
   EXPECT_EQ(pixels, result.surface.pixels);
   EXPECT_EQ(std::count_if(seen.plane_list.begin(), seen.plane_list.end(),
-                          [](const SurfaceBundleResult::Plane& p) { return p.floor; }),
+                          [](const PlanarFace& p) { return p.floor; }),
             1);
 }
 
@@ -258,13 +258,15 @@ TEST(SurfaceBundle, SamePosesToTheLastBitFromRunToRunInOneProcess) {
   const SimulatedRig rig = SimulateRig(sim);
   RefineOptions options;
   options.icp.method = RegistrationMethod::kSurfaceBundle;
-  const RefineResult reference = Refine(rig.capture, rig.init, options, true, 1, Log{});
+  RefineOptions one_thread = options;
+  one_thread.threads = 1;
+  const RefineResult reference = Refine(rig.capture, rig.init, one_thread);
   ASSERT_TRUE(reference.success) << reference.message;
   ASSERT_TRUE(reference.surface.ran);
   for (int run = 0; run < 6; ++run) {
     SCOPED_TRACE(run);
     const std::vector<std::vector<double>> shifted(7 * run + 1, std::vector<double>(13 * run + 3));
-    const RefineResult result = Refine(rig.capture, rig.init, options, true, 2, Log{});
+    const RefineResult result = Refine(rig.capture, rig.init, options);
     for (const auto& [serial, pose] : reference.refined) {
       EXPECT_EQ(result.refined.at(serial).matrix(), pose.matrix()) << serial;
     }

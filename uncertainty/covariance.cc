@@ -71,34 +71,41 @@ Eigen::MatrixXd Information(ceres::Problem* problem, const std::vector<double*>&
   return JtJ / (sum_sq / dof);
 }
 
-Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
-                                       const std::vector<double*>& nuisance,
-                                       Eigen::MatrixXd* robust) {
-  if (robust != nullptr) robust->resize(0, 0);
-  if (poses.empty()) return {};
-  std::vector<double*> blocks = poses;
-  blocks.insert(blocks.end(), nuisance.begin(), nuisance.end());
-  std::vector<ceres::ResidualBlockId> residual_blocks;
-  problem->GetResidualBlocks(&residual_blocks);
-  std::vector<double> residuals;
-  ceres::CRSMatrix J;
-  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
-  const int p = 6 * static_cast<int>(poses.size());
-  // Nuisance block j holds the columns [start[j], start[j + 1]).
-  std::vector<int> start(nuisance.size() + 1, p);
-  std::vector<int> block_of(J.num_cols - p);
+namespace {
+
+/// The blocks of J^T J for poses and nuisance blocks: A (poses), B_j (poses x block j), D_j
+/// (block j); each residual block holds at most one nuisance block. With `clusters`, also per
+/// nuisance block its rows' pose information A_own_j and gradients g_pose_j (poses), g_block_j
+/// (the block), and the information of the rows without one, P (for the robust covariance).
+struct SchurBlocks {
+  int p = 0;                  // pose columns
+  std::vector<int> start;     // nuisance block j holds the columns [start[j], start[j + 1])
+  std::vector<int> block_of;  // column - p -> its nuisance block
+  Eigen::MatrixXd A, P;
+  std::vector<Eigen::MatrixXd> B, D, A_own;
+  std::vector<Eigen::VectorXd> g_pose, g_block;
+
+  SchurBlocks(ceres::Problem* problem, int num_poses, const std::vector<double*>& nuisance,
+              int num_cols, bool clusters);
+  /// The row's only nuisance block, or -1 (throws when it holds two).
+  int Cluster(const ceres::CRSMatrix& J, int row) const;
+  void AddRow(const ceres::CRSMatrix& J, int row, double residual, bool clusters);
+};
+
+SchurBlocks::SchurBlocks(ceres::Problem* problem, int num_poses,
+                         const std::vector<double*>& nuisance, int num_cols, bool clusters)
+    : p(6 * num_poses), start(nuisance.size() + 1, 6 * num_poses), block_of(num_cols - p) {
   for (size_t j = 0; j < nuisance.size(); ++j) {
     start[j + 1] = start[j] + problem->ParameterBlockTangentSize(nuisance[j]);
     std::fill(block_of.begin() + (start[j] - p), block_of.begin() + (start[j + 1] - p), j);
   }
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
-  std::vector<Eigen::MatrixXd> B(nuisance.size()), D(nuisance.size());
-  // For `robust`: per nuisance block, its rows' pose information A_j and gradients g_pose
-  // (poses) and g_block (the block); the information of the rows without one, P.
-  const bool clusters = robust != nullptr;
-  std::vector<Eigen::MatrixXd> A_own(clusters ? nuisance.size() : 0);
-  std::vector<Eigen::VectorXd> g_pose(A_own.size()), g_block(A_own.size());
-  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(p, p);
+  A = Eigen::MatrixXd::Zero(p, p);
+  P = Eigen::MatrixXd::Zero(p, p);
+  B.resize(nuisance.size());
+  D.resize(nuisance.size());
+  A_own.resize(clusters ? nuisance.size() : 0);
+  g_pose.resize(A_own.size());
+  g_block.resize(A_own.size());
   for (size_t j = 0; j < nuisance.size(); ++j) {
     B[j] = Eigen::MatrixXd::Zero(p, start[j + 1] - start[j]);
     D[j] = Eigen::MatrixXd::Zero(start[j + 1] - start[j], start[j + 1] - start[j]);
@@ -107,62 +114,60 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
     g_pose[j] = Eigen::VectorXd::Zero(p);
     g_block[j] = Eigen::VectorXd::Zero(start[j + 1] - start[j]);
   }
-  for (int row = 0; row < J.num_rows; ++row) {
-    int cluster = -1;  // the row's nuisance block
-    for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
-      if (J.cols[a] < p) continue;
-      const int j = block_of[J.cols[a] - p];
-      if (cluster >= 0 && j != cluster) {
-        throw std::logic_error(
-            "MarginalPoseCovariance: a residual block holds two nuisance blocks");
-      }
-      cluster = j;
+}
+
+int SchurBlocks::Cluster(const ceres::CRSMatrix& J, int row) const {
+  int cluster = -1;
+  for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+    if (J.cols[a] < p) continue;
+    const int j = block_of[J.cols[a] - p];
+    if (cluster >= 0 && j != cluster) {
+      throw std::logic_error("MarginalPoseCovariance: a residual block holds two nuisance blocks");
     }
-    if (clusters && cluster >= 0) {
-      for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
-        const int ca = J.cols[a];
-        if (ca < p) {
-          g_pose[cluster](ca) += J.values[a] * residuals[row];
-        } else {
-          g_block[cluster](ca - start[cluster]) += J.values[a] * residuals[row];
-        }
-      }
-    }
-    // Where the row's pose information also goes for `robust`: its cluster's A_j, or P.
-    Eigen::MatrixXd* own = !clusters ? nullptr : cluster >= 0 ? &A_own[cluster] : &P;
+    cluster = j;
+  }
+  return cluster;
+}
+
+void SchurBlocks::AddRow(const ceres::CRSMatrix& J, int row, double residual, bool clusters) {
+  const int cluster = Cluster(J, row);
+  if (clusters && cluster >= 0) {
     for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
       const int ca = J.cols[a];
-      for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
-        const int cb = J.cols[b];
-        const double v = J.values[a] * J.values[b];
-        if (cb < p) {
-          if (ca < p) A(ca, cb) += v;  // ca >= p: the transpose of B's entry below
-          if (ca < p && own != nullptr) (*own)(ca, cb) += v;
-        } else if (ca < p) {
-          const int j = block_of[cb - p];
-          B[j](ca, cb - start[j]) += v;
-        } else {
-          const int j = block_of[ca - p];  // the row's only one (checked above)
-          D[j](ca - start[j], cb - start[j]) += v;
-        }
+      if (ca < p) {
+        g_pose[cluster](ca) += J.values[a] * residual;
+      } else {
+        g_block[cluster](ca - start[cluster]) += J.values[a] * residual;
       }
     }
   }
-  std::vector<Eigen::VectorXd> scores;
-  std::vector<Eigen::MatrixXd> leverages;  // L_j
-  for (size_t j = 0; j < nuisance.size(); ++j) {
-    if (D[j].isZero(0.0) && B[j].isZero(0.0)) continue;  // in no residual block
-    const Eigen::MatrixXd D_inverse = InverseOrEmpty(D[j]);
-    if (D_inverse.size() == 0) return {};
-    const Eigen::MatrixXd reduction = B[j] * D_inverse * B[j].transpose();
-    A -= reduction;
-    // A block only fixed cameras see tells nothing of the poses: not a cluster.
-    if (!clusters || B[j].isZero(0.0)) continue;
-    scores.push_back(g_pose[j] - B[j] * (D_inverse * g_block[j]));
-    leverages.push_back(A_own[j] - reduction);
+  // Where the row's pose information also goes for `robust`: its cluster's A_j, or P.
+  Eigen::MatrixXd* own = !clusters ? nullptr : cluster >= 0 ? &A_own[cluster] : &P;
+  for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+    const int ca = J.cols[a];
+    for (int b = J.rows[row]; b < J.rows[row + 1]; ++b) {
+      const int cb = J.cols[b];
+      const double v = J.values[a] * J.values[b];
+      if (cb < p) {
+        if (ca < p) A(ca, cb) += v;  // ca >= p: the transpose of B's entry below
+        if (ca < p && own != nullptr) (*own)(ca, cb) += v;
+      } else if (ca < p) {
+        const int j = block_of[cb - p];
+        B[j](ca, cb - start[j]) += v;
+      } else {
+        const int j = block_of[ca - p];  // the row's only one (checked above)
+        D[j](ca - start[j], cb - start[j]) += v;
+      }
+    }
   }
-  const Eigen::MatrixXd covariance = InverseOrEmpty(A);
-  if (!clusters || covariance.size() == 0 || scores.size() < 2) return covariance;
+}
+
+/// The cluster-robust sandwich: covariance P covariance plus, per cluster, its score d_j d_j^T
+/// corrected for its leverage L_j.
+Eigen::MatrixXd RobustSandwich(const Eigen::MatrixXd& covariance, const Eigen::MatrixXd& P,
+                               const std::vector<Eigen::VectorXd>& scores,
+                               const std::vector<Eigen::MatrixXd>& leverages) {
+  const int p = static_cast<int>(covariance.rows());
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> C(covariance);
   const Eigen::MatrixXd S = C.eigenvectors() *
                             C.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal() *
@@ -180,7 +185,42 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
         S * scores[j];
     sum += d * d.transpose();
   }
-  *robust = sum;
+  return sum;
+}
+
+}  // namespace
+
+Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vector<double*>& poses,
+                                       const std::vector<double*>& nuisance,
+                                       Eigen::MatrixXd* robust) {
+  if (robust != nullptr) robust->resize(0, 0);
+  if (poses.empty()) return {};
+  std::vector<double*> blocks = poses;
+  blocks.insert(blocks.end(), nuisance.begin(), nuisance.end());
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  problem->GetResidualBlocks(&residual_blocks);
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
+  const bool clusters = robust != nullptr;
+  SchurBlocks s(problem, static_cast<int>(poses.size()), nuisance, J.num_cols, clusters);
+  for (int row = 0; row < J.num_rows; ++row) s.AddRow(J, row, residuals[row], clusters);
+  std::vector<Eigen::VectorXd> scores;
+  std::vector<Eigen::MatrixXd> leverages;  // L_j
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    if (s.D[j].isZero(0.0) && s.B[j].isZero(0.0)) continue;  // in no residual block
+    const Eigen::MatrixXd D_inverse = InverseOrEmpty(s.D[j]);
+    if (D_inverse.size() == 0) return {};
+    const Eigen::MatrixXd reduction = s.B[j] * D_inverse * s.B[j].transpose();
+    s.A -= reduction;
+    // A block only fixed cameras see tells nothing of the poses: not a cluster.
+    if (!clusters || s.B[j].isZero(0.0)) continue;
+    scores.push_back(s.g_pose[j] - s.B[j] * (D_inverse * s.g_block[j]));
+    leverages.push_back(s.A_own[j] - reduction);
+  }
+  const Eigen::MatrixXd covariance = InverseOrEmpty(s.A);
+  if (!clusters || covariance.size() == 0 || scores.size() < 2) return covariance;
+  *robust = RobustSandwich(covariance, s.P, scores, leverages);
   return covariance;
 }
 
@@ -242,100 +282,144 @@ void AddBlock(Eigen::MatrixXd* M, int u, int w, const A& a, const B& b) {
   M->block<6, 6>(u, w) += a.transpose() * b;
 }
 
+/// How a method's terms share noise: each term's own floor (share of min_noise_m, whitened)
+/// and each point's floor (PointNoise).
+struct FloorShares {
+  double term = 0.0;
+  double point = 0.0;
+};
+
+/// The shared-noise covariance H^-1 M H^-1 of the joint estimate over `terms` (of type Term,
+/// made by MakeTerm): per view v (in parallel) the information H and independent noise of the
+/// terms whose source is v, and the shared noise of v's points: s_p per free view w, the sum
+/// of J_w^T D_p over the terms of point p, then M += s_p C_p s_p^T blockwise, as
+/// (s_p L)(s_p L)^T with L L^T = C_p = PointNoise.
 template <typename Term, typename MakeTerm>
-Eigen::MatrixXd SharedNoise(const std::vector<CameraView>& views, const std::vector<int>& column,
-                            const std::vector<MatchedViews>& terms, const IcpOptions& options,
-                            const Eigen::MatrixXd& prior_information, const MakeTerm& make_term,
-                            double term_floor_share, double point_floor_share, int num_threads) {
+class SharedNoise {
+ public:
   using Plus = Eigen::Matrix<double, 7, 6, Eigen::RowMajor>;
   using Score = Eigen::Matrix<double, 6, 3>;
-  const size_t n = views.size();
-  std::vector<Plus> plus(n);
-  std::vector<Mat3> rotation(n);
-  for (size_t v = 0; v < n; ++v) {
-    SharedPoseManifold()->PlusJacobian(views[v].pose_block, plus[v].data());
-    rotation[v] = PoseFromParameters(views[v].pose_block).linear();
+
+  SharedNoise(const std::vector<CameraView>& views, const std::vector<int>& column,
+              const std::vector<MatchedViews>& terms, const IcpOptions& options,
+              const MakeTerm& make_term, FloorShares floors, int free)
+      : views_(views),
+        column_(column),
+        terms_(terms),
+        options_(options),
+        make_term_(make_term),
+        floors_(floors),
+        free_(free),
+        plus_(views.size()),
+        rotation_(views.size()) {
+    for (size_t v = 0; v < views.size(); ++v) {
+      SharedPoseManifold()->PlusJacobian(views[v].pose_block, plus_[v].data());
+      rotation_[v] = PoseFromParameters(views[v].pose_block).linear();
+    }
   }
-  const auto index = [&](const CameraView* view) {
-    return static_cast<size_t>(view - views.data());
-  };
-  const double floor2 = options.min_noise_m * options.min_noise_m;
+
+  /// Adds view v's terms' information to H and its terms' and points' noise to M.
+  void AddView(int v, Eigen::MatrixXd* H, Eigen::MatrixXd* M) const {
+    std::vector<Score> scores;  // [point * free + free index of the view]
+    for (const MatchedViews& m : terms_) AddTerms(v, m, H, M, &scores);
+    if (!scores.empty()) AddPointNoise(v, scores, M);
+  }
+
+ private:
+  size_t Index(const CameraView* view) const { return static_cast<size_t>(view - views_.data()); }
+
+  void AddTerms(int v, const MatchedViews& m, Eigen::MatrixXd* H, Eigen::MatrixXd* M,
+                std::vector<Score>* scores) const {
+    const size_t s = Index(m.source), t = Index(m.target);
+    if (s != static_cast<size_t>(v) && t != static_cast<size_t>(v)) return;
+    if (scores->empty()) scores->assign(views_[v].level->points.size() * free_, Score::Zero());
+    const int cs = column_[s], ct = column_[t];
+    // Adds J^T D to the score of point i for the free view at column c.
+    const auto score = [&](size_t i, int c, const auto& J, const auto& D) {
+      if (c >= 0) (*scores)[i * free_ + c / 6] += J.transpose() * D;
+    };
+    const double floor2 = options_.min_noise_m * options_.min_noise_m;
+    for (const Correspondence& c : *m.matches) {
+      const Term term = make_term_(*m.source, *m.target, c);
+      const Linearised<Term> l =
+          Linearise(term, *m.source, *m.target, plus_[s], plus_[t], rotation_[s], rotation_[t]);
+      if (s == static_cast<size_t>(v)) {
+        // Each term once, with its source's view.
+        AddBlock(H, cs, cs, l.J_source, l.J_source);
+        AddBlock(H, cs, ct, l.J_source, l.J_target);
+        AddBlock(H, ct, cs, l.J_target, l.J_source);
+        AddBlock(H, ct, ct, l.J_target, l.J_target);
+        if constexpr (std::is_same_v<Term, PointToPlaneTerm>) {
+          // The term's own floor, whitened: floor^2 / sigma^2, sigma = 1 / |n| of the
+          // whitened normal.
+          const double f = floors_.term * floor2 * term.normal_b.squaredNorm();
+          AddBlock(M, cs, cs, f * l.J_source, l.J_source);
+          AddBlock(M, cs, ct, f * l.J_source, l.J_target);
+          AddBlock(M, ct, cs, f * l.J_target, l.J_source);
+          AddBlock(M, ct, ct, f * l.J_target, l.J_target);
+        }
+        score(c.source, cs, l.J_source, l.D_source);
+        score(c.source, ct, l.J_target, l.D_source);
+      }
+      if (t == static_cast<size_t>(v)) {
+        score(c.target, cs, l.J_source, l.D_target);
+        score(c.target, ct, l.J_target, l.D_target);
+      }
+    }
+  }
+
+  void AddPointNoise(int v, const std::vector<Score>& scores, Eigen::MatrixXd* M) const {
+    const CameraView& view = views_[v];
+    std::vector<Score> factors(free_);
+    std::vector<int> used;
+    for (size_t i = 0; i < view.level->points.size(); ++i) {
+      const Mat3 C = PointNoise(view, view.level->points[i], options_, floors_.point);
+      const Eigen::LLT<Mat3> llt(C);
+      Mat3 L = llt.matrixL();
+      if (llt.info() != Eigen::Success || !L.allFinite()) {
+        // Singular (no depth noise, or no plane share): L = V sqrt(lambda).
+        Eigen::SelfAdjointEigenSolver<Mat3> eig;
+        eig.computeDirect(C);
+        L = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
+      }
+      used.clear();
+      for (int w = 0; w < free_; ++w) {
+        if (scores[i * free_ + w].isZero(0.0)) continue;
+        factors[w] = scores[i * free_ + w] * L;
+        used.push_back(w);
+      }
+      for (int u : used) {
+        for (int w : used) M->block<6, 6>(6 * u, 6 * w) += factors[u] * factors[w].transpose();
+      }
+    }
+  }
+
+  const std::vector<CameraView>& views_;
+  const std::vector<int>& column_;
+  const std::vector<MatchedViews>& terms_;
+  const IcpOptions& options_;
+  const MakeTerm& make_term_;
+  FloorShares floors_;
+  int free_;
+  std::vector<Plus> plus_;
+  std::vector<Mat3> rotation_;
+};
+
+/// Sums the views' H and M over the prior and returns H^-1 M H^-1 (empty when H is singular
+/// or the result not finite).
+template <typename Term, typename MakeTerm>
+Eigen::MatrixXd SharedNoiseOf(const std::vector<CameraView>& views, const std::vector<int>& column,
+                              const std::vector<MatchedViews>& terms, const IcpOptions& options,
+                              const Eigen::MatrixXd& prior_information, const MakeTerm& make_term,
+                              FloorShares floors, int num_threads) {
+  const size_t n = views.size();
   const int free = static_cast<int>(prior_information.rows()) / 6;
-  // Per view v (in parallel): the information H and independent noise of the terms whose
-  // source is v, and the points' shared noise of v's points: s_p per free view w, the sum of
-  // J_w^T D_p over the terms of point p, then M += s_p C_p s_p^T blockwise, as
-  // (s_p L)(s_p L)^T with L L^T = C_p = PointNoise.
+  const SharedNoise<Term, MakeTerm> shared(views, column, terms, options, make_term, floors, free);
   std::vector<Eigen::MatrixXd> H(
       n, Eigen::MatrixXd::Zero(prior_information.rows(), prior_information.cols()));
   std::vector<Eigen::MatrixXd> M = H;
   ParallelFor(
-      static_cast<int>(n), num_threads,
-      [&](int v) {
-        const CameraView& view = views[v];
-        const size_t count = view.level->points.size();
-        std::vector<Score> scores;  // [point * free + free index of the view]
-        for (const MatchedViews& m : terms) {
-          const size_t s = index(m.source), t = index(m.target);
-          if (s != static_cast<size_t>(v) && t != static_cast<size_t>(v)) continue;
-          if (scores.empty()) scores.assign(count * free, Score::Zero());
-          const int cs = column[s], ct = column[t];
-          // Adds J^T D to the score of point i for the free view at column c.
-          const auto score = [&](size_t i, int c, const auto& J, const auto& D) {
-            if (c >= 0) scores[i * free + c / 6] += J.transpose() * D;
-          };
-          for (const Correspondence& c : *m.matches) {
-            const Term term = make_term(*m.source, *m.target, c);
-            const Linearised<Term> l =
-                Linearise(term, *m.source, *m.target, plus[s], plus[t], rotation[s], rotation[t]);
-            if (s == static_cast<size_t>(v)) {
-              // Each term once, with its source's view.
-              AddBlock(&H[v], cs, cs, l.J_source, l.J_source);
-              AddBlock(&H[v], cs, ct, l.J_source, l.J_target);
-              AddBlock(&H[v], ct, cs, l.J_target, l.J_source);
-              AddBlock(&H[v], ct, ct, l.J_target, l.J_target);
-              if constexpr (std::is_same_v<Term, PointToPlaneTerm>) {
-                // The term's own floor, whitened: floor^2 / sigma^2, sigma = 1 / |n| of the
-                // whitened normal.
-                const double f = term_floor_share * floor2 * term.normal_b.squaredNorm();
-                AddBlock(&M[v], cs, cs, f * l.J_source, l.J_source);
-                AddBlock(&M[v], cs, ct, f * l.J_source, l.J_target);
-                AddBlock(&M[v], ct, cs, f * l.J_target, l.J_source);
-                AddBlock(&M[v], ct, ct, f * l.J_target, l.J_target);
-              }
-              score(c.source, cs, l.J_source, l.D_source);
-              score(c.source, ct, l.J_target, l.D_source);
-            }
-            if (t == static_cast<size_t>(v)) {
-              score(c.target, cs, l.J_source, l.D_target);
-              score(c.target, ct, l.J_target, l.D_target);
-            }
-          }
-        }
-        if (scores.empty()) return;
-        std::vector<Score> factors(free);
-        std::vector<int> used;
-        for (size_t i = 0; i < count; ++i) {
-          const Mat3 C = PointNoise(view, view.level->points[i], options, point_floor_share);
-          const Eigen::LLT<Mat3> llt(C);
-          Mat3 L = llt.matrixL();
-          if (llt.info() != Eigen::Success || !L.allFinite()) {
-            // Singular (no depth noise, or no plane share): L = V sqrt(lambda).
-            Eigen::SelfAdjointEigenSolver<Mat3> eig;
-            eig.computeDirect(C);
-            L = eig.eigenvectors() * eig.eigenvalues().cwiseMax(0.0).cwiseSqrt().asDiagonal();
-          }
-          used.clear();
-          for (int w = 0; w < free; ++w) {
-            if (scores[i * free + w].isZero(0.0)) continue;
-            factors[w] = scores[i * free + w] * L;
-            used.push_back(w);
-          }
-          for (int u : used) {
-            for (int w : used)
-              M[v].block<6, 6>(6 * u, 6 * w) += factors[u] * factors[w].transpose();
-          }
-        }
-      },
+      static_cast<int>(n), num_threads, [&](int v) { shared.AddView(v, &H[v], &M[v]); },
       /*min_per_thread=*/1);
   Eigen::MatrixXd H_total = prior_information;
   Eigen::MatrixXd M_total = prior_information;
@@ -359,19 +443,19 @@ Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
                                       const Eigen::MatrixXd& prior_information, int num_threads) {
   if (prior_information.rows() == 0 || terms.empty()) return {};
   if (options.method == RegistrationMethod::kGicp) {
-    return SharedNoise<GicpTerm>(
+    return SharedNoiseOf<GicpTerm>(
         views, column, terms, options, prior_information,
         [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
           return MakeGicpTerm(s, t, c, options);
         },
-        /*term_floor_share=*/0.0, /*point_floor_share=*/0.5, num_threads);
+        FloorShares{/*term=*/0.0, /*point=*/0.5}, num_threads);
   }
-  return SharedNoise<PointToPlaneTerm>(
+  return SharedNoiseOf<PointToPlaneTerm>(
       views, column, terms, options, prior_information,
       [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
         return MakePointToPlaneTerm(s, t, c, options);
       },
-      /*term_floor_share=*/1.0, /*point_floor_share=*/0.0, num_threads);
+      FloorShares{/*term=*/1.0, /*point=*/0.0}, num_threads);
 }
 
 }  // namespace rigfit

@@ -37,8 +37,8 @@ int main() {
   log.sink = [](rigfit::LogLevel level, const std::string& message) {
     if (level == rigfit::LogLevel::kWarning) std::fprintf(stderr, "warning: %s\n", message.c_str());
   };
-  const rigfit::RefineResult result = rigfit::Refine(rig.capture, rig.init, rigfit::RefineOptions{},
-                                                     /*run_icp=*/true, /*num_threads=*/2, log);
+  const rigfit::RefineResult result =
+      rigfit::Refine(rig.capture, rig.init, rigfit::RefineOptions{}, log);
   std::printf("refine: %s\n\n", result.message.c_str());
 
   const rigfit::RigErrors before = rigfit::EvaluateRig(rig.init, rig.gt);

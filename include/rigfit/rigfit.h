@@ -8,7 +8,8 @@
 // WriteCapture (io/capture_h5.h) and ReadExtrinsics and WriteExtrinsics (io/extrinsics_json.h)
 // read and write the files of the CLI; SimulateRig (sim/simulate_rig.h) makes a rig with its
 // true and perturbed extrinsics; EvaluateRig (core/evaluate.h) measures extrinsics against the
-// truth, free of the pose of the rig as a whole.
+// truth, free of the pose of the rig as a whole; Compare (rig/compare.h) runs the three ways to
+// refine a rig side by side.
 //
 // RGB-D pipeline: an RgbdSequence (core/rgbd.h) from OpenRgbdSequence (io/rgbd_sequence.h) or
 // a SimulatedSequence (sim/simulate_sequence.h) is tracked by RunOdometry (rgbd/odometry.h) or
@@ -43,6 +44,7 @@
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
 #include "rgbd/tracking_options.h"
+#include "rig/compare.h"
 #include "rig/refine.h"
 #include "sim/simulate_rig.h"
 #include "sim/simulate_sequence.h"
