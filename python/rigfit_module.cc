@@ -2,8 +2,10 @@
 // arrays and dicts to the library's plain structs (core/types.h, options/refine_options.h;
 // python/convert.h), runs the same library calls as `rigfit refine` (cli/refine_command.cc),
 // `rigfit compare` (report/compare.h) and `rigfit simulate` and hands back plain Python values;
-// rigfit/__init__.py wraps them in typed objects. The RGB-D part (sequences, tracking,
-// trajectories) is python/rgbd_module.cc. InputError becomes ValueError.
+// rigfit/__init__.py wraps them in dataclasses. Each function's options arrive as one dict of
+// keywords, read by the command's KeywordTable (python/keywords.h), the one place the binding
+// writes them. The RGB-D part (sequences, tracking, trajectories) is python/rgbd_module.cc.
+// InputError becomes ValueError.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
