@@ -1,4 +1,4 @@
-// `rigfit track SEQUENCE --out traj.txt`: frame-to-frame dense RGB-D odometry over a
+// `rigfit track SEQUENCE --out traj.txt`: dense RGB-D odometry (frame to keyframe) over a
 // sequence (rgbd/odometry.h), the trajectory in the TUM format.
 #include <cmath>
 #include <cstdio>
@@ -86,9 +86,9 @@ Command AddTrackCommand(CLI::App& app) {
   auto args = std::make_shared<TrackArgs>();
   CLI::App* sub = app.add_subcommand(
       "track",
-      "Frame-to-frame dense RGB-D odometry: each depth frame of SEQUENCE (a TUM RGB-D or "
-      "ICL-NUIM folder, a 7-Scenes folder, or a rig capture's burst) is tracked against the "
-      "previous frame (or the last keyframe) by projective point-to-plane ICP, coarse to fine; "
+      "Dense RGB-D odometry: each depth frame of SEQUENCE (a TUM RGB-D or ICL-NUIM folder, a "
+      "7-Scenes folder, or a rig capture's burst) is tracked against the last keyframe (with "
+      "--no-keyframes: the previous frame) by projective point-to-plane ICP, coarse to fine; "
       "the trajectory is written in the TUM format (timestamp tx ty tz qx qy qz qw). Exit "
       "codes: 0 done (failed frames are warned and counted); 2 bad input or usage.");
   sub->add_option("SEQUENCE", args->sequence_path, "Sequence folder or capture file")->required();

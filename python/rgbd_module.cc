@@ -1,5 +1,5 @@
 // The RGB-D half of rigfit._rigfit (docs/python.md): sequences read by io/rgbd_sequence.h,
-// frame-to-frame tracking (rgbd/odometry.h, as `rigfit track`), frame-to-model SLAM
+// tracking against keyframes (rgbd/odometry.h, as `rigfit track`), frame-to-model SLAM
 // (rgbd/slam.h, as `rigfit slam`), TUM trajectories and their errors (core/trajectory.h, as
 // `rigfit evaluate-trajectory`). rigfit/__init__.py wraps the plain values in typed objects.
 #include <pybind11/numpy.h>
@@ -21,6 +21,7 @@
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
 #include "python/convert.h"
+#include "python/keywords.h"
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
 #include "rgbd/slam_options.h"
@@ -193,23 +194,36 @@ class ArraySequence : public RgbdSequence {
   std::vector<Entry> entries_;
 };
 
-FileSequence OpenSequence(const std::string& path, const std::string& camera,
-                          const std::string& tum_camera, const std::vector<double>& intrinsics,
-                          const std::optional<double>& depth_scale, double max_time_difference_s,
-                          int stride, int max_frames, const py::object& logger) {
-  SequenceOptions options;
-  options.serial = camera;
-  options.tum_camera = tum_camera;
-  SetSequenceIntrinsics(intrinsics, "open_sequence", OptionSpelling::kKeyword, &options);
-  options.depth_scale = depth_scale;
-  options.max_time_difference_s = max_time_difference_s;
-  options.stride = stride;
-  options.max_frames = max_frames;
+/// rigfit.open_sequence's keywords: `--camera`, `--tum-camera` and `--intrinsics` of `rigfit
+/// track`, and the rest of SequenceOptions.
+struct SequenceKeywords {
+  SequenceOptions sequence;
+  std::vector<double> intrinsics;  ///< fx, fy, cx, cy; empty: the format's
+};
+
+const KeywordTable<SequenceKeywords>& SequenceTable() {
+  using K = SequenceKeywords;
+  static const KeywordTable<K> table =
+      KeywordTable<K>("open_sequence")
+          .Add("camera", [](K& k) { return &k.sequence.serial; })
+          .Add("tum_camera", [](K& k) { return &k.sequence.tum_camera; })
+          .Add("intrinsics", [](K& k) { return &k.intrinsics; })
+          .Add("depth_scale", [](K& k) { return &k.sequence.depth_scale; })
+          .Add("max_time_difference_s", [](K& k) { return &k.sequence.max_time_difference_s; })
+          .Add("stride", [](K& k) { return &k.sequence.stride; })
+          .Add("max_frames", [](K& k) { return &k.sequence.max_frames; });
+  return table;
+}
+
+FileSequence OpenSequence(const std::string& path, const py::dict& keywords,
+                          const py::object& logger) {
+  SequenceKeywords k = SequenceTable().Apply(keywords);
+  SetSequenceIntrinsics(k.intrinsics, "open_sequence", OptionSpelling::kKeyword, &k.sequence);
   std::vector<std::string> warnings;
   std::unique_ptr<RgbdSequence> sequence;
   {
     py::gil_scoped_release release;
-    sequence = OpenRgbdSequence(path, options, &warnings);
+    sequence = OpenRgbdSequence(path, k.sequence, &warnings);
   }
   const Log log = PythonLog(logger);
   for (const std::string& w : warnings) log.Warning(w);
@@ -232,16 +246,6 @@ py::object SequenceGroundTruth(const FileSequence& sequence) {
   const Trajectory gt = sequence.get().GroundTruth();
   if (gt.poses.empty()) return py::none();
   return TrajectoryToTuple(gt);
-}
-
-/// The defaults of SequenceOptions that rigfit.open_sequence takes as keywords.
-py::dict SequenceDefaults() {
-  const SequenceOptions o;
-  py::dict d;
-  d["max_time_difference_s"] = o.max_time_difference_s;
-  d["stride"] = o.stride;
-  d["max_frames"] = o.max_frames;
-  return d;
 }
 
 /// The frames `source` holds: a rigfit.Sequence's, or a list of frames read into *arrays.
@@ -281,51 +285,60 @@ py::dict TrackedFrameDict(int index, double timestamp, const TrackResult& track)
   return d;
 }
 
-/// The defaults of `rigfit track`'s flags, from the library's option structs: rigfit.track's
-/// keyword defaults.
-py::dict TrackDefaults() {
-  const OdometryOptions o;
-  py::dict d;
-  d["first"] = o.first_frame;
-  d["max_frames"] = o.max_frames;
-  d["stride"] = o.stride;
-  d["iterations"] = o.icp.iterations;
-  d["prior"] = MotionPriorName(o.prior);
-  d["keyframes"] = o.keyframes;
-  d["min_depth"] = o.frame.min_depth_m;
-  d["max_depth"] = o.frame.max_depth_m;
-  d["bilateral"] = o.frame.bilateral;
-  d["max_distance"] = o.icp.association.max_distance_m;
-  d["max_angle"] = o.icp.association.max_normal_angle_deg;
-  d["depth_weights"] = o.icp.weighting.depth_noise;
-  d["huber"] = o.icp.weighting.huber_delta_m;
-  d["min_step"] = o.icp.converged_translation_m;
-  d["threads"] = o.threads;
-  return d;
+/// The timestamps (N,) and poses (N, 4, 4) of a run, its failures and restarts.
+py::dict RunToDict(const Trajectory& trajectory, int failures, int restarts) {
+  const py::tuple arrays = TrajectoryToTuple(trajectory);
+  py::dict out;
+  out["timestamps"] = arrays[0];
+  out["poses"] = arrays[1];
+  out["failures"] = failures;
+  out["restarts"] = restarts;
+  return out;
 }
 
-py::dict Track(const py::object& source, int first, int max_frames, int stride,
-               const std::vector<int>& iterations, const std::string& prior, bool keyframes,
-               double min_depth, double max_depth, bool bilateral, double max_distance,
-               double max_angle, bool depth_weights, double huber, double min_step, int threads,
-               const py::object& logger) {
-  OdometryOptions options;
-  options.first_frame = first;
-  options.max_frames = max_frames;
-  options.stride = stride;
-  options.keyframes = keyframes;
-  options.frame.min_depth_m = min_depth;
-  options.frame.max_depth_m = max_depth;
-  options.frame.bilateral = bilateral;
-  options.icp.association.max_distance_m = max_distance;
-  options.icp.association.max_normal_angle_deg = max_angle;
-  options.icp.weighting.depth_noise = depth_weights;
-  options.icp.weighting.huber_delta_m = huber;
-  options.threads = threads;
-  ApplyTrackingSettings("track", OptionSpelling::kKeyword, prior, iterations, threads, max_frames,
-                        &options.prior, &options.frame, &options.icp);
-  ApplyMinStep("track", OptionSpelling::kKeyword, min_step, &options.icp);
+/// rigfit.track's keywords: `rigfit track`'s flags (but the sequence's, which open_sequence
+/// takes), read into the options and the settings ApplyTrackingSettings checks.
+struct TrackKeywords {
+  OdometryOptions odometry;
+  std::vector<int> iterations = OdometryOptions{}.icp.iterations;
+  std::string prior = MotionPriorName(OdometryOptions{}.prior);
+  double min_step = OdometryOptions{}.icp.converged_translation_m;
+};
 
+const KeywordTable<TrackKeywords>& TrackTable() {
+  using K = TrackKeywords;
+  static const KeywordTable<K> table =
+      KeywordTable<K>("track")
+          .Add("first", [](K& k) { return &k.odometry.first_frame; })
+          .Add("max_frames", [](K& k) { return &k.odometry.max_frames; })
+          .Add("stride", [](K& k) { return &k.odometry.stride; })
+          .Add("iterations", [](K& k) { return &k.iterations; })
+          .Add("prior", [](K& k) { return &k.prior; })
+          .Add("keyframes", [](K& k) { return &k.odometry.keyframes; })
+          .Add("min_depth", [](K& k) { return &k.odometry.frame.min_depth_m; })
+          .Add("max_depth", [](K& k) { return &k.odometry.frame.max_depth_m; })
+          .Add("bilateral", [](K& k) { return &k.odometry.frame.bilateral; })
+          .Add("max_distance", [](K& k) { return &k.odometry.icp.association.max_distance_m; })
+          .Add("max_angle", [](K& k) { return &k.odometry.icp.association.max_normal_angle_deg; })
+          .Add("depth_weights", [](K& k) { return &k.odometry.icp.weighting.depth_noise; })
+          .Add("huber", [](K& k) { return &k.odometry.icp.weighting.huber_delta_m; })
+          .Add("min_step", [](K& k) { return &k.min_step; })
+          .Add("threads", [](K& k) { return &k.odometry.threads; });
+  return table;
+}
+
+/// The options of rigfit.track's keywords, checked as `rigfit track` checks its flags.
+OdometryOptions TrackOptionsOf(const py::dict& keywords) {
+  TrackKeywords k = TrackTable().Apply(keywords);
+  OdometryOptions& o = k.odometry;
+  ApplyTrackingSettings("track", OptionSpelling::kKeyword, k.prior, k.iterations, o.threads,
+                        o.max_frames, &o.prior, &o.frame, &o.icp);
+  ApplyMinStep("track", OptionSpelling::kKeyword, k.min_step, &o.icp);
+  return o;
+}
+
+py::dict Track(const py::object& source, const py::dict& keywords, const py::object& logger) {
+  const OdometryOptions options = TrackOptionsOf(keywords);
   std::unique_ptr<ArraySequence> arrays;
   const RgbdSequence& sequence = SequenceOf(source, "track", &arrays);
   const Log log = PythonLog(logger);
@@ -346,13 +359,8 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
     d["keyframe"] = f.keyframe;
     frames.append(d);
   }
-  py::dict out;
-  const py::tuple trajectory = TrajectoryToTuple(result.trajectory);
-  out["timestamps"] = trajectory[0];
-  out["poses"] = trajectory[1];
+  py::dict out = RunToDict(result.trajectory, result.failures, result.restarts);
   out["frames"] = frames;
-  out["failures"] = result.failures;
-  out["restarts"] = result.restarts;
   py::dict timings;
   timings["load_s"] = result.load_s;
   timings["preprocess_s"] = result.preprocess_s;
@@ -361,33 +369,50 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
   return out;
 }
 
-/// The defaults of `rigfit slam`'s flags beyond open_sequence's, from the library's option
-/// structs: rigfit.slam's keyword defaults.
-py::dict SlamDefaults() {
-  const SlamOptions o;
-  py::dict d;
-  d["first"] = o.first_frame;
-  d["max_frames"] = o.max_frames;
-  d["stride"] = o.stride;
-  d["halve"] = o.halvings;
-  d["iterations"] = o.icp.iterations;
-  d["prior"] = MotionPriorName(o.prior);
-  d["min_depth"] = o.frame.min_depth_m;
-  d["max_depth"] = o.frame.max_depth_m;
-  d["max_distance"] = o.icp.association.max_distance_m;
-  d["max_angle"] = o.icp.association.max_normal_angle_deg;
-  d["fuse_distance"] = o.fusion.max_distance_m;
-  d["fuse_angle"] = o.fusion.max_normal_angle_deg;
-  d["dormant_frames"] = o.fusion.dormant_frames;
-  d["cover_radius"] = o.fusion.cover_radius_scale;
-  d["fold"] = o.fusion.fold_overlapping;
-  d["min_stable_weight"] = o.fusion.min_stable_weight;
-  d["model_weight"] = o.render.min_weight;
-  d["model_recent"] = o.render.recent_frames;
-  d["splat"] = o.render.splat;
-  d["color"] = o.color;
-  d["threads"] = o.threads;
-  return d;
+/// rigfit.slam's keywords: `rigfit slam`'s flags (but the sequence's and the files'), read into
+/// the options and the settings ApplyTrackingSettings checks.
+struct SlamKeywords {
+  SlamOptions slam;
+  std::vector<int> iterations = SlamOptions{}.icp.iterations;
+  std::string prior = MotionPriorName(SlamOptions{}.prior);
+};
+
+const KeywordTable<SlamKeywords>& SlamTable() {
+  using K = SlamKeywords;
+  static const KeywordTable<K> table =
+      KeywordTable<K>("slam")
+          .Add("first", [](K& k) { return &k.slam.first_frame; })
+          .Add("max_frames", [](K& k) { return &k.slam.max_frames; })
+          .Add("stride", [](K& k) { return &k.slam.stride; })
+          .Add("halve", [](K& k) { return &k.slam.halvings; })
+          .Add("iterations", [](K& k) { return &k.iterations; })
+          .Add("prior", [](K& k) { return &k.prior; })
+          .Add("min_depth", [](K& k) { return &k.slam.frame.min_depth_m; })
+          .Add("max_depth", [](K& k) { return &k.slam.frame.max_depth_m; })
+          .Add("max_distance", [](K& k) { return &k.slam.icp.association.max_distance_m; })
+          .Add("max_angle", [](K& k) { return &k.slam.icp.association.max_normal_angle_deg; })
+          .Add("fuse_distance", [](K& k) { return &k.slam.fusion.max_distance_m; })
+          .Add("fuse_angle", [](K& k) { return &k.slam.fusion.max_normal_angle_deg; })
+          .Add("dormant_frames", [](K& k) { return &k.slam.fusion.dormant_frames; })
+          .Add("cover_radius", [](K& k) { return &k.slam.fusion.cover_radius_scale; })
+          .Add("fold", [](K& k) { return &k.slam.fusion.fold_overlapping; })
+          .Add("min_stable_weight", [](K& k) { return &k.slam.fusion.min_stable_weight; })
+          .Add("model_weight", [](K& k) { return &k.slam.render.min_weight; })
+          .Add("model_recent", [](K& k) { return &k.slam.render.recent_frames; })
+          .Add("splat", [](K& k) { return &k.slam.render.splat; })
+          .Add("color", [](K& k) { return &k.slam.color; })
+          .Add("threads", [](K& k) { return &k.slam.threads; });
+  return table;
+}
+
+/// The options of rigfit.slam's keywords, checked as `rigfit slam` checks its flags.
+SlamOptions SlamOptionsOf(const py::dict& keywords) {
+  SlamKeywords k = SlamTable().Apply(keywords);
+  SlamOptions& o = k.slam;
+  ApplyTrackingSettings("slam", OptionSpelling::kKeyword, k.prior, k.iterations, o.threads,
+                        o.max_frames, &o.prior, &o.frame, &o.icp);
+  CheckSlamSettings("slam", OptionSpelling::kKeyword, o);
+  return o;
 }
 
 /// The map as numpy arrays without a copy: the map is moved into a capsule that every array
@@ -416,36 +441,8 @@ py::dict SurfelMapToDict(SurfelMap&& map) {
   return d;
 }
 
-py::dict Slam(const py::object& source, int first, int max_frames, int stride, int halve,
-              const std::vector<int>& iterations, const std::string& prior, double min_depth,
-              double max_depth, double max_distance, double max_angle, double fuse_distance,
-              double fuse_angle, int dormant_frames, double cover_radius, bool fold,
-              double min_stable_weight, float model_weight, int model_recent, bool splat,
-              bool color, int threads, const py::object& logger) {
-  SlamOptions options;
-  options.first_frame = first;
-  options.max_frames = max_frames;
-  options.stride = stride;
-  options.halvings = halve;
-  options.frame.min_depth_m = min_depth;
-  options.frame.max_depth_m = max_depth;
-  options.icp.association.max_distance_m = max_distance;
-  options.icp.association.max_normal_angle_deg = max_angle;
-  options.fusion.max_distance_m = fuse_distance;
-  options.fusion.max_normal_angle_deg = fuse_angle;
-  options.fusion.dormant_frames = dormant_frames;
-  options.fusion.cover_radius_scale = cover_radius;
-  options.fusion.fold_overlapping = fold;
-  options.fusion.min_stable_weight = min_stable_weight;
-  options.render.min_weight = model_weight;
-  options.render.recent_frames = model_recent;
-  options.render.splat = splat;
-  options.color = color;
-  options.threads = threads;
-  ApplyTrackingSettings("slam", OptionSpelling::kKeyword, prior, iterations, threads, max_frames,
-                        &options.prior, &options.frame, &options.icp);
-  CheckSlamSettings("slam", OptionSpelling::kKeyword, options);
-
+py::dict Slam(const py::object& source, const py::dict& keywords, const py::object& logger) {
+  const SlamOptions options = SlamOptionsOf(keywords);
   std::unique_ptr<ArraySequence> arrays;
   const RgbdSequence& sequence = SequenceOf(source, "slam", &arrays);
   const Log log = PythonLog(logger);
@@ -476,15 +473,10 @@ py::dict Slam(const py::object& source, int first, int max_frames, int stride, i
     frames.append(d);
     map_sizes.push_back(f.map_size);
   }
-  py::dict out;
-  const py::tuple trajectory = TrajectoryToTuple(result.trajectory);
-  out["timestamps"] = trajectory[0];
-  out["poses"] = trajectory[1];
+  py::dict out = RunToDict(result.trajectory, result.failures, result.restarts);
   out["frames"] = frames;
   const auto n = static_cast<py::ssize_t>(map_sizes.size());
   out["map_sizes"] = VectorToNumpy(std::move(map_sizes), {n});
-  out["failures"] = result.failures;
-  out["restarts"] = result.restarts;
   py::dict timings;
   timings["load_s"] = result.load_s;
   timings["preprocess_s"] = result.preprocess_s;
@@ -496,10 +488,25 @@ py::dict Slam(const py::object& source, int first, int max_frames, int stride, i
   return out;
 }
 
+/// rigfit.evaluate_trajectory's keywords: `rigfit evaluate-trajectory`'s flags.
+struct EvaluateTrajectoryKeywords {
+  double max_dt = 0.02;
+  int delta = 1;
+};
+
+const KeywordTable<EvaluateTrajectoryKeywords>& EvaluateTrajectoryTable() {
+  using K = EvaluateTrajectoryKeywords;
+  static const KeywordTable<K> table = KeywordTable<K>("evaluate_trajectory")
+                                           .Add("max_dt", [](K& k) { return &k.max_dt; })
+                                           .Add("delta", [](K& k) { return &k.delta; });
+  return table;
+}
+
 /// The fields of TrajectoryErrors, as `rigfit evaluate-trajectory` prints them (SI units).
 py::dict EvaluateTrajectoryErrors(const py::handle& est_timestamps, const py::handle& est_poses,
                                   const py::handle& gt_timestamps, const py::handle& gt_poses,
-                                  double max_dt, int delta) {
+                                  const py::dict& keywords) {
+  const auto [max_dt, delta] = EvaluateTrajectoryTable().Apply(keywords);
   CheckTrajectoryEvaluationSettings("evaluate_trajectory", OptionSpelling::kKeyword, max_dt, delta);
   const Trajectory est = TrajectoryOf(est_timestamps, est_poses, "estimated");
   const Trajectory gt = TrajectoryOf(gt_timestamps, gt_poses, "ground_truth");
@@ -525,46 +532,35 @@ py::dict EvaluateTrajectoryErrors(const py::handle& est_timestamps, const py::ha
   return d;
 }
 
-py::tuple LoadTrajectory(const std::string& path) {
+py::tuple PyReadTrajectory(const std::string& path) {
   return TrajectoryToTuple(ReadTumTrajectory(path));
 }
 
-void SaveTrajectory(const std::string& path, const py::handle& timestamps,
-                    const py::handle& poses) {
+void PyWriteTrajectory(const std::string& path, const py::handle& timestamps,
+                       const py::handle& poses) {
   WriteTumTrajectory(path, TrajectoryOf(timestamps, poses, path));
 }
 
 }  // namespace
 
 void AddRgbdFunctions(py::module_& m) {
+  py::dict defaults = m.attr("keyword_defaults");
+  defaults["open_sequence"] = SequenceTable().Defaults();
+  defaults["track"] = TrackTable().Defaults();
+  defaults["slam"] = SlamTable().Defaults();
+  defaults["evaluate_trajectory"] = EvaluateTrajectoryTable().Defaults();
   py::class_<FileSequence>(m, "Sequence")
       .def("__len__", [](const FileSequence& s) { return s.get().size(); })
       .def("frame", &SequenceFrame, py::arg("index"))
       .def("ground_truth", &SequenceGroundTruth)
       .def("describe", [](const FileSequence& s) { return s.get().Describe(); });
-  m.def("open_sequence", &OpenSequence, py::arg("path"), py::arg("camera"), py::arg("tum_camera"),
-        py::arg("intrinsics"), py::arg("depth_scale"), py::arg("max_time_difference_s"),
-        py::arg("stride"), py::arg("max_frames"), py::arg("logger"));
-  m.def("sequence_defaults", &SequenceDefaults);
-  m.def("track_defaults", &TrackDefaults);
-  m.def("track", &Track, py::arg("source"), py::arg("first"), py::arg("max_frames"),
-        py::arg("stride"), py::arg("iterations"), py::arg("prior"), py::arg("keyframes"),
-        py::arg("min_depth"), py::arg("max_depth"), py::arg("bilateral"), py::arg("max_distance"),
-        py::arg("max_angle"), py::arg("depth_weights"), py::arg("huber"), py::arg("min_step"),
-        py::arg("threads"), py::arg("logger"));
-  m.def("slam_defaults", &SlamDefaults);
-  m.def("slam", &Slam, py::arg("source"), py::arg("first"), py::arg("max_frames"),
-        py::arg("stride"), py::arg("halve"), py::arg("iterations"), py::arg("prior"),
-        py::arg("min_depth"), py::arg("max_depth"), py::arg("max_distance"), py::arg("max_angle"),
-        py::arg("fuse_distance"), py::arg("fuse_angle"), py::arg("dormant_frames"),
-        py::arg("cover_radius"), py::arg("fold"), py::arg("min_stable_weight"),
-        py::arg("model_weight"), py::arg("model_recent"), py::arg("splat"), py::arg("color"),
-        py::arg("threads"), py::arg("logger"));
+  m.def("open_sequence", &OpenSequence, py::arg("path"), py::arg("keywords"), py::arg("logger"));
+  m.def("track", &Track, py::arg("source"), py::arg("keywords"), py::arg("logger"));
+  m.def("slam", &Slam, py::arg("source"), py::arg("keywords"), py::arg("logger"));
   m.def("evaluate_trajectory", &EvaluateTrajectoryErrors, py::arg("est_timestamps"),
-        py::arg("est_poses"), py::arg("gt_timestamps"), py::arg("gt_poses"), py::arg("max_dt"),
-        py::arg("delta"));
-  m.def("load_trajectory", &LoadTrajectory, py::arg("path"));
-  m.def("save_trajectory", &SaveTrajectory, py::arg("path"), py::arg("timestamps"),
+        py::arg("est_poses"), py::arg("gt_timestamps"), py::arg("gt_poses"), py::arg("keywords"));
+  m.def("read_trajectory", &PyReadTrajectory, py::arg("path"));
+  m.def("write_trajectory", &PyWriteTrajectory, py::arg("path"), py::arg("timestamps"),
         py::arg("poses"));
 }
 

@@ -2,8 +2,10 @@
 // arrays and dicts to the library's plain structs (core/types.h, options/refine_options.h;
 // python/convert.h), runs the same library calls as `rigfit refine` (cli/refine_command.cc),
 // `rigfit compare` (report/compare.h) and `rigfit simulate` and hands back plain Python values;
-// rigfit/__init__.py wraps them in typed objects. The RGB-D part (sequences, tracking,
-// trajectories) is python/rgbd_module.cc. InputError becomes ValueError.
+// rigfit/__init__.py wraps them in dataclasses. Each function's options arrive as one dict of
+// keywords, read by the command's KeywordTable (python/keywords.h), the one place the binding
+// writes them. The RGB-D part (sequences, tracking, trajectories) is python/rgbd_module.cc.
+// InputError becomes ValueError.
 #include <pybind11/functional.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -14,6 +16,7 @@
 #include <cstdint>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <string>
@@ -27,6 +30,7 @@
 #include "io/extrinsics_json.h"
 #include "options/refine_options.h"
 #include "python/convert.h"
+#include "python/keywords.h"
 #include "report/compare.h"
 #include "report/refine_meta.h"
 #include "rig/refine.h"
@@ -127,33 +131,71 @@ RigCapture CaptureOf(const py::dict& cameras) {
   return capture;
 }
 
-/// The options of a run of `command` (refine, compare): config (YAML text from a dict, or a
-/// path, or the defaults) with the keyword overrides applied, as `rigfit refine` applies its
-/// flags; the number of worker threads checked.
-RefineOptions OptionsOf(const std::string& command, const std::string& config_yaml,
-                        const std::string& config_path, const std::string& mode,
-                        const std::string& method, const std::string& reference, bool level_ground,
-                        int threads) {
+/// rigfit.refine's keywords besides config: `rigfit refine`'s flags that override the config
+/// (unset: the config's value) and those that do not map to a config key.
+struct RefineKeywords {
+  std::optional<std::string> mode;
+  std::optional<std::string> method;
+  std::optional<double> voxel_size;
+  std::optional<std::string> reference;
+  bool no_ground = false;
+  bool no_icp = false;
+  int threads = 2;
+};
+
+const KeywordTable<RefineKeywords>& RefineTable() {
+  using K = RefineKeywords;
+  static const KeywordTable<K> table = KeywordTable<K>("refine")
+                                           .Add("mode", [](K& k) { return &k.mode; })
+                                           .Add("method", [](K& k) { return &k.method; })
+                                           .Add("voxel_size", [](K& k) { return &k.voxel_size; })
+                                           .Add("reference", [](K& k) { return &k.reference; })
+                                           .Add("no_ground", [](K& k) { return &k.no_ground; })
+                                           .Add("no_icp", [](K& k) { return &k.no_icp; })
+                                           .Add("threads", [](K& k) { return &k.threads; });
+  return table;
+}
+
+/// rigfit.compare's keywords besides config and gt: the flags of `rigfit compare`.
+struct CompareKeywords {
+  int threads = 2;
+};
+
+const KeywordTable<CompareKeywords>& CompareTable() {
+  static const KeywordTable<CompareKeywords> table = KeywordTable<CompareKeywords>("compare").Add(
+      "threads", [](CompareKeywords& k) { return &k.threads; });
+  return table;
+}
+
+/// Throws InputError "<command>: threads must be in [1, 256], got <threads>" (the CLI's range).
+void CheckThreads(const std::string& command, int threads) {
   if (threads < 1 || threads > kMaxRefineThreads) {
     throw InputError(command + ": threads must be in [1, " + std::to_string(kMaxRefineThreads) +
                      "], got " + std::to_string(threads));
   }
+}
+
+/// The options of a run of `command` (refine, compare): config (YAML text from a dict, or a
+/// path, or the defaults) with the keyword overrides applied, as `rigfit refine` applies its
+/// flags, checked.
+RefineOptions OptionsOf(const std::string& command, const std::string& config_yaml,
+                        const std::string& config_path, const RefineKeywords& k) {
   RefineOptions options;
   if (!config_path.empty()) {
     options = LoadConfig(config_path);
   } else if (!config_yaml.empty()) {
     options = ParseConfig(config_yaml, "config");
   }
-  if (!mode.empty()) {
-    if (mode != "joint" && mode != "pairwise") {
-      throw InputError("refine: mode must be joint or pairwise, got '" + mode + "'");
+  if (k.mode) {
+    if (*k.mode != "joint" && *k.mode != "pairwise") {
+      throw InputError(command + ": mode must be joint or pairwise, got '" + *k.mode + "'");
     }
-    options.icp.mode = mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
+    options.icp.mode = *k.mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
   }
-  if (!method.empty()) options.icp.method = RegistrationMethodNamed(method);
-  if (!reference.empty()) options.icp.reference = reference;
-  if (!level_ground) options.ground.enabled = false;
-  options.threads = threads;
+  if (k.method) options.icp.method = RegistrationMethodNamed(*k.method);
+  if (k.voxel_size) options.icp.voxel_size = *k.voxel_size;
+  if (k.reference) options.icp.reference = *k.reference;
+  if (k.no_ground) options.ground.enabled = false;
   const std::vector<std::string> problems = OptionProblems(options);
   if (!problems.empty()) {
     std::string text = command + ": invalid options (config with keyword overrides):";
@@ -203,8 +245,8 @@ py::list CameraReports(const RefineResult& result) {
     py::list weak;
     for (const WeakDirection& w : c.weak_directions) {
       py::dict wd;
-      wd["name"] = w.name;
-      wd["strength"] = w.strength;
+      wd["direction"] = w.name;
+      wd["information_fraction"] = w.strength;
       wd["reason"] = w.reason;
       weak.append(wd);
     }
@@ -234,17 +276,20 @@ py::list PairReports(const RefineResult& result) {
   return out;
 }
 
+/// `rigfit refine` on arrays: keywords as RefineTable reads them.
 py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
                    const std::string& config_yaml, const std::string& config_path,
-                   const std::string& mode, const std::string& method, const std::string& reference,
-                   bool level_ground, int threads, const py::object& logger) {
-  const RefineOptions options =
-      OptionsOf("refine", config_yaml, config_path, mode, method, reference, level_ground, threads);
+                   const py::dict& keywords, const py::object& logger) {
+  const RefineKeywords k = RefineTable().Apply(keywords);
+  CheckThreads("refine", k.threads);
+  RefineOptions options = OptionsOf("refine", config_yaml, config_path, k);
+  options.run_registration = !k.no_icp;
+  options.threads = k.threads;
   const RigCapture capture = CaptureOf(cameras);
   const PoseMap initial = PosesOf(extrinsics, "extrinsics");
   CheckRefineInput(
       capture, initial, options,
-      {"refine", "cameras", "extrinsics", reference.empty() ? "icp.reference" : "reference"});
+      {"refine", "cameras", "extrinsics", k.reference ? "reference" : "icp.reference"});
   std::vector<std::string> warnings = CaptureWarnings(capture, "cameras");
   const Log log = PythonLog(logger);
   for (const std::string& w : warnings) log.Warning(w);
@@ -255,7 +300,7 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
     result = Refine(capture, initial, options, log);
   }
   warnings.insert(warnings.end(), result.warnings.begin(), result.warnings.end());
-  Json meta = RefineMetaJson(result, options, warnings, {!level_ground, false});
+  Json meta = RefineMetaJson(result, options, warnings, {k.no_ground, k.no_icp});
   for (const std::string& path : ReplaceNonFinite(meta, "_meta")) {
     const std::string warning = path + " was not finite and is written as null";
     log.Warning(warning);
@@ -275,28 +320,28 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
 }
 
 /// `rigfit compare` on arrays: the three runs (report/compare.h), their JSON document (as
-/// `--json` writes it, sources null) and the text the CLI prints.
+/// `--json` writes it, sources null) and the text the CLI prints. gt: serial -> (4, 4) or None.
 py::dict RunCompare(const py::dict& cameras, const py::dict& extrinsics,
                     const std::string& config_yaml, const std::string& config_path,
-                    const py::object& ground_truth, const std::string& reference, bool level_ground,
-                    int threads, const py::object& logger) {
-  const RefineOptions options =
-      OptionsOf("compare", config_yaml, config_path, "", "", reference, level_ground, threads);
+                    const py::object& gt, const py::dict& keywords, const py::object& logger) {
+  const CompareKeywords k = CompareTable().Apply(keywords);
+  CheckThreads("compare", k.threads);
+  RefineOptions options = OptionsOf("compare", config_yaml, config_path, {});
+  options.threads = k.threads;
   const RigCapture capture = CaptureOf(cameras);
   const PoseMap initial = PosesOf(extrinsics, "extrinsics");
-  CheckRefineInput(
-      capture, initial, options,
-      {"compare", "cameras", "extrinsics", reference.empty() ? "icp.reference" : "reference"});
-  PoseMap gt;
-  if (!ground_truth.is_none()) {
-    if (!py::isinstance<py::dict>(ground_truth)) {
-      throw InputError("compare: ground_truth must be a dict serial -> (4, 4) or None");
+  CheckRefineInput(capture, initial, options,
+                   {"compare", "cameras", "extrinsics", "icp.reference"});
+  PoseMap truth_poses;
+  if (!gt.is_none()) {
+    if (!py::isinstance<py::dict>(gt)) {
+      throw InputError("compare: gt must be a dict serial -> (4, 4) or None");
     }
-    gt = PosesOf(py::reinterpret_borrow<py::dict>(ground_truth), "ground_truth");
+    truth_poses = PosesOf(py::reinterpret_borrow<py::dict>(gt), "gt");
   }
-  const PoseMap* truth = ground_truth.is_none() ? nullptr : &gt;
+  const PoseMap* truth = gt.is_none() ? nullptr : &truth_poses;
   const CompareSources sources = {"", "", "", config_path};
-  CheckCompareInput(capture, truth, {"cameras", "extrinsics", "ground_truth", ""});
+  CheckCompareInput(capture, truth, {"cameras", "extrinsics", "gt", ""});
   std::vector<std::string> warnings = CaptureWarnings(capture, "cameras");
   const Log log = PythonLog(logger);
   for (const std::string& w : warnings) log.Warning(w);
@@ -339,29 +384,43 @@ py::dict CaptureToDict(RigCapture&& capture) {
   return out;
 }
 
-py::dict LoadCapture(const std::string& path, const py::object& logger) {
+py::dict PyReadCapture(const std::string& path, const py::object& logger) {
   RigCapture capture = ReadCapture(path);
   const Log log = PythonLog(logger);
   for (const std::string& w : CaptureWarnings(capture, path)) log.Warning(w);
   return CaptureToDict(std::move(capture));
 }
 
-py::dict LoadExtrinsics(const std::string& path, const py::object& logger) {
+const KeywordTable<CaptureWriteOptions>& WriteCaptureTable() {
+  using O = CaptureWriteOptions;
+  static const KeywordTable<O> table =
+      KeywordTable<O>("write_capture")
+          .Add("depth_as_uint16", [](O& o) { return &o.depth_as_uint16; })
+          .Add("depth_scale", [](O& o) { return &o.depth_scale; });
+  return table;
+}
+
+void PyWriteCapture(const std::string& path, const py::dict& cameras, const py::dict& keywords) {
+  const CaptureWriteOptions options = WriteCaptureTable().Apply(keywords);
+  WriteCapture(path, CaptureOf(cameras), options);
+}
+
+py::dict PyReadExtrinsics(const std::string& path, const py::object& logger) {
   const ExtrinsicsDocument doc = ReadExtrinsics(path);
   const Log log = PythonLog(logger);
   for (const std::string& w : doc.warnings) log.Warning(w);
   return PosesToDict(doc.poses);
 }
 
-void SaveExtrinsics(const std::string& path, const py::dict& extrinsics,
-                    const std::string& meta_json) {
+void PyWriteExtrinsics(const std::string& path, const py::dict& extrinsics,
+                       const std::string& meta_json) {
   const PoseMap poses = PosesOf(extrinsics, path);
   const Json meta = meta_json.empty() ? Json::object() : Json::parse(meta_json);
   WriteExtrinsics(path, poses, Json::object(), meta);
 }
 
 /// {"pairs", "cameras", "summary", "ignored_cameras"} as `rigfit evaluate --json` writes them,
-/// as JSON text (rigfit/__init__.py loads it).
+/// as JSON text (rigfit/__init__.py reads it into a RigErrors).
 std::string Evaluate(const py::dict& estimated, const py::dict& ground_truth) {
   const PoseMap est = PosesOf(estimated, "estimated");
   const PoseMap gt = PosesOf(ground_truth, "ground_truth");
@@ -372,63 +431,42 @@ std::string Evaluate(const py::dict& estimated, const py::dict& ground_truth) {
   return document.dump();
 }
 
-void SaveCapture(const std::string& path, const py::dict& cameras, bool depth_as_uint16,
-                 double depth_scale) {
-  const RigCapture capture = CaptureOf(cameras);
-  CaptureWriteOptions options;
-  options.depth_as_uint16 = depth_as_uint16;
-  options.depth_scale = depth_scale;
-  WriteCapture(path, capture, options);
+/// rigfit.simulate's keywords: `rigfit simulate`'s flags, read into SimOptions.
+const KeywordTable<SimOptions>& SimulateTable() {
+  using O = SimOptions;
+  static const KeywordTable<O> table =
+      KeywordTable<O>("simulate")
+          .Add("cameras", [](O& o) { return &o.cameras; })
+          .Add("seed", [](O& o) { return &o.seed; })
+          .Add("width", [](O& o) { return &o.width; })
+          .Add("height", [](O& o) { return &o.height; })
+          .Add("noise", [](O& o) { return &o.noise; })
+          .Add("noise_corr_px", [](O& o) { return &o.noise_corr_px; })
+          .Add("noise_corr_share", [](O& o) { return &o.noise_corr_share; })
+          .Add("disparity_quant_px", [](O& o) { return &o.disparity_quant_px; })
+          .Add("dropout", [](O& o) { return &o.dropout; })
+          .Add("perturb_yaw_deg", [](O& o) { return &o.perturb_yaw_deg; })
+          .Add("perturb_xz_m", [](O& o) { return &o.perturb_xz_m; })
+          .Add("perturb_tilt_deg", [](O& o) { return &o.perturb_tilt_deg; })
+          .Add("bare", [](O& o) { return &o.bare; });
+  return table;
 }
 
-/// The defaults of SimOptions under the names of `rigfit simulate`'s flags: rigfit.simulate's
-/// keyword defaults.
-py::dict SimulateDefaults() {
-  const SimOptions o;
-  py::dict d;
-  d["cameras"] = o.cameras;
-  d["seed"] = o.seed;
-  d["width"] = o.width;
-  d["height"] = o.height;
-  d["noise"] = o.noise;
-  d["noise_corr_px"] = o.noise_corr_px;
-  d["noise_corr_share"] = o.noise_corr_share;
-  d["disparity_quant_px"] = o.disparity_quant_px;
-  d["dropout"] = o.dropout;
-  d["perturb_yaw_deg"] = o.perturb_yaw_deg;
-  d["perturb_xz_m"] = o.perturb_xz_m;
-  d["perturb_tilt_deg"] = o.perturb_tilt_deg;
-  d["bare"] = o.bare;
-  return d;
-}
-
-/// (cameras, truth, start) of SimulateRig, after `rigfit simulate`'s checks (CheckSimOptions).
-py::tuple Simulate(int cameras, std::uint64_t seed, int width, int height, double noise,
-                   double noise_corr_px, double noise_corr_share, double disparity_quant_px,
-                   double dropout, double perturb_yaw_deg, double perturb_xz_m,
-                   double perturb_tilt_deg, bool bare) {
-  SimOptions o;
-  o.cameras = cameras;
-  o.seed = seed;
-  o.width = width;
-  o.height = height;
-  o.noise = noise;
-  o.noise_corr_px = noise_corr_px;
-  o.noise_corr_share = noise_corr_share;
-  o.disparity_quant_px = disparity_quant_px;
-  o.dropout = dropout;
-  o.perturb_yaw_deg = perturb_yaw_deg;
-  o.perturb_xz_m = perturb_xz_m;
-  o.perturb_tilt_deg = perturb_tilt_deg;
-  o.bare = bare;
-  CheckSimOptions(o, "simulate", OptionSpelling::kKeyword);
+/// {"cameras", "truth", "start"} of SimulateRig, after `rigfit simulate`'s checks
+/// (CheckSimOptions).
+py::dict Simulate(const py::dict& keywords) {
+  const SimOptions options = SimulateTable().Apply(keywords);
+  CheckSimOptions(options, "simulate", OptionSpelling::kKeyword);
   SimulatedRig rig;
   {
     py::gil_scoped_release release;
-    rig = SimulateRig(o);
+    rig = SimulateRig(options);
   }
-  return py::make_tuple(CaptureToDict(std::move(rig.capture)), PosesToDict(rig.gt),
-                        PosesToDict(rig.init));
+  py::dict out;
+  out["cameras"] = CaptureToDict(std::move(rig.capture));
+  out["truth"] = PosesToDict(rig.gt);
+  out["start"] = PosesToDict(rig.init);
+  return out;
 }
 
 }  // namespace
@@ -445,23 +483,24 @@ PYBIND11_MODULE(_rigfit, m) {
       PyErr_SetString(PyExc_ValueError, e.what());
     }
   });
+  // command -> {keyword: default}: the names and defaults of every keyword table, which
+  // rigfit/__init__.py turns into the functions' signatures.
+  py::dict defaults;
+  defaults["refine"] = RefineTable().Defaults();
+  defaults["compare"] = CompareTable().Defaults();
+  defaults["write_capture"] = WriteCaptureTable().Defaults();
+  defaults["simulate"] = SimulateTable().Defaults();
+  m.attr("keyword_defaults") = defaults;
   m.def("refine", &RunRefine, py::arg("cameras"), py::arg("extrinsics"), py::arg("config_yaml"),
-        py::arg("config_path"), py::arg("mode"), py::arg("method"), py::arg("reference"),
-        py::arg("level_ground"), py::arg("threads"), py::arg("logger"));
+        py::arg("config_path"), py::arg("keywords"), py::arg("logger"));
   m.def("compare", &RunCompare, py::arg("cameras"), py::arg("extrinsics"), py::arg("config_yaml"),
-        py::arg("config_path"), py::arg("ground_truth"), py::arg("reference"),
-        py::arg("level_ground"), py::arg("threads"), py::arg("logger"));
-  m.def("load_capture", &LoadCapture, py::arg("path"), py::arg("logger"));
+        py::arg("config_path"), py::arg("gt"), py::arg("keywords"), py::arg("logger"));
   m.def("evaluate", &Evaluate, py::arg("estimated"), py::arg("ground_truth"));
-  m.def("save_capture", &SaveCapture, py::arg("path"), py::arg("cameras"),
-        py::arg("depth_as_uint16"), py::arg("depth_scale"));
-  m.def("load_extrinsics", &LoadExtrinsics, py::arg("path"), py::arg("logger"));
-  m.def("save_extrinsics", &SaveExtrinsics, py::arg("path"), py::arg("extrinsics"),
+  m.def("read_capture", &PyReadCapture, py::arg("path"), py::arg("logger"));
+  m.def("write_capture", &PyWriteCapture, py::arg("path"), py::arg("cameras"), py::arg("keywords"));
+  m.def("read_extrinsics", &PyReadExtrinsics, py::arg("path"), py::arg("logger"));
+  m.def("write_extrinsics", &PyWriteExtrinsics, py::arg("path"), py::arg("extrinsics"),
         py::arg("meta_json"));
-  m.def("simulate_defaults", &SimulateDefaults);
-  m.def("simulate", &Simulate, py::arg("cameras"), py::arg("seed"), py::arg("width"),
-        py::arg("height"), py::arg("noise"), py::arg("noise_corr_px"), py::arg("noise_corr_share"),
-        py::arg("disparity_quant_px"), py::arg("dropout"), py::arg("perturb_yaw_deg"),
-        py::arg("perturb_xz_m"), py::arg("perturb_tilt_deg"), py::arg("bare"));
+  m.def("simulate", &Simulate, py::arg("keywords"));
   AddRgbdFunctions(m);
 }

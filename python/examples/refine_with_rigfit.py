@@ -3,7 +3,7 @@
 
 What a calibration script that levels the floor with RANSAC and then runs pairwise Open3D ICP
 (its flags --icp, --icp-method point_to_plane|gicp, --icp-voxel-size, metrics under
-_meta.icp_refined) does instead: load the HDF5 capture and the JSON extrinsics, call
+_meta.icp_refined) does instead: read the HDF5 capture and the JSON extrinsics, call
 rigfit.refine (leveling and registration in one call), write the refined extrinsics with
 rigfit's report as _meta.
 
@@ -30,11 +30,11 @@ def main() -> int:
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
 
     try:
-        cameras = rigfit.load_capture(args.capture)
-        initial = rigfit.load_extrinsics(args.extrinsics)
-        config = {"icp": {"voxel_size": args.voxel_size}} if args.voxel_size else None
-        result = rigfit.refine(cameras, initial, config, method=args.method)
-        rigfit.save_extrinsics(args.out, result.extrinsics, meta=result.meta)
+        cameras = rigfit.read_capture(args.capture)
+        initial = rigfit.read_extrinsics(args.extrinsics)
+        # None (a flag not given) leaves rigfit's default.
+        result = rigfit.refine(cameras, initial, method=args.method, voxel_size=args.voxel_size)
+        rigfit.write_extrinsics(args.out, result.extrinsics, meta=result.meta)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

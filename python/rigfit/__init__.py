@@ -1,22 +1,30 @@
 """rigfit from Python: refine the extrinsics of a depth-camera rig, simulate one, and read,
 track, map (SLAM) and evaluate RGB-D sequences (docs/python.md).
 
-The same library calls as the CLI: ``refine`` on the same capture, initial extrinsics and
-options gives ``rigfit refine``'s poses bit for bit and exactly the ``_meta`` report the CLI
-writes (without ``timings_s``); ``compare`` is ``rigfit compare``; ``simulate`` is ``rigfit simulate``, ``track`` is ``rigfit
-track``, ``slam`` is ``rigfit slam``. Nothing is written to disk unless asked. Bad input raises ``ValueError`` with the
+The same library calls as the CLI, in one style: data (arrays, dicts of arrays, paths) are
+positional; options are keyword-only and named as the CLI's long flags (``--max-frames`` is
+``max_frames``, ``--no-ground`` is ``no_ground=True``); None, or leaving a keyword out, means
+the library's default (``rigfit.defaults(command)`` lists them); every function returns a
+dataclass (or None). ``refine`` on the same capture, initial extrinsics and options gives
+``rigfit refine``'s poses bit for bit and exactly the ``_meta`` report the CLI writes (without
+``timings_s``); ``compare``, ``simulate``, ``track``, ``slam``, ``evaluate`` and
+``evaluate_trajectory`` are the CLI commands of those names. Files are read and written by
+``read_*`` and ``write_*`` (C++'s ReadCapture, WriteExtrinsics, ...); nothing else touches the
+disk. Bad input, an unknown keyword or a keyword of the wrong type raise ``ValueError`` with the
 library's message. Progress and warnings go to the logger ``"rigfit"``.
 """
 
 from __future__ import annotations
 
+import inspect
 import json
 import logging
 import operator
 import os
-from dataclasses import dataclass, field
-from typing import (TYPE_CHECKING, Any, Dict, Iterator, List, Mapping, Optional, Tuple, Union,
-                    overload)
+import textwrap
+from dataclasses import dataclass
+from typing import (TYPE_CHECKING, Any, Callable, Dict, Iterator, List, Mapping, Optional, Tuple,
+                    TypeVar, Union, overload)
 from typing import Sequence as _Seq
 
 from . import _rigfit
@@ -24,10 +32,13 @@ from . import _rigfit
 if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
-__all__ = ["RefineResult", "CameraReport", "PairReport", "refine", "CompareResult", "compare", "load_capture", "save_capture", "load_extrinsics",
-           "save_extrinsics", "evaluate", "simulate", "Frame", "Sequence", "open_sequence", "TrackedFrame",
-           "Trajectory", "track", "SlamFrame", "SurfelMap", "SlamResult", "slam", "evaluate_trajectory",
-           "load_trajectory", "save_trajectory"]
+__all__ = ["defaults", "refine", "RefineResult", "CameraReport", "PoseSigma", "WeakDirection",
+           "PairReport", "compare", "CompareResult", "CompareRun", "evaluate", "RigErrors",
+           "PairError", "CameraTilt", "ErrorSummary", "RmsMax", "read_capture", "write_capture",
+           "read_extrinsics", "write_extrinsics", "simulate", "SimulatedRig", "open_sequence",
+           "Sequence", "Frame", "track", "TrackResult", "TrackedFrame", "TrackTimings", "slam",
+           "SlamResult", "SlamFrame", "SlamTimings", "SurfelMap", "Trajectory",
+           "evaluate_trajectory", "TrajectoryErrors", "read_trajectory", "write_trajectory"]
 
 logger = logging.getLogger("rigfit")
 
@@ -35,6 +46,79 @@ logger = logging.getLogger("rigfit")
 Cameras = Mapping[str, Mapping[str, Any]]
 #: serial -> (4, 4) T_world_camera
 Extrinsics = Mapping[str, "np.ndarray"]
+#: a config: a dict with the YAML's sections and keys, the path of a YAML file, or None
+Config = Union[None, Mapping[str, Any], str, os.PathLike]
+
+_F = TypeVar("_F", bound=Callable[..., Any])
+
+
+def defaults(command: str) -> Dict[str, Any]:
+    """The keywords of ``command`` (``"refine"``, ``"track"``, ...) with the library's defaults,
+    which a keyword left out or given as None takes. Read from the binding's keyword table, the
+    one place a keyword is written, so that they cannot drift from the library's."""
+    if command not in _rigfit.keyword_defaults:
+        raise ValueError(f"defaults: no command {command!r} (commands: "
+                         f"{', '.join(_rigfit.keyword_defaults)})")
+    return dict(_rigfit.keyword_defaults[command])
+
+
+def _keywords(command: str) -> Callable[[_F], _F]:
+    """Gives a function that takes ``**options`` the keyword-only parameters of ``command``'s
+    table (each defaulting to None: the library's default), so that ``help()`` and
+    ``inspect.signature`` show them, and lists them with their defaults in its docstring."""
+
+    def wrap(function: _F) -> _F:
+        signature = inspect.signature(function)
+        kept = [p for p in signature.parameters.values() if p.kind is not p.VAR_KEYWORD]
+        table = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=None)
+                 for name in _rigfit.keyword_defaults[command]]
+        function.__signature__ = signature.replace(parameters=kept + table)
+        listed = ", ".join(f"{name}={value!r}"
+                           for name, value in _rigfit.keyword_defaults[command].items())
+        function.__doc__ = (inspect.cleandoc(function.__doc__ or "") +
+                            "\n\nKeywords and their defaults (None or left out: the default):\n" +
+                            textwrap.fill(listed, 92, initial_indent="    ", subsequent_indent="    ",
+                                          break_on_hyphens=False, break_long_words=False))
+        return function
+
+    return wrap
+
+
+def _config_text(config: Config) -> Tuple[str, str]:
+    """(yaml_text, path) of a config: a dict is written as JSON, which is YAML, and read by the
+    YAML loader, so that a dict is checked exactly as a file (unknown keys, types, ranges)."""
+    if config is None:
+        return "", ""
+    if isinstance(config, Mapping):
+        return json.dumps(config, indent=2, allow_nan=False), ""
+    if isinstance(config, (str, os.PathLike)):
+        return "", os.fspath(config)
+    raise ValueError(f"config must be a dict, a path or None, got {type(config).__name__}")
+
+
+# --- refine -----------------------------------------------------------------------------------
+
+
+@dataclass
+class PoseSigma:
+    """The 1-sigma read-off of a pose covariance: yaw and tilt (degrees), x, y, z (mm)."""
+
+    yaw_deg: float
+    tilt_deg: float
+    x_mm: float
+    y_mm: float
+    z_mm: float
+
+
+@dataclass
+class WeakDirection:
+    """A direction of a camera's pose that the data fixes poorly (``_meta``'s
+    ``weak_directions``): which, its information against the best-constrained direction's, and
+    why."""
+
+    direction: str
+    information_fraction: float
+    reason: str
 
 
 @dataclass
@@ -43,9 +127,8 @@ class CameraReport:
 
     ``covariance`` is the 6x6 covariance of the refined pose in the PoseManifold tangent (world
     rotation vector, world translation; gauge fixed by the reference), joint mode only, else
-    None; ``sigma`` its 1-sigma read-off (``yaw_deg``, ``tilt_deg``, ``x_mm``, ``y_mm``,
-    ``z_mm``). ``delta_*`` is the registration change (refined against leveled), ``own_*`` the
-    change against the rig that the safety bounds apply to.
+    None; ``sigma`` its 1-sigma read-off. ``delta_*`` is the registration change (refined
+    against leveled), ``own_*`` the change against the rig that the safety bounds apply to.
     """
 
     serial: str
@@ -62,8 +145,8 @@ class CameraReport:
     own_rotation_deg: float
     own_translation_m: float
     covariance: Optional["np.ndarray"]
-    sigma: Optional[Dict[str, float]]
-    weak_directions: List[Dict[str, Any]]
+    sigma: Optional[PoseSigma]
+    weak_directions: List[WeakDirection]
 
 
 @dataclass
@@ -94,75 +177,132 @@ class RefineResult:
         warnings: every warning of the run (also logged to ``"rigfit"``).
         cameras: per-camera reports (in serial order), covariance as numpy.
         pairs: per-pair reports.
-        meta: the ``_meta`` object ``rigfit refine --no-timings`` writes:
-            ``{"ground_refined": ..., "icp_refined": ...}``.
+        meta: the ``_meta`` document ``rigfit refine --no-timings`` writes, parsed:
+            ``{"ground_refined": ..., "icp_refined": ...}`` (``write_extrinsics``' ``meta``).
     """
 
     extrinsics: Dict[str, "np.ndarray"]
     success: bool
     message: str
-    warnings: List[str] = field(default_factory=list)
-    cameras: List[CameraReport] = field(default_factory=list)
-    pairs: List[PairReport] = field(default_factory=list)
-    meta: Dict[str, Any] = field(default_factory=dict)
+    warnings: List[str]
+    cameras: List[CameraReport]
+    pairs: List[PairReport]
+    meta: Dict[str, Any]
 
 
-def _config_text(config: Union[None, Mapping[str, Any], str, os.PathLike]) -> tuple:
-    """(yaml_text, path) of a config: a dict is written as JSON, which is YAML, and read by the
-    YAML loader, so that a dict is checked exactly as a file (unknown keys, types, ranges)."""
-    if config is None:
-        return "", ""
-    if isinstance(config, Mapping):
-        return json.dumps(config, indent=2, allow_nan=False), ""
-    if isinstance(config, (str, os.PathLike)):
-        return "", os.fspath(config)
-    raise TypeError(f"config must be a dict, a path or None, got {type(config).__name__}")
+def _camera_report(raw: Dict[str, Any]) -> CameraReport:
+    raw = dict(raw)
+    raw["sigma"] = None if raw["sigma"] is None else PoseSigma(**raw["sigma"])
+    raw["weak_directions"] = [WeakDirection(**w) for w in raw["weak_directions"]]
+    return CameraReport(**raw)
 
 
-def refine(
-    cameras: Cameras,
-    extrinsics: Extrinsics,
-    config: Union[None, Mapping[str, Any], str, os.PathLike] = None,
-    *,
-    mode: Optional[str] = None,
-    method: Optional[str] = None,
-    reference: Optional[str] = None,
-    level_ground: bool = True,
-    threads: int = 2,
-) -> RefineResult:
+@_keywords("refine")
+def refine(cameras: Cameras, extrinsics: Extrinsics, *, config: Config = None,
+           **options: Any) -> RefineResult:
     """Refines the extrinsics of a rig from one capture, as ``rigfit refine``.
 
-    Args:
-        cameras: serial -> ``{"depth": (H, W) float32/float64 metres (NaN, <= 0 invalid), "K":
-            (3, 3) intrinsics}``, or with uint16 depth and ``"depth_scale"`` (metres per unit),
-            or ``{"points": (N, 3) camera-frame metres, "normals": (N, 3) optional}``
-            (``load_capture`` returns this layout).
-        extrinsics: serial -> (4, 4) T_world_camera, one per camera.
-        config: the options (docs/config.md): a dict with the YAML's sections and keys
-            (``{"icp": {"voxel_size": 0.03}}``), or the path of a YAML file, or None for
-            the defaults.
-        mode: "joint" or "pairwise"; overrides icp.mode (None: the config's).
-        method: "point_to_plane", "gicp" or "surface_bundle"; overrides icp.method.
-        reference: serial of the camera held fixed; overrides icp.reference.
-        level_ground: False skips ground leveling (as ``--no-ground``).
-        threads: worker threads (1 to 256).
+    ``cameras``: serial -> ``{"depth": (H, W) float32/float64 metres (NaN, <= 0 invalid), "K":
+    (3, 3) intrinsics}``, or uint16 depth with ``"depth_scale"`` (metres per unit), or
+    ``{"points": (N, 3) camera-frame metres, "normals": (N, 3) optional}`` (``read_capture``
+    returns this layout). ``extrinsics``: serial -> (4, 4) T_world_camera, one per camera.
+    ``config`` (``--config``): a dict with the YAML's sections and keys (``{"icp":
+    {"voxel_size": 0.03}}``), the path of a YAML file, or None for the defaults. The other
+    keywords are ``rigfit refine``'s flags: ``mode``, ``method``, ``voxel_size`` and
+    ``reference`` override the config (None: the config's); ``no_ground=True`` skips ground
+    leveling, ``no_icp=True`` stops after it; ``threads`` (1 to 256).
 
-    Raises:
-        ValueError: bad input (config, arrays, serials that do not match), with the message.
+    Raises ValueError on bad input (config, arrays, serials that do not match, keywords).
     """
     yaml_text, path = _config_text(config)
-    raw = _rigfit.refine(
-        dict(cameras), dict(extrinsics), yaml_text, path, mode or "", method or "",
-        reference or "", bool(level_ground), int(threads), logger)
+    raw = _rigfit.refine(dict(cameras), dict(extrinsics), yaml_text, path, options, logger)
     return RefineResult(
-        extrinsics=dict(raw["extrinsics"]),
-        success=bool(raw["success"]),
-        message=raw["message"],
-        warnings=list(raw["warnings"]),
-        cameras=[CameraReport(**c) for c in raw["cameras"]],
-        pairs=[PairReport(**p) for p in raw["pairs"]],
-        meta=json.loads(raw["meta_json"]),
-    )
+        extrinsics=dict(raw["extrinsics"]), success=bool(raw["success"]),
+        message=raw["message"], warnings=list(raw["warnings"]),
+        cameras=[_camera_report(c) for c in raw["cameras"]],
+        pairs=[PairReport(**p) for p in raw["pairs"]], meta=json.loads(raw["meta_json"]))
+
+
+# --- evaluate and compare ---------------------------------------------------------------------
+
+
+@dataclass
+class RmsMax:
+    """RMS and largest value of an error over cameras or pairs (None: nothing to summarise)."""
+
+    rms: Optional[float]
+    max: Optional[float]
+
+
+@dataclass
+class ErrorSummary:
+    """Gauge-free errors of a rig: relative rotation (deg) and translation (mm) over the pairs
+    of cameras, tilt of each camera against the truth's floor (deg)."""
+
+    rotation_deg: RmsMax
+    translation_mm: RmsMax
+    tilt_deg: RmsMax
+
+
+@dataclass
+class PairError:
+    """Error of the relative pose of two cameras against the truth's."""
+
+    serial_i: str
+    serial_j: str
+    rotation_deg: float
+    translation_mm: float
+
+
+@dataclass
+class CameraTilt:
+    """Tilt of one camera against the truth (deg)."""
+
+    serial: str
+    tilt_deg: float
+
+
+@dataclass
+class RigErrors:
+    """What ``evaluate`` returns (``rigfit evaluate --json``'s document as objects)."""
+
+    pairs: List[PairError]
+    cameras: List[CameraTilt]
+    summary: ErrorSummary
+    ignored_cameras: List[str]
+
+
+def _summary(raw: Optional[Mapping[str, Any]]) -> Optional[ErrorSummary]:
+    if raw is None:
+        return None
+    return ErrorSummary(**{key: RmsMax(**value) for key, value in raw.items()})
+
+
+def evaluate(estimated: Extrinsics, ground_truth: Extrinsics) -> RigErrors:
+    """Gauge-free errors of estimated extrinsics against the truth, as ``rigfit evaluate EST
+    GT``, over the cameras of ``ground_truth`` (every one must be in ``estimated``; the others
+    of ``estimated`` are listed in ``ignored_cameras``). Raises ValueError on bad poses."""
+    raw = json.loads(_rigfit.evaluate(dict(estimated), dict(ground_truth)))
+    return RigErrors(pairs=[PairError(**p) for p in raw["pairs"]],
+                     cameras=[CameraTilt(**c) for c in raw["cameras"]],
+                     summary=_summary(raw["summary"]), ignored_cameras=raw["ignored_cameras"])
+
+
+@dataclass
+class CompareRun:
+    """One of the three runs of ``compare``: how it was set, whether it was applied, its poses,
+    its errors against ``gt`` (None without), its wall time and peak memory."""
+
+    name: str
+    mode: str
+    method: str
+    success: bool
+    message: str
+    warnings: List[str]
+    extrinsics: Dict[str, "np.ndarray"]
+    errors: Optional[ErrorSummary]
+    wall_s: float
+    peak_rss_mb: float
 
 
 @dataclass
@@ -170,150 +310,138 @@ class CompareResult:
     """What ``compare`` returns.
 
     Attributes:
-        document: the JSON document ``rigfit compare --json`` writes, as a dict: ``runs``
-            (``["pairwise", "joint", "surface_bundle"]``), ``modes`` (per run: ``mode``,
-            ``method``, ``success``, ``cameras`` with change, error, ``sigma`` and
-            ``surface`` thickness, ``fit``, ``errors``, ``wall_s``, ``peak_rss_mb``),
-            ``before``, ``verdict``; ``capture``, ``extrinsics`` and ``ground_truth`` are
-            None (no files), ``config`` the path when one was given.
+        runs: ``pairwise``, ``joint``, ``surface_bundle``, in that order.
+        method: the residual of the pairwise and joint runs.
+        reference: the camera held fixed.
+        errors_input, errors_leveled: the errors of the input and of the leveled poses (the
+            runs' shared start) against ``gt``; None without ``gt``.
+        verdict: the best run and the numbers behind it.
         text: the tables ``rigfit compare`` prints.
-        verdict: ``document["verdict"]``: the best run and the numbers behind it.
+        document: the JSON document ``rigfit compare --json`` writes, parsed (also each
+            camera's change, error, 1-sigma and plane thickness, and each pair's fit);
+            ``capture``, ``extrinsics`` and ``ground_truth`` are None (no files), ``config`` the
+            path when one was given.
     """
 
-    document: Dict[str, Any]
-    text: str
+    runs: List[CompareRun]
+    method: str
+    reference: str
+    errors_input: Optional[ErrorSummary]
+    errors_leveled: Optional[ErrorSummary]
     verdict: str
+    text: str
+    document: Dict[str, Any]
 
 
-def compare(
-    cameras: Cameras,
-    extrinsics: Extrinsics,
-    config: Union[None, Mapping[str, Any], str, os.PathLike] = None,
-    *,
-    ground_truth: Optional[Extrinsics] = None,
-    reference: Optional[str] = None,
-    level_ground: bool = True,
-    threads: int = 2,
-) -> CompareResult:
+def _compare_run(name: str, raw: Mapping[str, Any]) -> CompareRun:
+    import numpy as np
+    poses = {serial: np.array(c["T_world_camera"], dtype=np.float64)
+             for serial, c in raw["cameras"].items()}
+    return CompareRun(name=name, mode=raw["mode"], method=raw["method"], success=raw["success"],
+                      message=raw["message"], warnings=list(raw["warnings"]), extrinsics=poses,
+                      errors=_summary(raw["errors"]), wall_s=raw["wall_s"],
+                      peak_rss_mb=raw["peak_rss_mb"])
+
+
+@_keywords("compare")
+def compare(cameras: Cameras, extrinsics: Extrinsics, *, config: Config = None,
+            gt: Optional[Extrinsics] = None, **options: Any) -> CompareResult:
     """Runs the three ways to refine a rig on the same input, as ``rigfit compare``.
 
     pairwise (pairwise ICP + pose graph) and joint (joint registration), both with
     point_to_plane or, when the config sets it, gicp; and surface_bundle (joint
-    point_to_plane, then the surface bundle). ``icp.mode`` of the config is ignored.
+    point_to_plane, then the surface bundle). ``cameras``, ``extrinsics`` and ``config`` as
+    ``refine`` takes them (``icp.mode`` ignored; the reference and ground leveling come from the
+    config, as for the CLI); ``gt`` (``--gt``): serial -> (4, 4) true T_world_camera, one per
+    camera, or None; adds each run's gauge-free errors and judges the runs by them.
+    ``threads``: worker threads (1 to 256).
 
-    Args:
-        cameras, extrinsics, config, reference, level_ground, threads: as ``refine`` takes
-            them (checked the same way).
-        ground_truth: serial -> (4, 4) true T_world_camera, one per camera, or None; adds
-            each run's gauge-free errors and judges the runs by them.
-
-    Raises:
-        ValueError: bad input (as ``refine``; a single camera; a camera missing from
-            ``ground_truth``), with the message.
+    Raises ValueError on bad input (as ``refine``; a single camera; a camera missing from
+    ``gt``).
     """
     yaml_text, path = _config_text(config)
-    raw = _rigfit.compare(
-        dict(cameras), dict(extrinsics), yaml_text, path,
-        None if ground_truth is None else dict(ground_truth), reference or "",
-        bool(level_ground), int(threads), logger)
-    document = json.loads(raw["json"])
-    return CompareResult(document=document, text=raw["text"], verdict=document["verdict"])
+    raw = _rigfit.compare(dict(cameras), dict(extrinsics), yaml_text, path,
+                          None if gt is None else dict(gt), options, logger)
+    doc = json.loads(raw["json"])
+    return CompareResult(
+        runs=[_compare_run(name, doc["modes"][name]) for name in doc["runs"]],
+        method=doc["method"], reference=doc["reference"],
+        errors_input=_summary(doc["before"]["errors_input"]),
+        errors_leveled=_summary(doc["before"]["errors_leveled"]), verdict=doc["verdict"],
+        text=raw["text"], document=doc)
 
 
-def load_capture(path: Union[str, os.PathLike]) -> Dict[str, Dict[str, "np.ndarray"]]:
-    """Reads a rig capture (HDF5, docs/formats.md) in this process, under the CLI's rules.
+# --- files ------------------------------------------------------------------------------------
+
+
+def read_capture(path: Union[str, os.PathLike]) -> Dict[str, Dict[str, "np.ndarray"]]:
+    """Reads a rig capture (HDF5, docs/formats.md) in this process, as C++'s ReadCapture.
 
     Returns serial -> ``{"depth": (H, W) float32 metres with NaN where invalid, "K": (3, 3),
     ["confidence", "color"]}`` or ``{"points": (N, 3), ["normals": (N, 3)]}``, the layout
     ``refine`` takes. Raises ValueError naming the file and dataset on a bad file.
     """
-    return dict(_rigfit.load_capture(os.fspath(path), logger))
+    return dict(_rigfit.read_capture(os.fspath(path), logger))
 
 
-def save_capture(path: Union[str, os.PathLike], cameras: Cameras, *,
-                 depth_as_uint16: bool = False, depth_scale: float = 0.001) -> None:
-    """Writes a rig capture (HDF5, docs/formats.md) atomically, as ``rigfit simulate`` does.
+@_keywords("write_capture")
+def write_capture(path: Union[str, os.PathLike], cameras: Cameras, **options: Any) -> None:
+    """Writes a rig capture (HDF5, docs/formats.md) atomically, as C++'s WriteCapture.
 
-    ``cameras`` as ``refine`` takes them (``load_capture``'s layout), checked the same way.
-    ``depth_as_uint16`` stores depth as uint16 with ``depth_scale`` metres per unit instead of
-    float32 metres. Raises ValueError naming the file and camera on what cannot be written.
+    ``cameras`` as ``refine`` takes them (``read_capture``'s layout), checked the same way.
+    ``depth_as_uint16=True`` stores depth as uint16 with ``depth_scale`` metres per unit instead
+    of float32 metres. Raises ValueError naming the file and camera on what cannot be written.
     """
-    _rigfit.save_capture(os.fspath(path), dict(cameras), bool(depth_as_uint16),
-                         float(depth_scale))
+    _rigfit.write_capture(os.fspath(path), dict(cameras), options)
 
 
-def evaluate(estimated: Extrinsics, ground_truth: Extrinsics) -> Dict[str, Any]:
-    """Gauge-free errors of estimated extrinsics against the truth, as ``rigfit evaluate --json``.
-
-    Returns ``{"pairs": [{"serial_i", "serial_j", "rotation_deg", "translation_mm"}],
-    "cameras": [{"serial", "tilt_deg"}], "summary": {"rotation_deg": {"rms", "max"},
-    "translation_mm": ..., "tilt_deg": ...}, "ignored_cameras": [...]}`` over the cameras of
-    ``ground_truth``, every one of which must be in ``estimated`` (else ValueError).
-    """
-    return json.loads(_rigfit.evaluate(dict(estimated), dict(ground_truth)))
-
-
-def load_extrinsics(path: Union[str, os.PathLike]) -> Dict[str, "np.ndarray"]:
+def read_extrinsics(path: Union[str, os.PathLike]) -> Dict[str, "np.ndarray"]:
     """Reads an extrinsics file (JSON): serial -> (4, 4) T_world_camera (``_meta`` left out)."""
-    return dict(_rigfit.load_extrinsics(os.fspath(path), logger))
+    return dict(_rigfit.read_extrinsics(os.fspath(path), logger))
 
 
-def save_extrinsics(path: Union[str, os.PathLike], extrinsics: Extrinsics,
-                    meta: Optional[Mapping[str, Any]] = None) -> None:
+def write_extrinsics(path: Union[str, os.PathLike], extrinsics: Extrinsics, *,
+                     meta: Optional[Mapping[str, Any]] = None) -> None:
     """Writes an extrinsics file (JSON) atomically, as the CLI writes it, with ``meta`` (e.g.
     ``RefineResult.meta``) as its ``_meta``."""
     meta_json = "" if meta is None else json.dumps(meta, allow_nan=False)
-    _rigfit.save_extrinsics(os.fspath(path), dict(extrinsics), meta_json)
+    _rigfit.write_extrinsics(os.fspath(path), dict(extrinsics), meta_json)
 
 
-# The keyword defaults below are the library's own (SimOptions, SequenceOptions, the tracking
-# and SLAM options), read once from the compiled module, so that they cannot drift from the CLI's.
-_SIM = _rigfit.simulate_defaults()
-_SEQ = _rigfit.sequence_defaults()
-_TRACK = _rigfit.track_defaults()
-_SLAM = _rigfit.slam_defaults()
+# --- simulate ---------------------------------------------------------------------------------
 
 
-def simulate(
-    *,
-    cameras: int = _SIM["cameras"],
-    seed: int = _SIM["seed"],
-    width: int = _SIM["width"],
-    height: int = _SIM["height"],
-    noise: float = _SIM["noise"],
-    noise_corr_px: float = _SIM["noise_corr_px"],
-    noise_corr_share: float = _SIM["noise_corr_share"],
-    disparity_quant_px: float = _SIM["disparity_quant_px"],
-    dropout: float = _SIM["dropout"],
-    perturb_yaw_deg: float = _SIM["perturb_yaw_deg"],
-    perturb_xz_m: float = _SIM["perturb_xz_m"],
-    perturb_tilt_deg: float = _SIM["perturb_tilt_deg"],
-    bare: bool = _SIM["bare"],
-) -> Tuple[Dict[str, Dict[str, "np.ndarray"]], Dict[str, "np.ndarray"], Dict[str, "np.ndarray"]]:
+@dataclass
+class SimulatedRig:
+    """What ``simulate`` returns: ``cameras`` in ``refine``'s layout (``{"depth", "K",
+    "color"}`` per serial), ``truth`` and ``start`` serial -> (4, 4) T_world_camera (the CLI's
+    gt.json and init.json)."""
+
+    cameras: Dict[str, Dict[str, "np.ndarray"]]
+    truth: Dict[str, "np.ndarray"]
+    start: Dict[str, "np.ndarray"]
+
+
+@_keywords("simulate")
+def simulate(**options: Any) -> SimulatedRig:
     """Simulates a rig in memory, as ``rigfit simulate`` writes it (same defaults, same checks).
 
     A furnished room seen by ``cameras`` ZED-like depth cameras; deterministic for a seed (the
     CLI's files for the same options hold the same numbers). The keywords are the CLI's flags:
     ``noise`` is sigma = noise * z^2 (1/m); ``noise_corr_px`` and ``noise_corr_share`` make a
     share of its variance correlated over that many pixels; ``disparity_quant_px`` rounds the
-    disparity to multiples of it; ``dropout`` drops that fraction of pixels; ``perturb_*`` set how
-    far ``start`` is from ``truth``; ``bare`` leaves the room empty (floor and walls only).
+    disparity to multiples of it; ``dropout`` drops that fraction of pixels; ``perturb_*`` set
+    how far ``start`` is from ``truth``; ``bare=True`` leaves the room empty (floor and walls).
+    ``rig = rigfit.simulate(); rigfit.refine(rig.cameras, rig.start)``.
 
-    Returns ``(cameras, truth, start)``: ``cameras`` in ``refine``'s layout (``{"depth", "K",
-    "color"}`` per serial), ``truth`` and ``start`` serial -> (4, 4) T_world_camera; so
-    ``cameras, truth, start = rigfit.simulate(); rigfit.refine(cameras, start)``.
-
-    Raises:
-        ValueError: an option out of range, with the CLI's message (keywords for flags).
+    Raises ValueError: an option out of range, with the CLI's message (keywords for flags).
     """
-    seed = operator.index(seed)
-    if not 0 <= seed < 2**64:
-        raise ValueError(f"simulate: seed must be in [0, 2^64 - 1], got {seed}")
-    cameras_out, truth, start = _rigfit.simulate(
-        operator.index(cameras), seed, operator.index(width), operator.index(height), float(noise),
-        float(noise_corr_px), float(noise_corr_share), float(disparity_quant_px), float(dropout),
-        float(perturb_yaw_deg), float(perturb_xz_m), float(perturb_tilt_deg), bool(bare))
-    return dict(cameras_out), dict(truth), dict(start)
+    raw = _rigfit.simulate(options)
+    return SimulatedRig(cameras=dict(raw["cameras"]), truth=dict(raw["truth"]),
+                        start=dict(raw["start"]))
+
+
+# --- RGB-D sequences, tracking, SLAM, trajectories --------------------------------------------
 
 
 @dataclass
@@ -362,22 +490,34 @@ class TrackedFrame:
 
 @dataclass
 class Trajectory:
-    """A camera trajectory: (N,) timestamps in seconds and (N, 4, 4) T_world_camera.
-
-    From ``track`` also ``frames`` (one ``TrackedFrame`` per pose), ``failures``, ``restarts``
-    and ``timings`` (seconds: ``load_s``, ``preprocess_s``, ``track_s``); a ground truth or a
-    loaded file has none.
-    """
+    """A camera trajectory: (N,) timestamps in seconds and (N, 4, 4) T_world_camera."""
 
     timestamps: "np.ndarray"
     poses: "np.ndarray"
-    frames: List[TrackedFrame] = field(default_factory=list)
-    failures: int = 0
-    restarts: int = 0
-    timings: Dict[str, float] = field(default_factory=dict)
 
     def __len__(self) -> int:
         return len(self.timestamps)
+
+
+@dataclass
+class TrackTimings:
+    """Seconds spent by ``track``: reading frames, preprocessing them, tracking."""
+
+    load_s: float
+    preprocess_s: float
+    track_s: float
+
+
+@dataclass
+class TrackResult(Trajectory):
+    """What ``track`` returns: the trajectory (``write_trajectory`` and ``evaluate_trajectory``
+    take it) with a ``TrackedFrame`` per pose, the failed frames, the restarts and the
+    timings."""
+
+    frames: List[TrackedFrame]
+    failures: int
+    restarts: int
+    timings: TrackTimings
 
 
 @dataclass
@@ -435,16 +575,30 @@ class SurfelMap:
 
 
 @dataclass
-class SlamResult(Trajectory):
-    """What ``slam`` returns: the trajectory (a ``Trajectory``: ``save_trajectory`` and
-    ``evaluate_trajectory`` take it) with a ``SlamFrame`` per pose in ``frames``, the final
-    ``map`` (since the last restart) and ``map_sizes`` ((N,) int32, the map size after each
-    frame). ``timings`` (seconds): ``load_s``, ``preprocess_s``, ``render_s``, ``track_s``,
-    ``fuse_s``."""
+class SlamTimings:
+    """Seconds spent by ``slam``: reading, preprocessing, rendering the model, tracking,
+    fusing."""
 
-    frames: List[SlamFrame] = field(default_factory=list)
-    map: Optional[SurfelMap] = None
-    map_sizes: Optional["np.ndarray"] = None
+    load_s: float
+    preprocess_s: float
+    render_s: float
+    track_s: float
+    fuse_s: float
+
+
+@dataclass
+class SlamResult(Trajectory):
+    """What ``slam`` returns: the trajectory (a ``Trajectory``: ``write_trajectory`` and
+    ``evaluate_trajectory`` take it) with a ``SlamFrame`` per pose in ``frames``, the failed
+    frames, the restarts, the timings, the final ``map`` (since the last restart) and
+    ``map_sizes`` ((N,) int32, the map size after each frame)."""
+
+    frames: List[SlamFrame]
+    failures: int
+    restarts: int
+    timings: SlamTimings
+    map: SurfelMap
+    map_sizes: "np.ndarray"
 
 
 def _frame(raw: Mapping[str, Any]) -> Frame:
@@ -494,36 +648,22 @@ class Sequence:
         return f"<rigfit.Sequence: {self.describe()}>"
 
 
-def open_sequence(
-    path: Union[str, os.PathLike],
-    *,
-    camera: Optional[str] = None,
-    tum_camera: Optional[str] = None,
-    intrinsics: Optional[_Seq[float]] = None,
-    depth_scale: Optional[float] = None,
-    max_time_difference_s: float = _SEQ["max_time_difference_s"],
-    stride: int = _SEQ["stride"],
-    max_frames: int = _SEQ["max_frames"],
-) -> Sequence:
+@_keywords("open_sequence")
+def open_sequence(path: Union[str, os.PathLike], **options: Any) -> Sequence:
     """Opens an RGB-D sequence, as ``rigfit track SEQUENCE`` does (docs/sequences.md).
 
     ``path``: a TUM RGB-D or ICL-NUIM folder, a 7-Scenes folder, or a rig capture (HDF5) whose
     camera ``camera`` (default the first) has a burst of depth frames. Lists and poses are read
     now, images on demand. ``camera``, ``tum_camera`` ("fr1", "fr2", "fr3", "default") and
     ``intrinsics`` ((fx, fy, cx, cy) of the depth image) are the CLI's ``--camera``,
-    ``--tum-camera``, ``--intrinsics``; ``depth_scale`` (metres per unit of 16-bit depth),
-    ``max_time_difference_s`` (associating colour and ground truth), ``stride`` and
-    ``max_frames`` (0: all) replace the format's defaults. The loader's notes go to the logger.
+    ``--tum-camera``, ``--intrinsics``; ``depth_scale`` (metres per unit of 16-bit depth; None:
+    the format's), ``max_time_difference_s`` (associating colour and ground truth), ``stride``
+    and ``max_frames`` (0: all) set the rest of SequenceOptions. The loader's notes go to the
+    logger.
 
-    Raises:
-        ValueError: a missing or malformed folder or file, options out of range.
+    Raises ValueError: a missing or malformed folder or file, options out of range.
     """
-    native = _rigfit.open_sequence(
-        os.fspath(path), camera or "", tum_camera or "",
-        [] if intrinsics is None else [float(v) for v in intrinsics],
-        None if depth_scale is None else float(depth_scale), float(max_time_difference_s),
-        operator.index(stride), operator.index(max_frames), logger)
-    return Sequence(native)
+    return Sequence(_rigfit.open_sequence(os.fspath(path), options, logger))
 
 
 #: A frame for ``track`` and ``slam``: a ``Frame``, or a dict {"depth", "K", ["depth_scale",
@@ -554,127 +694,95 @@ def _frames_source(frames: Union[Sequence, _Seq[FrameLike]], command: str) -> An
     return [_frame_dict(f, command) for f in frames]
 
 
-def track(
-    frames: Union[Sequence, _Seq[FrameLike]],
-    *,
-    first: int = _TRACK["first"],
-    max_frames: int = _TRACK["max_frames"],
-    stride: int = _TRACK["stride"],
-    iterations: _Seq[int] = tuple(_TRACK["iterations"]),
-    prior: str = _TRACK["prior"],
-    keyframes: bool = _TRACK["keyframes"],
-    min_depth: float = _TRACK["min_depth"],
-    max_depth: float = _TRACK["max_depth"],
-    bilateral: bool = _TRACK["bilateral"],
-    max_distance: float = _TRACK["max_distance"],
-    max_angle: float = _TRACK["max_angle"],
-    depth_weights: bool = _TRACK["depth_weights"],
-    huber: float = _TRACK["huber"],
-    min_step: float = _TRACK["min_step"],
-    threads: int = _TRACK["threads"],
-) -> Trajectory:
-    """Frame-to-frame dense RGB-D odometry, as ``rigfit track`` (rgbd/odometry.h).
+@_keywords("track")
+def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResult:
+    """Dense RGB-D odometry, as ``rigfit track`` (rgbd/odometry.h).
 
-    Each frame is tracked by projective point-to-plane ICP, coarse to fine, against the previous
-    frame or the last keyframe. ``frames``: a ``Sequence`` (read from its files as it goes), or
-    a list of ``Frame`` objects or dicts ``{"depth": (H, W) float32/float64 metres or uint16 with
-    "depth_scale", "K": (3, 3), "timestamp": seconds (every frame or none; default index /
-    30 Hz), "T_world_camera": (4, 4) optional}`` (each depth read once, when its frame is
-    tracked). The first frame's pose is its ``T_world_camera`` (ground truth) when it has one,
-    else the identity.
+    Each frame is tracked by projective point-to-plane ICP, coarse to fine, against the last
+    keyframe (``keyframes=False``: the previous frame). ``frames``: a ``Sequence`` (read from
+    its files as it goes), or a list of ``Frame`` objects or dicts ``{"depth": (H, W)
+    float32/float64 metres or uint16 with "depth_scale", "K": (3, 3), "timestamp": seconds
+    (every frame or none; default index / 30 Hz), "T_world_camera": (4, 4) optional}`` (each
+    depth read once, when its frame is tracked). The first frame's pose is its
+    ``T_world_camera`` (ground truth) when it has one, else the identity.
 
-    The keywords are the CLI's flags (``--max-frames`` is ``max_frames``, ``--no-keyframes`` is
-    ``keyframes=False``, ...), with the same defaults and checks: ``first``, ``max_frames`` (0:
-    all), ``stride`` pick the frames; ``iterations`` per pyramid level, finest first (their count
-    is the number of levels); ``prior`` "constant-velocity" or "identity"; ``min_depth`` and
-    ``max_depth`` (metres) the depth used; ``max_distance`` (m) and ``max_angle`` (deg) the
-    association; ``depth_weights`` and ``huber`` the weighting; ``min_step`` the convergence
-    test; ``threads``. Runs without the GIL; progress (every tenth) and warnings (failed frames)
-    go to the logger ``"rigfit"``. A failed frame keeps its prediction and is counted, as in the
-    CLI.
+    The keywords are the CLI's flags with its defaults and checks: ``first``, ``max_frames``
+    (0: all), ``stride`` pick the frames; ``iterations`` per pyramid level, finest first (their
+    count is the number of levels); ``prior`` "constant-velocity" or "identity"; ``min_depth``
+    and ``max_depth`` (metres) the depth used; ``bilateral`` the level-0 normals;
+    ``max_distance`` (m) and ``max_angle`` (deg) the association; ``depth_weights`` and
+    ``huber`` the weighting; ``min_step`` the convergence test; ``threads``. Runs without the
+    GIL; progress (every tenth) and warnings (failed frames) go to the logger ``"rigfit"``. A
+    failed frame keeps its prediction and is counted, as in the CLI.
 
-    Raises:
-        ValueError: options out of range, a bad frame, an unreadable image.
+    Raises ValueError: options out of range, a bad frame, an unreadable image.
     """
-    raw = _rigfit.track(
-        _frames_source(frames, "track"), operator.index(first), operator.index(max_frames), operator.index(stride),
-        [operator.index(n) for n in iterations], str(prior), bool(keyframes), float(min_depth),
-        float(max_depth), bool(bilateral), float(max_distance), float(max_angle),
-        bool(depth_weights), float(huber), float(min_step), operator.index(threads), logger)
-    return Trajectory(
+    raw = _rigfit.track(_frames_source(frames, "track"), options, logger)
+    return TrackResult(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
-        restarts=raw["restarts"], timings=dict(raw["timings"]))
+        restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]))
 
 
-def slam(
-    frames: Union[Sequence, _Seq[FrameLike]],
-    *,
-    first: int = _SLAM["first"],
-    max_frames: int = _SLAM["max_frames"],
-    stride: int = _SLAM["stride"],
-    halve: int = _SLAM["halve"],
-    iterations: _Seq[int] = tuple(_SLAM["iterations"]),
-    prior: str = _SLAM["prior"],
-    min_depth: float = _SLAM["min_depth"],
-    max_depth: float = _SLAM["max_depth"],
-    max_distance: float = _SLAM["max_distance"],
-    max_angle: float = _SLAM["max_angle"],
-    fuse_distance: float = _SLAM["fuse_distance"],
-    fuse_angle: float = _SLAM["fuse_angle"],
-    dormant_frames: int = _SLAM["dormant_frames"],
-    cover_radius: float = _SLAM["cover_radius"],
-    fold: bool = _SLAM["fold"],
-    min_stable_weight: float = _SLAM["min_stable_weight"],
-    model_weight: float = _SLAM["model_weight"],
-    model_recent: int = _SLAM["model_recent"],
-    splat: bool = _SLAM["splat"],
-    color: bool = _SLAM["color"],
-    threads: int = _SLAM["threads"],
-) -> SlamResult:
+@_keywords("slam")
+def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult:
     """Frame-to-model dense RGB-D SLAM, as ``rigfit slam`` (rgbd/slam.h, docs/rgbd.md section 6).
 
     Each frame is tracked by projective point-to-plane ICP against the surfel map rendered at its
     predicted pose, then fused into the map. ``frames`` as for ``track``: a ``Sequence`` (its
     registered colour is fused when ``color``), or a list of ``Frame`` objects or dicts (depth
-    only: their colour is not read). The first frame's pose is its ``T_world_camera`` when it has
-    one, else the identity.
+    only: their colour is not read). The first frame's pose is its ``T_world_camera`` when it
+    has one, else the identity.
 
-    The keywords are the CLI's flags (``--fuse-distance`` is ``fuse_distance``, ``--no-color``
-    is ``color=False``, ...), with the same defaults and checks (``ApplyTrackingSettings`` and
-    ``CheckSlamSettings``, called by both): ``first``, ``max_frames`` (0: all), ``stride`` pick
-    the frames, ``halve`` halves their resolution that many times first; tracking as ``track``
-    (``iterations``, ``prior``, ``min_depth``, ``max_depth``, ``max_distance``, ``max_angle``);
-    fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg) gates, ``dormant_frames`` and
-    ``min_stable_weight`` (dormant removal; 0 frames: off), ``cover_radius`` (the coverage
-    rule; 0: off), ``fold``; the model: ``model_weight``, ``model_recent``, ``splat``;
-    ``threads``. Runs without the GIL; progress (every tenth, with the map size) and warnings go
-    to the logger ``"rigfit"``. A failed frame keeps its prediction and is not fused; a frame
-    without colour while the map is coloured is tracked but not fused, with a warning
-    (``color=False`` fuses depth only).
+    The keywords are the CLI's flags with its defaults and checks: ``first``, ``max_frames``
+    (0: all), ``stride`` pick the frames, ``halve`` halves their resolution that many times
+    first; tracking as ``track`` (``iterations``, ``prior``, ``min_depth``, ``max_depth``,
+    ``max_distance``, ``max_angle``); fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg)
+    gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
+    ``cover_radius`` (the coverage rule; 0: off), ``fold``; the model: ``model_weight``,
+    ``model_recent``, ``splat``; ``color``; ``threads``. Runs without the GIL; progress (every
+    tenth, with the map size) and warnings go to the logger ``"rigfit"``. A failed frame keeps
+    its prediction and is not fused; a frame without colour while the map is coloured is
+    tracked but not fused, with a warning (``color=False`` fuses depth only).
 
-    Raises:
-        ValueError: options out of range, a bad frame, an unreadable image.
+    Raises ValueError: options out of range, a bad frame, an unreadable image.
     """
-    raw = _rigfit.slam(
-        _frames_source(frames, "slam"), operator.index(first), operator.index(max_frames),
-        operator.index(stride), operator.index(halve), [operator.index(n) for n in iterations],
-        str(prior), float(min_depth), float(max_depth), float(max_distance), float(max_angle),
-        float(fuse_distance), float(fuse_angle), operator.index(dormant_frames),
-        float(cover_radius), bool(fold), float(min_stable_weight), float(model_weight),
-        operator.index(model_recent), bool(splat), bool(color), operator.index(threads), logger)
+    raw = _rigfit.slam(_frames_source(frames, "slam"), options, logger)
     return SlamResult(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[SlamFrame(**f) for f in raw["frames"]], failures=raw["failures"],
-        restarts=raw["restarts"], timings=dict(raw["timings"]), map=SurfelMap(**raw["map"]),
-        map_sizes=raw["map_sizes"])
+        restarts=raw["restarts"], timings=SlamTimings(**raw["timings"]),
+        map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"])
+
+
+@dataclass
+class TrajectoryErrors:
+    """What ``evaluate_trajectory`` returns (core/trajectory.h TrajectoryErrors, SI units).
+
+    ``pairs``: poses matched in time; ``T_gt_est`` (4, 4): the rigid alignment of the estimate
+    onto the truth; ATE over the matched poses: ``ate_rmse_m``, ``ate_mean_m``,
+    ``ate_median_m``, ``ate_max_m``, ``ate_m`` ((pairs,) per pose); RPE over pose pairs
+    ``delta`` matched poses apart: ``rpe_pairs``, ``rpe_translation_rmse_m``,
+    ``rpe_rotation_rmse_rad``.
+    """
+
+    pairs: int
+    T_gt_est: "np.ndarray"
+    ate_rmse_m: float
+    ate_mean_m: float
+    ate_median_m: float
+    ate_max_m: float
+    ate_m: "np.ndarray"
+    rpe_pairs: int
+    rpe_translation_rmse_m: float
+    rpe_rotation_rmse_rad: float
 
 
 TrajectoryLike = Union[Trajectory, Tuple["np.ndarray", "np.ndarray"]]
 
 
 def _trajectory_arrays(trajectory: TrajectoryLike, name: str) -> tuple:
-    if hasattr(trajectory, "timestamps") and hasattr(trajectory, "poses"):
+    if isinstance(trajectory, Trajectory):
         return trajectory.timestamps, trajectory.poses
     if isinstance(trajectory, (tuple, list)) and len(trajectory) == 2:
         return trajectory[0], trajectory[1]
@@ -682,38 +790,33 @@ def _trajectory_arrays(trajectory: TrajectoryLike, name: str) -> tuple:
                     f"{type(trajectory).__name__}")
 
 
-def evaluate_trajectory(estimated: TrajectoryLike, ground_truth: TrajectoryLike, *,
-                        max_dt: float = 0.02, delta: int = 1) -> Dict[str, Any]:
-    """Errors of a trajectory against ground truth, as ``rigfit evaluate-trajectory``.
+@_keywords("evaluate_trajectory")
+def evaluate_trajectory(estimated: TrajectoryLike, ground_truth: TrajectoryLike,
+                        **options: Any) -> TrajectoryErrors:
+    """Errors of a trajectory against ground truth, as ``rigfit evaluate-trajectory EST GT``.
 
     Poses are matched by nearest timestamp (within ``max_dt`` seconds, the TUM tools' greedy
-    association), the estimate aligned rigidly to the truth (no scale). Each trajectory is a
-    ``Trajectory`` or ``(timestamps (N,), poses (N, 4, 4))``, timestamps increasing.
+    association), the estimate aligned rigidly to the truth (no scale); RPE over pose pairs
+    ``delta`` matched poses apart. Each trajectory is a ``Trajectory`` (or a result of
+    ``track`` or ``slam``) or ``(timestamps (N,), poses (N, 4, 4))``, timestamps increasing.
 
-    Returns core/trajectory.h's TrajectoryErrors as a dict, SI units: ``pairs`` (matched
-    poses), ``T_gt_est`` (4, 4) (the alignment), ``ate_rmse_m``, ``ate_mean_m``,
-    ``ate_median_m``, ``ate_max_m``, ``ate_m`` (per pair), ``rpe_pairs``,
-    ``rpe_translation_rmse_m`` and ``rpe_rotation_rmse_rad`` (pose pairs ``delta`` matched poses
-    apart).
-
-    Raises:
-        ValueError: malformed arrays, fewer than 3 poses matched in time, max_dt <= 0, delta < 1.
+    Raises ValueError: malformed arrays, fewer than 3 poses matched in time, max_dt <= 0,
+    delta < 1.
     """
     est = _trajectory_arrays(estimated, "estimated")
     gt = _trajectory_arrays(ground_truth, "ground_truth")
-    return dict(_rigfit.evaluate_trajectory(est[0], est[1], gt[0], gt[1], float(max_dt),
-                                            operator.index(delta)))
+    return TrajectoryErrors(**_rigfit.evaluate_trajectory(est[0], est[1], gt[0], gt[1], options))
 
 
-def load_trajectory(path: Union[str, os.PathLike]) -> Trajectory:
+def read_trajectory(path: Union[str, os.PathLike]) -> Trajectory:
     """Reads a trajectory in the TUM format (``timestamp tx ty tz qx qy qz qw`` per line), as
-    ``rigfit evaluate-trajectory`` reads it."""
-    timestamps, poses = _rigfit.load_trajectory(os.fspath(path))
+    C++'s ReadTumTrajectory (``rigfit evaluate-trajectory`` reads it so)."""
+    timestamps, poses = _rigfit.read_trajectory(os.fspath(path))
     return Trajectory(timestamps=timestamps, poses=poses)
 
 
-def save_trajectory(path: Union[str, os.PathLike], trajectory: TrajectoryLike) -> None:
-    """Writes a trajectory in the TUM format atomically, as ``rigfit track --out`` writes it
-    (the same bytes for the same poses)."""
+def write_trajectory(path: Union[str, os.PathLike], trajectory: TrajectoryLike) -> None:
+    """Writes a trajectory in the TUM format atomically, as C++'s WriteTumTrajectory (``rigfit
+    track --out`` writes it so: the same bytes for the same poses)."""
     timestamps, poses = _trajectory_arrays(trajectory, "trajectory")
-    _rigfit.save_trajectory(os.fspath(path), timestamps, poses)
+    _rigfit.write_trajectory(os.fspath(path), timestamps, poses)

@@ -7,6 +7,7 @@ Skipped with the reason when the data or the module is missing. Tracking runs on
 at 320x240 (halve=1, about 1 s each).
 """
 
+import dataclasses
 import inspect
 import logging
 import os
@@ -134,11 +135,13 @@ def test_track_kitchen_against_ground_truth(kitchen, tracked):
     assert min(f.matched_ratio for f in tracked.frames[1:]) > 0.5
     # The first frame starts at its ground truth: the trajectory is in the dataset's frame.
     assert np.array_equal(tracked.poses[0], kitchen.ground_truth.poses[0])
+    assert isinstance(tracked, rigfit.TrackResult) and isinstance(tracked, rigfit.Trajectory)
+    assert tracked.timings.track_s > 0
     e = rigfit.evaluate_trajectory(tracked, kitchen.ground_truth)
-    assert e["pairs"] == TRACKED_FRAMES
-    assert e["ate_rmse_m"] < MAX_ATE_M, e
-    assert e["ate_m"].shape == (TRACKED_FRAMES,) and e["ate_max_m"] == e["ate_m"].max()
-    assert e["rpe_pairs"] == TRACKED_FRAMES - 1 and e["rpe_translation_rmse_m"] < MAX_ATE_M
+    assert isinstance(e, rigfit.TrajectoryErrors) and e.pairs == TRACKED_FRAMES
+    assert e.ate_rmse_m < MAX_ATE_M, e
+    assert e.ate_m.shape == (TRACKED_FRAMES,) and e.ate_max_m == e.ate_m.max()
+    assert e.rpe_pairs == TRACKED_FRAMES - 1 and e.rpe_translation_rmse_m < MAX_ATE_M
 
 
 @need_cli
@@ -149,9 +152,9 @@ def test_track_equals_cli(kitchen, tracked, tmp_path):
                     str(out), "--quiet"], check=True, stdout=subprocess.DEVNULL,
                    stderr=subprocess.DEVNULL)
     mine = tmp_path / "python.txt"
-    rigfit.save_trajectory(mine, tracked)
+    rigfit.write_trajectory(mine, tracked)
     assert mine.read_bytes() == out.read_bytes()
-    back = rigfit.load_trajectory(out)
+    back = rigfit.read_trajectory(out)
     assert np.array_equal(back.timestamps, tracked.timestamps)
     assert np.allclose(back.poses, tracked.poses, atol=1e-12, rtol=0)
 
@@ -180,13 +183,14 @@ def assert_defaults_and_names_are_the_clis(command, function, switches):
                           check=True).stdout
     shown = {m.group(1).replace("-", "_"): m.group(2)
              for m in re.finditer(r"--([a-z-]+) [A-Z]+=(\S+)", text)}
-    params = inspect.signature(function).parameters
-    assert set(params) - {"frames"} - set(switches) == set(shown)
+    defaults = rigfit.defaults(command)
+    assert set(inspect.signature(function).parameters) - {"frames"} == set(defaults)
+    assert set(defaults) - set(switches) == set(shown)
     for name, default in switches.items():
         assert f"--{name.replace('_', '-')},--no-{name.replace('_', '-')}" in text
-        assert params[name].default is default
+        assert defaults[name] is default
     for name, value in shown.items():
-        default = params[name].default
+        default = defaults[name]
         if name == "iterations":
             assert value == "[" + ",".join(map(str, default)) + "]"
         elif name == "prior":
@@ -232,7 +236,7 @@ def test_slam_kitchen_against_ground_truth(kitchen, slammed):
     assert [f.index for f in slammed.frames] == list(range(TRACKED_FRAMES))
     assert np.array_equal(slammed.poses[0], kitchen.ground_truth.poses[0])
     e = rigfit.evaluate_trajectory(slammed, kitchen.ground_truth)
-    assert e["pairs"] == TRACKED_FRAMES and e["ate_rmse_m"] < MAX_SLAM_ATE_M, e
+    assert e.pairs == TRACKED_FRAMES and e.ate_rmse_m < MAX_SLAM_ATE_M, e
     # The map: the library's buffers, one row per point, after the last frame.
     m = slammed.map
     n = len(m)
@@ -250,7 +254,8 @@ def test_slam_kitchen_against_ground_truth(kitchen, slammed):
     assert m.compression == pytest.approx(m.input_points / n) and m.compression > 2.0
     f = slammed.frames[5]
     assert f.merged + f.added + f.covered == f.input_points and f.model_pixels > 0
-    assert set(slammed.timings) == {"load_s", "preprocess_s", "render_s", "track_s", "fuse_s"}
+    assert set(dataclasses.asdict(slammed.timings)) == {"load_s", "preprocess_s", "render_s",
+                                                        "track_s", "fuse_s"}
 
 
 def read_ply_points(path):
@@ -275,7 +280,7 @@ def test_slam_equals_cli(slammed, tmp_path):
                     str(SLAM_HALVINGS), "--out", str(out), "--map", str(ply), "--quiet"],
                    check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     mine = tmp_path / "python.txt"
-    rigfit.save_trajectory(mine, slammed)
+    rigfit.write_trajectory(mine, slammed)
     assert mine.read_bytes() == out.read_bytes()
     assert np.array_equal(read_ply_points(ply), slammed.map.points)
 
@@ -378,19 +383,19 @@ def test_track_of_in_memory_frames_without_ground_truth():
 @need_cli
 def test_evaluate_trajectory_equals_cli(kitchen, tracked, tmp_path):
     est, gt = tmp_path / "est.txt", tmp_path / "gt.txt"
-    rigfit.save_trajectory(est, tracked)
-    rigfit.save_trajectory(gt, kitchen.ground_truth)
+    rigfit.write_trajectory(est, tracked)
+    rigfit.write_trajectory(gt, kitchen.ground_truth)
     printed = subprocess.run([CLI, "evaluate-trajectory", str(est), str(gt), "--delta", "2"],
                              capture_output=True, text=True, check=True).stdout
-    e = rigfit.evaluate_trajectory(rigfit.load_trajectory(est), rigfit.load_trajectory(gt),
+    e = rigfit.evaluate_trajectory(rigfit.read_trajectory(est), rigfit.read_trajectory(gt),
                                    delta=2)
     mm = lambda m: f"{m * 1e3:.2f}"
-    assert (f"ATE (absolute trajectory error, mm): RMSE {mm(e['ate_rmse_m'])}, mean "
-            f"{mm(e['ate_mean_m'])}, median {mm(e['ate_median_m'])}, max "
-            f"{mm(e['ate_max_m'])}") in printed
-    assert (f"RPE over 2 matched pose(s) ({e['rpe_pairs']} pairs): translation RMSE "
-            f"{mm(e['rpe_translation_rmse_m'])} mm, rotation RMSE "
-            f"{np.degrees(e['rpe_rotation_rmse_rad']):.3f} deg") in printed
+    assert (f"ATE (absolute trajectory error, mm): RMSE {mm(e.ate_rmse_m)}, mean "
+            f"{mm(e.ate_mean_m)}, median {mm(e.ate_median_m)}, max "
+            f"{mm(e.ate_max_m)}") in printed
+    assert (f"RPE over 2 matched pose(s) ({e.rpe_pairs} pairs): translation RMSE "
+            f"{mm(e.rpe_translation_rmse_m)} mm, rotation RMSE "
+            f"{np.degrees(e.rpe_rotation_rmse_rad):.3f} deg") in printed
     expected = as_keywords(cli_error(["evaluate-trajectory", str(est), str(gt), "--max-dt", "0"]))
     with pytest.raises(ValueError) as error:
         rigfit.evaluate_trajectory(tracked, kitchen.ground_truth, max_dt=0)
@@ -403,7 +408,7 @@ def test_evaluate_trajectory_checks():
     moved = poses.copy()
     moved[:, 0, 3] = np.arange(5)
     e = rigfit.evaluate_trajectory((t, moved), (t, moved))
-    assert e["pairs"] == 5 and e["ate_rmse_m"] == pytest.approx(0, abs=1e-12)
+    assert e.pairs == 5 and e.ate_rmse_m == pytest.approx(0, abs=1e-12)
     with pytest.raises(ValueError, match="only 2 poses match in time"):
         rigfit.evaluate_trajectory((t[:2], poses[:2]), (t, poses))
     with pytest.raises(ValueError, match=r"estimated: poses: expected shape \(5, 4, 4\)"):
@@ -427,9 +432,9 @@ def test_trajectory_file_round_trip(tmp_path):
         T[:3, 3] = rng.normal(size=3)
     t = np.array([0.5, 1.0, 1.25, 3.0])
     path = tmp_path / "t.txt"
-    rigfit.save_trajectory(path, (t, poses))
-    back = rigfit.load_trajectory(path)
+    rigfit.write_trajectory(path, (t, poses))
+    back = rigfit.read_trajectory(path)
     assert np.array_equal(back.timestamps, t)
     assert np.allclose(back.poses, poses, atol=1e-12, rtol=0)
     with pytest.raises(ValueError, match="t.txt"):
-        rigfit.load_trajectory(tmp_path / "missing" / "t.txt")
+        rigfit.read_trajectory(tmp_path / "missing" / "t.txt")

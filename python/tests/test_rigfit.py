@@ -4,6 +4,8 @@ Skipped, not failed, when the module was not built (RIGFIT_PYTHON off) or numpy 
 RIGFIT_CLI (set by ctest) is the rigfit executable of the same build.
 """
 
+import dataclasses
+import inspect
 import json
 import logging
 import os
@@ -47,8 +49,8 @@ def cli_poses(doc):
 
 def test_refine_equals_cli(rig):
     d, doc = rig
-    cameras = rigfit.load_capture(d / "capture.h5")
-    initial = rigfit.load_extrinsics(d / "init.json")
+    cameras = rigfit.read_capture(d / "capture.h5")
+    initial = rigfit.read_extrinsics(d / "init.json")
     result = rigfit.refine(cameras, initial)
     expected = cli_poses(doc)
     assert sorted(result.extrinsics) == sorted(expected)
@@ -68,9 +70,9 @@ def test_refine_from_memory_arrays(rig):
     """Arrays made here, never read from a file: uint16 millimetres with a depth_scale give the
     same poses as the same depths in float64 metres, and both move the start towards the truth."""
     d, doc = rig
-    cameras = rigfit.load_capture(d / "capture.h5")
-    initial = rigfit.load_extrinsics(d / "init.json")
-    truth = rigfit.load_extrinsics(d / "gt.json")
+    cameras = rigfit.read_capture(d / "capture.h5")
+    initial = rigfit.read_extrinsics(d / "init.json")
+    truth = rigfit.read_extrinsics(d / "gt.json")
     as_uint16, as_metres = {}, {}
     for serial, cam in cameras.items():
         mm = np.round(np.nan_to_num(cam["depth"], nan=0.0) * 1000.0).astype(np.uint16)
@@ -112,26 +114,29 @@ def test_points_cameras_in_memory():
         T[:3, 3] = [x, 1.0, 0.0]
         poses[serial] = T
         cameras[serial] = {"points": world - T[:3, 3]}
-    result = rigfit.refine(cameras, poses, {"region": {"band_height": 0.0}})
+    result = rigfit.refine(cameras, poses, config={"region": {"band_height": 0.0}})
     assert set(result.extrinsics) == {"a", "b"}
     assert "icp_refined" in result.meta
 
 
 def test_dict_config_checked_as_yaml(rig):
     d, _ = rig
-    cameras = rigfit.load_capture(d / "capture.h5")
-    initial = rigfit.load_extrinsics(d / "init.json")
+    cameras = rigfit.read_capture(d / "capture.h5")
+    initial = rigfit.read_extrinsics(d / "init.json")
     with pytest.raises(ValueError, match=r"icp\.voxel_sizee|voxel_sizee.*unknown key|unknown key"):
-        rigfit.refine(cameras, initial, {"icp": {"voxel_sizee": 0.02}})
+        rigfit.refine(cameras, initial, config={"icp": {"voxel_sizee": 0.02}})
     with pytest.raises(ValueError, match="unknown key"):
-        rigfit.refine(cameras, initial, {"gound": {}})
+        rigfit.refine(cameras, initial, config={"gound": {}})
     with pytest.raises(ValueError, match="voxel_size"):
-        rigfit.refine(cameras, initial, {"icp": {"voxel_size": -1.0}})
+        rigfit.refine(cameras, initial, config={"icp": {"voxel_size": -1.0}})
     # The same config as a file gives the same options and the same result.
     path = d / "config.yaml"
     path.write_text("icp:\n  voxel_size: 0.03\n")
-    a = rigfit.refine(cameras, initial, {"icp": {"voxel_size": 0.03}})
-    b = rigfit.refine(cameras, initial, path)
+    a = rigfit.refine(cameras, initial, config={"icp": {"voxel_size": 0.03}})
+    b = rigfit.refine(cameras, initial, config=path)
+    # The CLI's --voxel-size as a keyword: the same options again.
+    c = rigfit.refine(cameras, initial, voxel_size=0.03)
+    assert c.meta == a.meta
     assert a.meta == b.meta
     assert a.meta["icp_refined"]["config"]["icp"]["voxel_size"] == 0.03
 
@@ -139,14 +144,14 @@ def test_dict_config_checked_as_yaml(rig):
 def test_dict_config_message_matches_file(rig, tmp_path):
     """A dict's unknown key gets the message a YAML file gets (with its own source name)."""
     d, _ = rig
-    cameras = rigfit.load_capture(d / "capture.h5")
-    initial = rigfit.load_extrinsics(d / "init.json")
+    cameras = rigfit.read_capture(d / "capture.h5")
+    initial = rigfit.read_extrinsics(d / "init.json")
     with pytest.raises(ValueError) as from_dict:
-        rigfit.refine(cameras, initial, {"icp": {"voxel_sise": 0.02}})
+        rigfit.refine(cameras, initial, config={"icp": {"voxel_sise": 0.02}})
     path = tmp_path / "c.yaml"
     path.write_text("icp:\n  voxel_sise: 0.02\n")
     with pytest.raises(ValueError) as from_file:
-        rigfit.refine(cameras, initial, path)
+        rigfit.refine(cameras, initial, config=path)
     # "<source>:<line>: " differs (the dict's source is "config"); the rest is the same.
     strip = lambda e: re.sub(r"\S+:\d+: ", "", str(e.value))
     assert "config:" in str(from_dict.value)
@@ -198,6 +203,12 @@ def test_input_checks_raise_value_error(cameras, extrinsics, message):
     ({"method": "icp"}, "point_to_plane"),
     ({"reference": "zz"}, "reference"),
     ({"threads": 0}, "threads must be in"),
+    ({"voxel_size": 0.0}, "voxel_size"),
+    ({"threads": 2.0}, "refine: threads must be an integer, got 2.0"),
+    ({"no_ground": 1}, "refine: no_ground must be True or False"),
+    ({"mode": 1}, "refine: mode must be a str"),
+    ({"treads": 2}, "refine: unknown keyword 'treads' \\(refine takes mode, method, voxel_size"),
+    ({"level_ground": False}, "unknown keyword 'level_ground'"),
 ])
 def test_keyword_checks_raise_value_error(kwargs, message):
     with pytest.raises(ValueError, match=message):
@@ -206,14 +217,14 @@ def test_keyword_checks_raise_value_error(kwargs, message):
 
 def test_file_errors_raise_value_error(tmp_path):
     with pytest.raises(ValueError, match="missing.h5"):
-        rigfit.load_capture(tmp_path / "missing.h5")
+        rigfit.read_capture(tmp_path / "missing.h5")
     bad = tmp_path / "bad.json"
     bad.write_text("{")
     with pytest.raises(ValueError, match="bad.json"):
-        rigfit.load_extrinsics(bad)
+        rigfit.read_extrinsics(bad)
 
 
-def test_save_extrinsics_round_trip(tmp_path):
+def test_write_extrinsics_round_trip(tmp_path):
     rng = np.random.default_rng(1)
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
     q *= np.sign(np.linalg.det(q))
@@ -221,8 +232,8 @@ def test_save_extrinsics_round_trip(tmp_path):
     T[:3, :3] = q
     T[:3, 3] = rng.normal(size=3)
     path = tmp_path / "out.json"
-    rigfit.save_extrinsics(path, {"cam": T}, meta={"note": {"x": 1}})
-    back = rigfit.load_extrinsics(path)
+    rigfit.write_extrinsics(path, {"cam": T}, meta={"note": {"x": 1}})
+    back = rigfit.read_extrinsics(path)
     assert np.allclose(back["cam"], T, atol=1e-12, rtol=0)
     with open(path) as f:
         assert json.load(f)["_meta"] == {"note": {"x": 1}}
@@ -230,8 +241,8 @@ def test_save_extrinsics_round_trip(tmp_path):
 
 def test_warnings_reach_logging(rig, caplog):
     d, _ = rig
-    cameras = rigfit.load_capture(d / "capture.h5")
-    initial = rigfit.load_extrinsics(d / "init.json")
+    cameras = rigfit.read_capture(d / "capture.h5")
+    initial = rigfit.read_extrinsics(d / "init.json")
     with caplog.at_level(logging.INFO, logger="rigfit"):
         rigfit.refine(cameras, initial)
     assert any(r.name == "rigfit" for r in caplog.records)
@@ -239,8 +250,8 @@ def test_warnings_reach_logging(rig, caplog):
 
 def test_camera_and_pair_reports_match_meta(rig):
     d, _ = rig
-    result = rigfit.refine(rigfit.load_capture(d / "capture.h5"),
-                           rigfit.load_extrinsics(d / "init.json"))
+    result = rigfit.refine(rigfit.read_capture(d / "capture.h5"),
+                           rigfit.read_extrinsics(d / "init.json"))
     meta = result.meta["icp_refined"]
     assert [c.serial for c in result.cameras] == sorted(meta["cameras"])
     for c in result.cameras:
@@ -251,7 +262,8 @@ def test_camera_and_pair_reports_match_meta(rig):
             continue
         # Joint mode: the 6x6 covariance, symmetric, and its 1-sigma as in _meta.
         assert c.covariance.shape == (6, 6) and np.allclose(c.covariance, c.covariance.T)
-        assert c.sigma == m["sigma"]
+        assert dataclasses.asdict(c.sigma) == m["sigma"]
+        assert [dataclasses.asdict(w) for w in c.weak_directions] == m.get("weak_directions", [])
     assert len(result.pairs) == len(meta["pairs"])
     for p, m in zip(result.pairs, meta["pairs"]):
         assert (p.serial_a, p.serial_b, p.fitness, p.accepted) == (
@@ -265,12 +277,13 @@ def test_evaluate_equals_cli(rig, tmp_path):
                     str(out)], check=True, stdout=subprocess.DEVNULL)
     with open(out) as f:
         expected = json.load(f)
-    got = rigfit.evaluate(rigfit.load_extrinsics(d / "init.json"),
-                          rigfit.load_extrinsics(d / "gt.json"))
+    got = rigfit.evaluate(rigfit.read_extrinsics(d / "init.json"),
+                          rigfit.read_extrinsics(d / "gt.json"))
+    assert isinstance(got, rigfit.RigErrors) and isinstance(got.summary.rotation_deg, rigfit.RmsMax)
     for key in ("pairs", "cameras", "summary", "ignored_cameras"):
-        assert got[key] == expected[key], key
+        assert dataclasses.asdict(got)[key] == expected[key], key
     with pytest.raises(ValueError, match="estimated has no pose for camera"):
-        rigfit.evaluate({}, rigfit.load_extrinsics(d / "gt.json"))
+        rigfit.evaluate({}, rigfit.read_extrinsics(d / "gt.json"))
 
 
 def test_compare_equals_cli(rig, tmp_path):
@@ -283,10 +296,21 @@ def test_compare_equals_cli(rig, tmp_path):
                            "-q"], check=True, stdout=subprocess.PIPE, text=True)
     with open(out) as f:
         expected = json.load(f)
-    got = rigfit.compare(rigfit.load_capture(d / "capture.h5"),
-                         rigfit.load_extrinsics(d / "init.json"),
-                         ground_truth=rigfit.load_extrinsics(d / "gt.json"))
+    got = rigfit.compare(rigfit.read_capture(d / "capture.h5"),
+                         rigfit.read_extrinsics(d / "init.json"),
+                         gt=rigfit.read_extrinsics(d / "gt.json"))
     doc = got.document
+    # The typed runs: the document's numbers as objects.
+    assert [r.name for r in got.runs] == expected["runs"]
+    for run in got.runs:
+        cli = expected["modes"][run.name]
+        assert (run.mode, run.method, run.success) == (cli["mode"], cli["method"], cli["success"])
+        assert run.errors.translation_mm.rms == doc["modes"][run.name]["errors"][
+            "translation_mm"]["rms"]
+        for serial, T in run.extrinsics.items():
+            assert T.shape == (4, 4) and np.allclose(
+                T, cli["cameras"][serial]["T_world_camera"], atol=1e-6), (run.name, serial)
+    assert got.reference == expected["reference"] and got.errors_input is not None
     assert sorted(doc) == sorted(expected)
     assert doc["runs"] == expected["runs"] == ["pairwise", "joint", "surface_bundle"]
     assert doc["capture"] is None and doc["ground_truth"] is None
@@ -310,8 +334,9 @@ def test_compare_equals_cli(rig, tmp_path):
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"ground_truth": {"a": np.eye(4)}}, "compare: ground_truth has no pose for camera b"),
-    ({"reference": "zz"}, "reference"),
+    ({"gt": {"a": np.eye(4)}}, "compare: gt has no pose for camera b"),
+    ({"config": {"icp": {"reference": "zz"}}}, "reference"),
+    ({"reference": "a"}, "compare: unknown keyword 'reference' \\(compare takes threads\\)"),
     ({"threads": 0}, "compare: threads must be in"),
     ({"config": {"icp": {"mode": "both"}}}, "mode"),
 ])
@@ -326,23 +351,93 @@ def test_compare_of_one_camera_raises_value_error():
         rigfit.compare({"a": one_camera()}, {"a": np.eye(4)})
 
 
-def test_save_capture_round_trip(rig, tmp_path):
+def test_write_capture_round_trip(rig, tmp_path):
     d, _ = rig
-    cameras = rigfit.load_capture(d / "capture.h5")
+    cameras = rigfit.read_capture(d / "capture.h5")
     path = tmp_path / "copy.h5"
-    rigfit.save_capture(path, cameras)
-    back = rigfit.load_capture(path)
+    rigfit.write_capture(path, cameras)
+    back = rigfit.read_capture(path)
     assert sorted(back) == sorted(cameras)
     for serial, cam in cameras.items():
         assert np.array_equal(back[serial]["depth"], cam["depth"], equal_nan=True)
         assert np.array_equal(back[serial]["K"], cam["K"])
     points = {"p": {"points": np.array([[0.0, 0.0, 1.0], [1.0, 2.0, 3.0]])}}
-    rigfit.save_capture(tmp_path / "points.h5", points)
-    assert np.allclose(rigfit.load_capture(tmp_path / "points.h5")["p"]["points"],
+    rigfit.write_capture(tmp_path / "points.h5", points)
+    assert np.allclose(rigfit.read_capture(tmp_path / "points.h5")["p"]["points"],
                        points["p"]["points"])
     mm = tmp_path / "mm.h5"
-    rigfit.save_capture(mm, cameras, depth_as_uint16=True, depth_scale=0.001)
-    for serial, cam in rigfit.load_capture(mm).items():
+    rigfit.write_capture(mm, cameras, depth_as_uint16=True, depth_scale=0.001)
+    for serial, cam in rigfit.read_capture(mm).items():
         assert np.nanmax(np.abs(cam["depth"] - cameras[serial]["depth"])) <= 0.0005 + 1e-6
     with pytest.raises(ValueError, match="no cameras"):
-        rigfit.save_capture(tmp_path / "none.h5", {})
+        rigfit.write_capture(tmp_path / "none.h5", {})
+
+
+def test_no_icp_equals_cli(rig, tmp_path):
+    """no_icp=True is `rigfit refine --no-icp`: the leveled poses and the same _meta."""
+    d, _ = rig
+    out = tmp_path / "leveled.json"
+    subprocess.run([CLI, "refine", "--capture", str(d / "capture.h5"), "--extrinsics",
+                    str(d / "init.json"), "--out", str(out), "--no-icp", "--no-timings", "-q"],
+                   stdout=subprocess.DEVNULL)
+    with open(out) as f:
+        doc = json.load(f)
+    result = rigfit.refine(rigfit.read_capture(d / "capture.h5"),
+                           rigfit.read_extrinsics(d / "init.json"), no_icp=True)
+    for serial, T in cli_poses(doc).items():
+        assert np.array_equal(result.extrinsics[serial], T), serial
+    for key, value in result.meta.items():
+        assert doc["_meta"][key] == value, key
+
+
+# One calling style: keyword-only options named as the CLI's flags, None for "not given".
+
+KEYWORD_COMMANDS = ["refine", "compare", "write_capture", "simulate", "open_sequence", "track",
+                    "slam", "evaluate_trajectory"]
+
+
+@pytest.mark.parametrize("command", KEYWORD_COMMANDS)
+def test_signature_is_the_keyword_table(command):
+    """Every option is keyword-only with the default None, and the options of the binding's
+    table (its one list of names) are all there, listed with their defaults in the docstring."""
+    function = getattr(rigfit, command)
+    params = inspect.signature(function).parameters
+    options = {n: p for n, p in params.items() if p.kind is p.KEYWORD_ONLY}
+    assert all(p.default is None for p in options.values()), command
+    assert set(rigfit.defaults(command)) <= set(options)
+    assert not any(p.kind is p.VAR_KEYWORD for p in params.values())
+    for name, default in rigfit.defaults(command).items():
+        assert f"{name}={default!r}" in function.__doc__, name
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: rigfit.simulate(seeed=1), "simulate: unknown keyword 'seeed' \\(simulate takes "
+                                       "cameras, seed,"),
+    (lambda: rigfit.track([], first_frame=1), "track: unknown keyword 'first_frame'"),
+    (lambda: rigfit.slam([], halvings=1), "slam: unknown keyword 'halvings'"),
+    (lambda: rigfit.open_sequence("x", serial="a"), "open_sequence: unknown keyword 'serial'"),
+    (lambda: rigfit.write_capture("x.h5", {}, scale=1.0), "write_capture: unknown keyword"),
+    (lambda: rigfit.evaluate_trajectory(([], []), ([], []), max_dt_s=1.0),
+     "evaluate_trajectory: unknown keyword 'max_dt_s'"),
+    (lambda: rigfit.track([], iterations=[10, "5"]), r"track: iterations\[1\] must be an integer"),
+    (lambda: rigfit.track([], iterations=5), "track: iterations must be a list of integers"),
+    (lambda: rigfit.slam([], color="yes"), "slam: color must be True or False"),
+    (lambda: rigfit.open_sequence("x", intrinsics="1,2,3,4"), "intrinsics must be a list"),
+    (lambda: rigfit.evaluate_trajectory(([], []), ([], []), delta=1.5),
+     "evaluate_trajectory: delta must be an integer"),
+])
+def test_unknown_or_mistyped_keyword_raises_value_error(call, message):
+    with pytest.raises(ValueError, match=message):
+        call()
+
+
+def test_none_is_the_default():
+    small = {"cameras": 2, "width": 32, "height": 24}
+    a = rigfit.simulate(**small)
+    b = rigfit.simulate(**small, seed=None, noise=None, bare=None)
+    for serial in a.cameras:
+        assert np.array_equal(a.cameras[serial]["depth"], b.cameras[serial]["depth"],
+                              equal_nan=True)
+    assert rigfit.defaults("simulate")["seed"] == 0
+    with pytest.raises(ValueError, match="defaults: no command 'refin'"):
+        rigfit.defaults("refin")

@@ -47,9 +47,9 @@ def test_simulate_equals_cli_files(tmp_path):
     subprocess.run([CLI, "simulate", "--out", str(tmp_path), "--cameras", "3", "--width", "160",
                     "--height", "90", "--seed", "7", "--noise-corr-px", "2",
                     "--noise-corr-share", "0.5"], check=True, stdout=subprocess.DEVNULL)
-    cameras, truth, start = rigfit.simulate(**SMALL, seed=7, noise_corr_px=2,
-                                            noise_corr_share=0.5)
-    files = rigfit.load_capture(tmp_path / "capture.h5")
+    rig = rigfit.simulate(**SMALL, seed=7, noise_corr_px=2, noise_corr_share=0.5)
+    cameras, truth, start = rig.cameras, rig.truth, rig.start
+    files = rigfit.read_capture(tmp_path / "capture.h5")
     assert sorted(cameras) == sorted(files)
     for serial, cam in cameras.items():
         assert set(cam) == {"depth", "K", "color"}
@@ -58,40 +58,41 @@ def test_simulate_equals_cli_files(tmp_path):
         assert np.array_equal(cam["K"], files[serial]["K"])
         assert np.array_equal(cam["color"], files[serial]["color"])
     for got, path in ((truth, "gt.json"), (start, "init.json")):
-        expected = rigfit.load_extrinsics(tmp_path / path)
+        expected = rigfit.read_extrinsics(tmp_path / path)
         assert sorted(got) == sorted(expected)
         for serial in expected:
             assert np.array_equal(got[serial], expected[serial]), (path, serial)
 
 
 def test_simulate_is_deterministic_and_feeds_refine():
-    """(cameras, truth, start): [::2] is refine's (cameras, extrinsics), so the one-liner works.
+    """rig.cameras and rig.start are refine's (cameras, extrinsics).
     320x180 (not SMALL): at 160x90 the refinement of some seeds ends farther from the truth than
     it started (seeds 2 and 3), at 320x180 none of seeds 0-3 does. Seed 1 measured: rotation
     0.80 -> 0.10 deg RMS, translation 80 -> 18 mm RMS."""
     options = {"cameras": 3, "width": 320, "height": 180, "seed": 1}
     a = rigfit.simulate(**options)
     b = rigfit.simulate(**options)
-    for serial in a[0]:
-        assert np.array_equal(a[0][serial]["depth"], b[0][serial]["depth"], equal_nan=True)
-    result = rigfit.refine(*rigfit.simulate(**options)[::2])
+    for serial in a.cameras:
+        assert np.array_equal(a.cameras[serial]["depth"], b.cameras[serial]["depth"],
+                              equal_nan=True)
+    result = rigfit.refine(b.cameras, b.start)
     assert result.success, result.message
-    truth, start = a[1], a[2]
-    before = rigfit.evaluate(start, truth)["summary"]
-    after = rigfit.evaluate(result.extrinsics, truth)["summary"]
-    assert after["rotation_deg"]["rms"] < 0.25 * before["rotation_deg"]["rms"]
-    assert after["translation_mm"]["rms"] < 0.4 * before["translation_mm"]["rms"]
+    before = rigfit.evaluate(a.start, a.truth).summary
+    after = rigfit.evaluate(result.extrinsics, a.truth).summary
+    assert after.rotation_deg.rms < 0.25 * before.rotation_deg.rms
+    assert after.translation_mm.rms < 0.4 * before.translation_mm.rms
 
 
 @need_cli
 def test_simulate_defaults_and_names_are_the_clis():
     """Every keyword is a flag of `rigfit simulate`, with the default its --help shows."""
     shown = help_defaults("simulate")
-    params = inspect.signature(rigfit.simulate).parameters
-    assert set(params) - {"bare"} == set(shown)
+    defaults = rigfit.defaults("simulate")
+    assert set(inspect.signature(rigfit.simulate).parameters) == set(defaults)
+    assert set(defaults) - {"bare"} == set(shown)
+    assert defaults["bare"] is False
     for name, text in shown.items():
-        if name in params:
-            assert float(text) == params[name].default, name
+        assert float(text) == defaults[name], name
 
 
 @need_cli
@@ -120,12 +121,14 @@ def test_simulate_checks_are_the_clis(tmp_path, kwargs, flags):
 
 
 def test_simulate_seed_and_types():
-    with pytest.raises(ValueError, match="seed must be in"):
+    with pytest.raises(ValueError, match=r"simulate: seed must be an integer in \[0, 2\^64 - 1\]"):
         rigfit.simulate(seed=-1)
-    with pytest.raises(TypeError):
+    with pytest.raises(ValueError, match="simulate: cameras must be an integer, got 2.5"):
         rigfit.simulate(cameras=2.5)
-    cameras, _, _ = rigfit.simulate(cameras=1, width=16, height=16, seed=2**64 - 1)
-    assert len(cameras) == 1
+    with pytest.raises(ValueError, match="simulate: noise must be a number, got True"):
+        rigfit.simulate(noise=True)
+    rig = rigfit.simulate(cameras=1, width=16, height=16, seed=2**64 - 1, noise=np.float32(0.01))
+    assert len(rig.cameras) == 1
 
 
 # What is not copied: arrays built on the library's own buffers.
@@ -136,16 +139,17 @@ def is_library_buffer(a):
 
 
 def test_returned_images_are_not_copied(tmp_path):
-    cameras, truth, _ = rigfit.simulate(**SMALL)
+    rig = rigfit.simulate(**SMALL)
+    cameras, truth = rig.cameras, rig.truth
     for cam in cameras.values():
         assert is_library_buffer(cam["depth"]) and is_library_buffer(cam["color"])
         assert cam["depth"].flags.c_contiguous and cam["depth"].flags.writeable
     path = tmp_path / "c.h5"
-    rigfit.save_capture(path, cameras)
-    for cam in rigfit.load_capture(path).values():
+    rigfit.write_capture(path, cameras)
+    for cam in rigfit.read_capture(path).values():
         assert is_library_buffer(cam["depth"])
-    rigfit.save_capture(tmp_path / "p.h5", {"p": {"points": np.ones((4, 3))}})
-    points = rigfit.load_capture(tmp_path / "p.h5")["p"]["points"]
+    rigfit.write_capture(tmp_path / "p.h5", {"p": {"points": np.ones((4, 3))}})
+    points = rigfit.read_capture(tmp_path / "p.h5")["p"]["points"]
     assert is_library_buffer(points) and points.shape == (4, 3)
     assert np.array_equal(points, np.ones((4, 3)))
     # Poses are transposed once from the library's column-major matrices: numpy's own buffer.
@@ -155,14 +159,15 @@ def test_returned_images_are_not_copied(tmp_path):
     depth = cameras[sorted(cameras)[0]]["depth"]
     view = depth[10:20, ::2]
     expected = view.copy()
-    del cameras, depth
+    del cameras, depth, rig
     assert np.array_equal(view, expected, equal_nan=True)
 
 
 def test_depth_of_any_layout_is_read_in_place():
     """refine reads depth where it lies (strides, byte order) in one pass: a transposed view, a
     strided view and a big-endian array give the poses of the contiguous original."""
-    cameras, _, start = rigfit.simulate(**SMALL, seed=1)
+    rig = rigfit.simulate(**SMALL, seed=1)
+    cameras, start = rig.cameras, rig.start
     reference = rigfit.refine(cameras, start, threads=1)
     layouts = {
         "fortran": lambda d: np.asfortranarray(d),
