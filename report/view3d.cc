@@ -132,7 +132,11 @@ nlohmann::json SceneJson(const View3dScene& scene) {
     json["pose_sets"].push_back({{"name", set.name}, {"poses", poses}});
   }
   for (const ViewCloud& cloud : scene.clouds) {
-    json["clouds"].push_back(CloudJson(cloud, scene.residual_range_m));
+    if (cloud.layer == kWholeLayer) {
+      json["deferred"][kWholeLayer] = kView3dWholeFile;
+    } else {
+      json["clouds"].push_back(CloudJson(cloud, scene.residual_range_m));
+    }
   }
   for (const ViewPath& path : scene.paths) {
     std::vector<float> xyz;
@@ -184,6 +188,14 @@ std::string View3dDataScript(const View3dScene& scene) {
   return "var RIGFIT_VIEW = " + SceneJson(scene).dump() + ";\n";
 }
 
+std::string View3dWholeScript(const View3dScene& scene) {
+  nlohmann::json clouds = nlohmann::json::array();
+  for (const ViewCloud& cloud : scene.clouds) {
+    if (cloud.layer == kWholeLayer) clouds.push_back(CloudJson(cloud, scene.residual_range_m));
+  }
+  return "var RIGFIT_VIEW_WHOLE = " + clouds.dump() + ";\n";
+}
+
 std::vector<std::string> WriteView3d(const std::string& dir, const View3dScene& scene) {
   const fs::path three(ThreeJsDirectory());
   const std::vector<std::pair<fs::path, const char*>> copies = {
@@ -196,6 +208,11 @@ std::vector<std::string> WriteView3d(const std::string& dir, const View3dScene& 
   }
   files.push_back((fs::path(dir) / kView3dDataFile).string());
   WriteTextFileAtomically(files.back(), View3dDataScript(scene));
+  const auto whole = [](const ViewCloud& c) { return c.layer == kWholeLayer; };
+  if (std::any_of(scene.clouds.begin(), scene.clouds.end(), whole)) {
+    files.push_back((fs::path(dir) / kView3dWholeFile).string());
+    WriteTextFileAtomically(files.back(), View3dWholeScript(scene));
+  }
   files.push_back((fs::path(dir) / kView3dFile).string());
   WriteTextFileAtomically(files.back(), View3dHtml(scene.title));
   return files;

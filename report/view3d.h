@@ -2,7 +2,9 @@
 // view3d.html, drawn with three.js from Debian's libjs-three, which the writer copies beside
 // it so that the folder works offline from file:// (no network, no server). The scene is
 // written as a script beside the page, view3d_data.js, its arrays in base64: positions as
-// int16 steps of at most a millimetre around a centre, colours and residuals as uint8.
+// int16 steps of at most a millimetre around a centre, colours and residuals as uint8. The
+// rig's whole views, the bulk of the data and off when the page opens, are a script of their
+// own, view3d_whole.js, which the page loads when they are switched on, so that it opens fast.
 #pragma once
 
 #include <cstdint>
@@ -19,6 +21,7 @@ namespace rigfit {
 /// The view's files in a report directory.
 inline constexpr const char* kView3dFile = "view3d.html";
 inline constexpr const char* kView3dDataFile = "view3d_data.js";
+inline constexpr const char* kView3dWholeFile = "view3d_whole.js";
 inline constexpr const char* kThreeJsFile = "three.min.js";
 inline constexpr const char* kOrbitControlsFile = "OrbitControls.js";
 
@@ -81,10 +84,16 @@ struct View3dScene {
 /// The page (kView3dFile) of a scene whose data is in kView3dDataFile beside it.
 std::string View3dHtml(const std::string& title);
 
-/// The scene as the script kView3dDataFile (sets the global RIGFIT_VIEW).
+/// The scene but its kWholeLayer clouds as the script kView3dDataFile (sets the global
+/// RIGFIT_VIEW; its "deferred" names kView3dWholeFile when there are such clouds).
 std::string View3dDataScript(const View3dScene& scene);
 
-/// Writes kView3dFile, kView3dDataFile and copies three.js (kThreeJsFile, kOrbitControlsFile
+/// The scene's kWholeLayer clouds as the script kView3dWholeFile (sets the global
+/// RIGFIT_VIEW_WHOLE, an array of clouds).
+std::string View3dWholeScript(const View3dScene& scene);
+
+/// Writes kView3dFile, kView3dDataFile, kView3dWholeFile (when the scene has kWholeLayer
+/// clouds) and copies three.js (kThreeJsFile, kOrbitControlsFile
 /// from ThreeJsDirectory()) into dir, which must exist. Returns the paths written. Throws
 /// InputError when three.js is missing (naming the file and the package libjs-three) or a
 /// file cannot be written.

@@ -2,8 +2,8 @@
 // view3d_data.js sets and draws it with three.js (global THREE and THREE.OrbitControls, both
 // copied beside the page). Works from file://: nothing is fetched. The URL hash picks the
 // start: #poses=0 (index of the pose set), color=camera|residual|rgb|height, layers=band,whole,
-// size=2 (pixels). When drawn, the body gets data-status="ready" and data-ready-ms (time since
-// navigation); errors go to data-errors.
+// size=2 (pixels). When drawn with every layer switched on, the body gets data-status="ready"
+// and data-ready-ms (time since navigation); errors go to data-errors.
 (function () {
   'use strict';
   const V = window.RIGFIT_VIEW;
@@ -37,7 +37,7 @@
   };
 
   // ---- scene ----
-  const renderer = new THREE.WebGLRenderer({antialias: true});
+  const renderer = new THREE.WebGLRenderer({antialias: false});
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   renderer.setSize(window.innerWidth, window.innerHeight);
   body.appendChild(renderer.domElement);
@@ -56,7 +56,7 @@
     world.add(g);
     return g;
   });
-  const clouds = V.clouds.map(c => {
+  function MakeCloud(c) {
     const geometry = new THREE.BufferGeometry();
     geometry.setAttribute('position', new THREE.BufferAttribute(Decode(c.positions, Int16Array), 3));
     const colors = new THREE.BufferAttribute(new Uint8Array(3 * c.count), 3, true);
@@ -70,7 +70,25 @@
     return {data: c, points: points, colors: colors,
             rgb: c.rgb ? Decode(c.rgb, Uint8Array) : null,
             residuals: c.residuals.map(r => Decode(r, Uint8Array))};
-  });
+  }
+  const clouds = V.clouds.map(MakeCloud);
+  // Layers written to a script of their own (the whole views), loaded when switched on.
+  const deferred = V.deferred || {};
+  let pending = 0;
+  function LoadDeferred(layer) {
+    const file = deferred[layer];
+    if (!file) return;
+    delete deferred[layer];
+    ++pending;
+    const script = document.createElement('script');
+    script.src = file;
+    script.onload = () => {
+      for (const c of window.RIGFIT_VIEW_WHOLE) clouds.push(MakeCloud(c));
+      --pending;
+      Update();
+    };
+    document.head.appendChild(script);
+  }
 
   // Frustums: apex at the camera, the image rectangle at `depth`, a triangle on its top edge.
   function FrustumVertices(cam, depth) {
@@ -183,6 +201,7 @@
     c.colors.needsUpdate = true;
   }
   function Recolor() {
+    for (const layer of state.layers) LoadDeferred(layer);
     for (const c of clouds) c.points.visible = state.layers.has(c.data.layer);
     const range = state.color === 'height' ? HeightRange() : null;
     for (const c of clouds) if (c.points.visible) Fill(c, range);
@@ -224,7 +243,7 @@
     }
     Element('h2', panel, 'Points');
     for (const layer of ['band', 'whole', 'map']) {
-      if (!V.clouds.some(c => c.layer === layer)) continue;
+      if (!V.clouds.some(c => c.layer === layer) && !deferred[layer]) continue;
       const l = Element('label', panel, '', 'display:block');
       const box = Element('input', l);
       box.type = 'checkbox';
@@ -335,6 +354,10 @@
     body.setAttribute('data-pose', V.pose_sets.length ? V.pose_sets[state.pose].name : '');
     body.setAttribute('data-points',
                       String(clouds.reduce((n, c) => n + (c.points.visible ? c.data.count : 0), 0)));
+    if (pending === 0) {
+      body.setAttribute('data-ready-ms', String(Math.round(performance.now())));
+      body.setAttribute('data-status', 'ready');
+    }
   }
   controls.addEventListener('change', Render);
   window.addEventListener('resize', () => {
@@ -344,6 +367,4 @@
     Render();
   });
   Update();
-  body.setAttribute('data-ready-ms', String(Math.round(performance.now())));
-  body.setAttribute('data-status', 'ready');
 })();

@@ -9,9 +9,9 @@
 namespace rigfit {
 namespace {
 
-/// The first voxel of a map too large for the view (metres), and its growth per try.
+/// The first voxel of a map too large for the view (metres), and the margin of each next try.
 constexpr double kFirstVoxelM = 0.005;
-constexpr double kVoxelGrowth = 1.25;
+constexpr double kVoxelGrowth = 1.05;
 
 std::vector<Vec3f> ToFloat(const PointCloud& points) {
   std::vector<Vec3f> out;
@@ -80,9 +80,13 @@ ViewCloud MapCloud(const MapPoints& map) {
     }
     return cloud;
   }
-  for (double voxel_m = kFirstVoxelM;; voxel_m *= kVoxelGrowth) {
+  // A map is mostly surfaces: its voxels fall as 1 / voxel^2, so the next voxel is scaled by
+  // the square root of the excess (and grown by kVoxelGrowth more, so that few tries fit).
+  for (double voxel_m = kFirstVoxelM;;) {
     ViewCloud cloud = VoxelAverage(map, voxel_m);
-    if (cloud.points.size() <= kMaxViewMapPoints) return cloud;
+    const double excess = static_cast<double>(cloud.points.size()) / kMaxViewMapPoints;
+    if (excess <= 1.0) return cloud;
+    voxel_m *= kVoxelGrowth * std::sqrt(excess);
   }
 }
 

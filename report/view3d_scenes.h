@@ -32,7 +32,7 @@ View3dScene RigView3dScene(const RigCapture& capture, const DiagnosticRig& rig,
 inline constexpr size_t kMaxViewMapPoints = 2000000;
 
 /// The map's points (voxel-averaged when more than kMaxViewMapPoints: positions and colours
-/// averaged per voxel, the voxel grown by 1.25 from 5 mm until they fit) in the world, the
+/// averaged per voxel, the voxel grown from 5 mm until they fit) in the world, the
 /// overlays' paths, and the camera overlays' poses as frustums (60 degrees, labelled with the
 /// overlay's label); up is axes.up, the floor grid at the 1st percentile of the points' height.
 View3dScene MapView3dScene(const std::string& title, const MapPoints& map,

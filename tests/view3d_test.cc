@@ -129,7 +129,8 @@ class RigView : public ::testing::Test {
 TempDir* RigView::dir_ = nullptr;
 
 TEST_F(RigView, FolderHoldsThePageThreeJsAndTheData) {
-  for (const char* name : {kView3dFile, kView3dDataFile, kThreeJsFile, kOrbitControlsFile}) {
+  for (const char* name :
+       {kView3dFile, kView3dDataFile, kView3dWholeFile, kThreeJsFile, kOrbitControlsFile}) {
     EXPECT_TRUE(fs::exists(Report() / name)) << name;
   }
   const std::string index = testing::ReadText(Report() / kReportIndexFile);
@@ -191,34 +192,37 @@ struct RoomMap {
   std::vector<float> radii;
   std::vector<MapOverlay> overlays;
 };
-RoomMap MakeRoomMap() {
-  RoomMap m;
-  constexpr int kPoints = 3000000;
-  for (int i = 0; i < kPoints; ++i) {
-    const float u = (i % 1733) / 1733.0f, v = (i / 1733 % 1733) / 1733.0f;
-    const int face = i % 3;
-    const Vec3f p = face == 0   ? Vec3f(6 * u, 0, 5 * v)
-                    : face == 1 ? Vec3f(6 * u, 3 * v, 0)
-                                : Vec3f(0, 3 * u, 5 * v);
-    m.positions.push_back(p);
-    m.normals.push_back(face == 0 ? Vec3f::UnitY() : face == 1 ? Vec3f::UnitZ() : Vec3f::UnitX());
-    m.colors.push_back(Vec3f(255 * u, 255 * v, 100));
-  }
-  MapOverlay gt{"ground truth", {120, 120, 120}, 7, {}, false};
-  MapOverlay est{"estimate", {31, 119, 180}, 3, {}, false};
-  for (int i = 0; i < 400; ++i) {
-    Pose T = Pose::Identity();
-    T.translation() = Vec3(3 + std::cos(i / 60.0), 1.5, 2.5 + std::sin(i / 60.0));
-    gt.poses.push_back(T);
-    T.translation().x() += 0.05;
-    est.poses.push_back(T);
-  }
-  m.overlays = {gt, est};
-  return m;
+const RoomMap& TheRoomMap() {
+  static const RoomMap map = [] {
+    RoomMap m;
+    constexpr int kPoints = 3000000;
+    for (int i = 0; i < kPoints; ++i) {
+      const float u = (i % 1733) / 1733.0f, v = (i / 1733 % 1733) / 1733.0f;
+      const int face = i % 3;
+      const Vec3f p = face == 0   ? Vec3f(6 * u, 0, 5 * v)
+                      : face == 1 ? Vec3f(6 * u, 3 * v, 0)
+                                  : Vec3f(0, 3 * u, 5 * v);
+      m.positions.push_back(p);
+      m.normals.push_back(face == 0 ? Vec3f::UnitY() : face == 1 ? Vec3f::UnitZ() : Vec3f::UnitX());
+      m.colors.push_back(Vec3f(255 * u, 255 * v, 100));
+    }
+    MapOverlay gt{"ground truth", {120, 120, 120}, 7, {}, false};
+    MapOverlay est{"estimate", {31, 119, 180}, 3, {}, false};
+    for (int i = 0; i < 400; ++i) {
+      Pose T = Pose::Identity();
+      T.translation() = Vec3(3 + std::cos(i / 60.0), 1.5, 2.5 + std::sin(i / 60.0));
+      gt.poses.push_back(T);
+      T.translation().x() += 0.05;
+      est.poses.push_back(T);
+    }
+    m.overlays = {gt, est};
+    return m;
+  }();
+  return map;
 }
 
 TEST(MapView3d, LargeMapIsVoxelAveragedToTheCap) {
-  const RoomMap m = MakeRoomMap();
+  const RoomMap& m = TheRoomMap();
   const MapPoints points{m.positions, m.normals, m.colors, m.radii};
   const View3dScene scene = MapView3dScene("map", points, m.overlays, MapViewAxes{});
   ASSERT_EQ(scene.clouds.size(), 1u);
@@ -233,7 +237,7 @@ TEST(MapView3d, LargeMapIsVoxelAveragedToTheCap) {
 // Target for a 400-frame SLAM map: <= 60 MB. The view holds at most kMaxViewMapPoints
 // points, so a map above the cap is the largest folder; measured 27 MB.
 TEST(MapView3d, FolderOfAMapAboveTheCapIsAtMost60MB) {
-  const RoomMap m = MakeRoomMap();
+  const RoomMap& m = TheRoomMap();
   const TempDir dir("rigfit_view3d_map_test");
   const MapPoints points{m.positions, m.normals, m.colors, m.radii};
   WriteMapReport((dir.path() / "report").string(), "rigfit slam report", points, m.overlays,
