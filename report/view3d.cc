@@ -107,14 +107,17 @@ nlohmann::json CloudJson(const ViewCloud& cloud, double residual_range_m) {
 }
 
 nlohmann::json SceneJson(const View3dScene& scene) {
-  nlohmann::json json = {{"title", scene.title},
-                         {"up", VecJson(scene.up.normalized())},
-                         {"floor_m", scene.floor_m},
-                         {"residual_range_m", scene.residual_range_m},
-                         {"cameras", nlohmann::json::array()},
-                         {"pose_sets", nlohmann::json::array()},
-                         {"clouds", nlohmann::json::array()},
-                         {"paths", nlohmann::json::array()}};
+  nlohmann::json json = {
+      {"title", scene.title},
+      {"up", VecJson(scene.up.normalized())},
+      {"floor_m", scene.floor_m},
+      {"residual_range_m", scene.residual_range_m},
+      {"has_rgb", std::any_of(scene.clouds.begin(), scene.clouds.end(),
+                              [](const ViewCloud& c) { return !c.rgb.empty(); })},
+      {"cameras", nlohmann::json::array()},
+      {"pose_sets", nlohmann::json::array()},
+      {"clouds", nlohmann::json::array()},
+      {"paths", nlohmann::json::array()}};
   for (const ViewCamera& c : scene.cameras) {
     const PinholeIntrinsics& K = c.intrinsics;
     json["cameras"].push_back({{"serial", c.serial},

@@ -26,7 +26,7 @@
   }
   const hash = HashOptions();
   const hasResiduals = V.clouds.some(c => c.residuals.length > 0);
-  const hasRgb = V.clouds.some(c => c.rgb !== null);
+  const hasRgb = V.has_rgb;  // of the deferred clouds too
   const isRig = V.clouds.some(c => c.layer === 'band');
   const state = {
     pose: Math.max(0, Math.min(V.pose_sets.length - 1,
@@ -189,10 +189,12 @@
         Ramp(r[i] / 254, out, 3 * i);
       }
     } else if (state.color === 'height') {
-      const pos = c.points.geometry.attributes.position, v = new THREE.Vector3();
+      // The world height y of each point: the second row of its matrix times its position.
+      const p = c.points.geometry.attributes.position.array, e = c.points.matrixWorld.elements;
+      const scale = 1 / (range[1] - range[0]);
       for (let i = 0; i < n; ++i) {
-        Ramp((v.fromBufferAttribute(pos, i).applyMatrix4(c.points.matrixWorld).y - range[0]) /
-             (range[1] - range[0]), out, 3 * i);
+        const y = e[1] * p[3 * i] + e[5] * p[3 * i + 1] + e[9] * p[3 * i + 2] + e[13];
+        Ramp((y - range[0]) * scale, out, 3 * i);
       }
     } else {
       const grey = state.color === 'residual' ? [200, 200, 200] : camColor;
@@ -281,7 +283,7 @@
     r.Legend = range => {
       r.legend.textContent = '';
       if (r.poseButtons) r.poseButtons.forEach((b, i) => { b.style.fontWeight = i === state.pose ? 'bold' : ''; });
-      if (state.color === 'camera') {
+      if (state.color === 'camera' || state.color === 'rgb') {  // rgb: points without any by camera
         for (const cam of V.cameras) {
           const row = Element('div', r.legend);
           Element('span', row, '', 'display:inline-block;width:12px;height:12px;margin-right:5px;' +
@@ -352,6 +354,7 @@
     Recolor();
     Render();
     body.setAttribute('data-pose', V.pose_sets.length ? V.pose_sets[state.pose].name : '');
+    body.setAttribute('data-color', state.color);
     body.setAttribute('data-points',
                       String(clouds.reduce((n, c) => n + (c.points.visible ? c.data.count : 0), 0)));
     if (pending === 0) {

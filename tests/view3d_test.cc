@@ -140,8 +140,8 @@ TEST_F(RigView, FolderHoldsThePageThreeJsAndTheData) {
   EXPECT_EQ(page.find("http"), std::string::npos);
 }
 
-// Target: <= 30 MB. Measured 16.9 MB (4 x 640 x 360 whole views with colour, the bands and
-// three.js); the bound leaves room for a fuller view, not for twice the data.
+// Target: <= 30 MB. Measured 14.3 MB (4 x 640 x 360 whole views with colour, the bands and
+// three.js, the pictures); the bound is the target.
 TEST_F(RigView, FolderOfA4Camera640x360RigIsAtMost30MB) {
   const double mb = FolderBytes(Report()) / 1e6;
   EXPECT_LE(mb, 30.0);
@@ -160,17 +160,22 @@ TEST_F(RigView, PageLoadsWithoutErrors) {
 TEST_F(RigView, CanvasDrawsThePoints) {
   if (!NeedChromium()) return;
   const Image image = Screenshot("", "after.png");
-  // Measured: about 60000 coloured pixels of 513000 right of the panel.
-  EXPECT_GT(ColouredPixels(image), 10000);
+  // Measured: 45270 coloured pixels of 513000 right of the panel; half of it must show.
+  const int coloured = ColouredPixels(image);
+  RecordProperty("coloured_pixels", coloured);
+  EXPECT_GT(coloured, 22000);
 }
 
 TEST_F(RigView, BeforeAfterSwitchChangesThePicture) {
   if (!NeedChromium()) return;
   const Image after = Screenshot("", "after.png");
   const Image before = Screenshot("#poses=0", "before.png");
-  EXPECT_GT(ColouredPixels(before), 10000);
-  // Measured: about 20000 pixels differ (the bands move by the 2 degree, 5 cm perturbation).
-  EXPECT_GT(DifferentPixels(before, after), 3000);
+  EXPECT_GT(ColouredPixels(before), 22000);
+  // Measured: 44334 pixels differ (the bands move by the 2 degree, 5 cm perturbation); half
+  // of it must.
+  const int different = DifferentPixels(before, after);
+  RecordProperty("different_pixels", different);
+  EXPECT_GT(different, 22000);
   const std::string dom = Open("--dump-dom", "#poses=0").out;
   EXPECT_NE(dom.find("data-pose=\"before\""), std::string::npos);
 }
@@ -183,6 +188,9 @@ TEST_F(RigView, ResidualAndWholeViewColoursLoadWithoutErrors) {
     EXPECT_NE(dom.find("data-status=\"ready\""), std::string::npos);
     EXPECT_EQ(dom.find("data-errors=\""), std::string::npos) << dom.substr(0, 3000);
   }
+  // The capture's colour, of the whole views loaded after the page, is offered and chosen.
+  const std::string dom = Open("--dump-dom", "#color=rgb&layers=band,whole").out;
+  EXPECT_NE(dom.find("data-color=\"rgb\""), std::string::npos);
 }
 
 /// A map of 3 x 10^6 coloured points on the faces of a 6 x 3 x 5 m room, more than the view
@@ -235,14 +243,17 @@ TEST(MapView3d, LargeMapIsVoxelAveragedToTheCap) {
 }
 
 // Target for a 400-frame SLAM map: <= 60 MB. The view holds at most kMaxViewMapPoints
-// points, so a map above the cap is the largest folder; measured 27 MB.
+// points, so a map above the cap is the largest folder; measured 24.3 MB (2 M coloured
+// points; the kitchen's 1.76 M uncoloured ones made 15.2 MB, docs/benchmarks.md).
 TEST(MapView3d, FolderOfAMapAboveTheCapIsAtMost60MB) {
   const RoomMap& m = TheRoomMap();
   const TempDir dir("rigfit_view3d_map_test");
   const MapPoints points{m.positions, m.normals, m.colors, m.radii};
   WriteMapReport((dir.path() / "report").string(), "rigfit slam report", points, m.overlays,
                  MapViewAxes{}, "summary\n");
-  EXPECT_LE(FolderBytes(dir.path() / "report") / 1e6, 60.0);
+  const double mb = FolderBytes(dir.path() / "report") / 1e6;
+  RecordProperty("report_mb", std::to_string(mb));
+  EXPECT_LE(mb, 60.0);
 
   const std::string chromium = testing::FindChromium();
   if (chromium.empty()) {
