@@ -1,6 +1,7 @@
 // `rigfit compare`: parses the flags, loads the capture and the extrinsics, runs the comparison
 // of the three ways to refine a rig (pairwise, joint, surface bundle; report/compare.h) and
-// prints it, and writes its JSON document with --json (docs/usage.md, `rigfit compare`).
+// prints it, and writes its JSON document with --json and its report (a 3-D view of the rig at
+// every run's poses, report/refine_report.h) with --report (docs/usage.md, `rigfit compare`).
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -16,6 +17,7 @@
 #include "io/extrinsics_json.h"
 #include "report/compare.h"
 #include "report/refine_meta.h"
+#include "report/refine_report.h"
 #include "rig/refine.h"
 
 namespace rigfit::cli {
@@ -27,6 +29,7 @@ struct CompareArgs {
   std::string gt_path;      ///< empty: no ground truth
   std::string config_path;  ///< empty: defaults
   std::string json_path;    ///< empty: no JSON output
+  std::string report_dir;   ///< empty: no report
   int threads = 2;
   bool quiet = false;
 };
@@ -41,6 +44,7 @@ int RunCompare(const CompareArgs& a) {
     if (!path->empty()) inputs.push_back(*path);
   }
   if (!a.json_path.empty()) RefuseToOverwriteInputs(a.json_path, inputs, "compare: --json");
+  if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "compare: --report");
   RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
   options.threads = a.threads;
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
@@ -73,7 +77,14 @@ int RunCompare(const CompareArgs& a) {
     }
     WriteJsonFile(a.json_path, json);
   }
-  std::fputs(CompareText(result, sources).c_str(), stdout);
+  const std::string text = CompareText(result, sources);
+  std::fputs(text.c_str(), stdout);
+  if (!a.report_dir.empty()) {
+    for (const std::string& file :
+         WriteCompareReport(a.report_dir, capture, result, options, a.threads, text)) {
+      std::printf("report: %s\n", file.c_str());
+    }
+  }
   return kExitOk;
 }
 
@@ -106,6 +117,10 @@ Command AddCompareCommand(CLI::App& app) {
   sub->add_option("--json", a.json_path,
                   "Also write the comparison to this JSON file (replaced atomically; must not "
                   "be an input)");
+  sub->add_option("--report", a.report_dir,
+                  "Also write a report into this directory (created if missing; its parent must "
+                  "exist): index.html and an interactive 3-D view of the rig at the initial, "
+                  "leveled and each run's poses (view3d.html, opens offline)");
   sub->add_option("--threads", a.threads, "Worker threads")->capture_default_str();
   sub->add_flag("--quiet,-q", a.quiet, "Progress off: stderr shows only warnings and errors");
   return {sub, [args] { return RunCompare(*args); }};

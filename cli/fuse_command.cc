@@ -133,8 +133,9 @@ Command AddFuseCommand(CLI::App& app) {
   sub->add_flag("--force", a.force, "Replace --map if it exists");
   sub->add_option("--report", a.report_dir,
                   "Also write the map seen from above with the cameras (map_top.png) and a page "
-                  "showing it with the summary (index.html) into this directory (created; its "
-                  "parent must exist)");
+                  "showing it with the summary (index.html), and an interactive 3-D view of the "
+                  "map and cameras (view3d.html, opens offline) into this directory (created; "
+                  "its parent must exist)");
   sub->add_option("--min-depth", a.frame.min_depth_m, "Drop depth below this (metres)")
       ->capture_default_str();
   sub->add_option("--max-depth", a.frame.max_depth_m, "Drop depth beyond this (metres)")

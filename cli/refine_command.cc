@@ -368,7 +368,8 @@ Command AddRefineCommand(CLI::App& app) {
   sub->add_option("--report", a.report_dir,
                   "Also write pictures of the result to this directory (created if missing; "
                   "its parent must exist): the near-floor band from above before and after, "
-                  "and a histogram of the correspondence residuals (docs/usage.md)");
+                  "a histogram of the correspondence residuals and an interactive 3-D view "
+                  "before and after (view3d.html, opens offline; docs/usage.md)");
   sub->add_flag("--no-ground", a.no_ground, "Skip ground leveling (sets ground.enabled false)");
   sub->add_flag("--no-icp", a.no_icp, "Stop after ground leveling (no registration)");
   sub->add_flag("--no-timings", a.no_timings,

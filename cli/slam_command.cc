@@ -146,8 +146,9 @@ Command AddSlamCommand(CLI::App& app) {
   sub->add_flag("--force", a.force, "Replace --map if it exists");
   sub->add_option("--report", a.report_dir,
                   "Also write the map seen from above with the trajectory (map_top.png) and a "
-                  "page showing it with the summary (index.html) into this directory (created; "
-                  "its parent must exist)");
+                  "page showing it with the summary (index.html), and an interactive 3-D view of "
+                  "the map and trajectories (view3d.html, opens offline) into this directory "
+                  "(created; its parent must exist)");
   sub->add_option("--camera", a.sequence.serial,
                   "Capture file: the camera's serial (default: the first)");
   sub->add_option("--tum-camera", a.sequence.tum_camera,

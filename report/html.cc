@@ -35,7 +35,8 @@ std::string HtmlEscape(const std::string& text) {
 }
 
 std::string ReportIndexHtml(const std::string& title, const std::string& summary,
-                            const std::vector<ReportPicture>& pictures) {
+                            const std::vector<ReportPicture>& pictures,
+                            const std::string& view3d_file) {
   std::string page =
       "<!DOCTYPE html>\n"
       "<html lang=\"en\">\n"
@@ -59,6 +60,11 @@ std::string ReportIndexHtml(const std::string& title, const std::string& summary
   if (!summary.empty()) {
     page += "<h2>Summary</h2>\n<pre>" + HtmlEscape(summary) + "</pre>\n";
   }
+  if (!view3d_file.empty()) {
+    page += "<h2>3-D view</h2>\n<p><a href=\"" + HtmlEscape(view3d_file) +
+            "\">Open the interactive 3-D view</a> (" + HtmlEscape(view3d_file) +
+            ": orbit, zoom, switch poses and colours; works offline)</p>\n";
+  }
   if (!pictures.empty()) page += "<h2>Pictures</h2>\n";
   for (const ReportPicture& p : pictures) {
     page += "<figure>\n<a href=\"" + HtmlEscape(p.file) + "\"><img src=\"" + HtmlEscape(p.file) +
@@ -71,10 +77,10 @@ std::string ReportIndexHtml(const std::string& title, const std::string& summary
 }
 
 std::string WriteReportIndex(const std::string& dir, const std::string& title,
-                             const std::string& summary,
-                             const std::vector<ReportPicture>& pictures) {
+                             const std::string& summary, const std::vector<ReportPicture>& pictures,
+                             const std::string& view3d_file) {
   const std::string path = (std::filesystem::path(dir) / kReportIndexFile).string();
-  WriteTextFileAtomically(path, ReportIndexHtml(title, summary, pictures));
+  WriteTextFileAtomically(path, ReportIndexHtml(title, summary, pictures, view3d_file));
   return path;
 }
 
@@ -84,9 +90,14 @@ void ReportDirectory::AddPicture(const char* name, const Image& image, const std
   pictures_.push_back({name, caption, image.width, image.height});
 }
 
+void ReportDirectory::AddView3d(const View3dScene& scene) {
+  for (std::string& file : WriteView3d(dir_, scene)) files_.push_back(std::move(file));
+  view3d_ = true;
+}
+
 std::vector<std::string> ReportDirectory::Finish(const std::string& title,
                                                  const std::string& summary) {
-  files_.push_back(WriteReportIndex(dir_, title, summary, pictures_));
+  files_.push_back(WriteReportIndex(dir_, title, summary, pictures_, view3d_ ? kView3dFile : ""));
   return files_;
 }
 

@@ -1,5 +1,6 @@
-// The page of a report directory, index.html: the command's summary and its pictures on one
-// page, plain HTML with inline CSS (no scripts, nothing fetched).
+// The page of a report directory, index.html: the command's summary, a link to its 3-D view
+// (report/view3d.h) and its pictures on one page, plain HTML with inline CSS (no scripts,
+// nothing fetched).
 #pragma once
 
 #include <string>
@@ -7,6 +8,7 @@
 #include <vector>
 
 #include "report/image.h"
+#include "report/view3d.h"
 
 namespace rigfit {
 
@@ -26,16 +28,18 @@ struct ReportPicture {
 std::string HtmlEscape(const std::string& text);
 
 /// The page: `title` as heading, `summary` (the text the command printed, its tables kept
-/// aligned in a monospace block; omitted when empty), then each picture with its caption,
-/// scaled down to the window's width when wider.
+/// aligned in a monospace block; omitted when empty), a link to the 3-D view's page
+/// `view3d_file` (omitted when empty), then each picture with its caption, scaled down to the
+/// window's width when wider.
 std::string ReportIndexHtml(const std::string& title, const std::string& summary,
-                            const std::vector<ReportPicture>& pictures);
+                            const std::vector<ReportPicture>& pictures,
+                            const std::string& view3d_file = "");
 
 /// Writes ReportIndexHtml to dir/kReportIndexFile atomically (io/atomic_file.h); returns its
 /// path. Throws InputError when it cannot be written.
 std::string WriteReportIndex(const std::string& dir, const std::string& title,
-                             const std::string& summary,
-                             const std::vector<ReportPicture>& pictures);
+                             const std::string& summary, const std::vector<ReportPicture>& pictures,
+                             const std::string& view3d_file = "");
 
 /// A report directory being written: each picture as a PNG (atomically) and on the page, then
 /// the page itself.
@@ -44,6 +48,8 @@ class ReportDirectory {
   explicit ReportDirectory(std::string dir) : dir_(std::move(dir)) {}
   /// Writes dir/name and adds it to the page with its caption.
   void AddPicture(const char* name, const Image& image, const std::string& caption);
+  /// Writes the 3-D view (WriteView3d) and links the page to it.
+  void AddView3d(const View3dScene& scene);
   /// Writes index.html; returns every file written, the page last.
   std::vector<std::string> Finish(const std::string& title, const std::string& summary);
 
@@ -51,6 +57,7 @@ class ReportDirectory {
   std::string dir_;
   std::vector<std::string> files_;
   std::vector<ReportPicture> pictures_;
+  bool view3d_ = false;
 };
 
 }  // namespace rigfit

@@ -13,6 +13,7 @@
 #include "report/html.h"
 #include "report/plot_parts.h"
 #include "report/refine_report.h"
+#include "report/view3d_scenes.h"
 
 namespace rigfit {
 namespace {
@@ -291,6 +292,7 @@ std::vector<std::string> WriteMapReport(const std::string& dir, const std::strin
                                      points + ", " + colours + "; up: " + axes.up_source),
                     "The map seen from above, orthographic along the up axis (" + axes.up_source +
                         "), " + points + " " + colours + ", with a scale bar in metres");
+  report.AddView3d(MapView3dScene(title, map, overlays, axes));
   return report.Finish(title, summary);
 }
 

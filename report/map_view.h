@@ -100,10 +100,11 @@ Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& over
                        const std::string& subtitle);
 
 /// Writes, in dir (created if missing; its parent must exist), kMapTopFile (DrawMapFromAbove
-/// titled `title`, its subtitle and caption naming the map size and axes.up_source) and
-/// kReportIndexFile (report/html.h): one page showing `summary` (the text the command printed;
-/// may be empty) and the picture. Returns the paths written, the page last. Throws InputError
-/// when dir or a file cannot be written.
+/// titled `title`, its subtitle and caption naming the map size and axes.up_source), the 3-D
+/// view (report/view3d_scenes.h, MapView3dScene) and kReportIndexFile (report/html.h): one page
+/// showing `summary` (the text the command printed; may be empty), a link to the 3-D view and
+/// the picture. Returns the paths written, the page last. Throws InputError when dir or a file
+/// cannot be written.
 std::vector<std::string> WriteMapReport(const std::string& dir, const std::string& title,
                                         const MapPoints& map,
                                         const std::vector<MapOverlay>& overlays,

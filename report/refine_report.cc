@@ -10,6 +10,7 @@
 #include "report/html.h"
 #include "report/palette.h"
 #include "report/plots.h"
+#include "report/view3d_scenes.h"
 #include "rig/diagnostics.h"
 
 namespace rigfit {
@@ -108,7 +109,31 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
       DrawHistogram(series, half_range_mm, 2.0 * half_range_mm / kResidualBins, residuals_title,
                     "point-to-plane residual at the finest scale (mm)", "correspondences"),
       residuals_title + ", before and after registration");
-  return report.Finish("rigfit refine report", summary);
+  View3dScene scene = RigView3dScene(capture, rig, {{"before", &result.leveled}, {"after", &after}},
+                                     options.icp, num_threads);
+  scene.title = "rigfit refine report";
+  report.AddView3d(scene);
+  return report.Finish(scene.title, summary);
+}
+
+std::vector<std::string> WriteCompareReport(const std::string& dir, const RigCapture& capture,
+                                            const CompareResult& result,
+                                            const RefineOptions& options, int num_threads,
+                                            const std::string& summary) {
+  CreateReportDirectory(dir);
+  RefineOptions leveling_only = options;
+  leveling_only.run_registration = false;
+  leveling_only.threads = num_threads;
+  const RefineResult leveling = Refine(capture, result.initial, leveling_only);
+  const DiagnosticRig rig = PrepareDiagnostics(capture, leveling, options, num_threads);
+  std::vector<NamedPoses> pose_sets = {{"initial", &result.initial},
+                                       {"before (leveled)", &result.leveled}};
+  for (const CompareRun& run : result.runs) pose_sets.push_back({run.name, &run.output});
+  View3dScene scene = RigView3dScene(capture, rig, pose_sets, options.icp, num_threads);
+  scene.title = "rigfit compare report";
+  ReportDirectory report(dir);
+  report.AddView3d(scene);
+  return report.Finish(scene.title, summary);
 }
 
 }  // namespace rigfit

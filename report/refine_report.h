@@ -7,6 +7,7 @@
 
 #include "core/types.h"
 #include "options/refine_options.h"
+#include "report/compare.h"
 #include "rig/refine.h"
 
 namespace rigfit {
@@ -31,13 +32,27 @@ void CreateReportDirectory(const std::string& dir);
 ///   (report/palette.h), at the leveled poses (before registration) and at `after`;
 /// - kResidualsFile: the histogram of the point-to-plane residuals of the finest-scale
 ///   correspondences of every candidate pair, at the leveled poses and at `after`;
+/// - the 3-D view (report/view3d.h, RigView3dScene) at the leveled poses ("before") and at
+///   `after`;
 /// - kReportIndexFile (report/html.h): one page showing `summary` (the text the command
-///   printed; may be empty) and the three pictures.
+///   printed; may be empty), a link to the 3-D view and the three pictures.
 /// `after` holds the poses written as the result (every camera of the capture). Returns
 /// the paths written, the page last. Throws InputError when a file cannot be written.
 std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
                                            const RefineResult& result, const PoseMap& after,
                                            const RefineOptions& options, int num_threads,
                                            const std::string& summary = "");
+
+/// Writes the report of a comparison (`rigfit compare --report DIR`) into dir, created as
+/// WriteRefineReport creates it: the 3-D view (report/view3d.h, RigView3dScene) at the
+/// initial, the leveled ("before") and each run's output poses, the bands selected at the
+/// leveled poses as Compare selects them (leveling run again on `capture` from
+/// result.initial with `options`), and kReportIndexFile showing `summary` and a link to the
+/// view. Returns the paths written, the page last. Throws InputError when a file cannot be
+/// written.
+std::vector<std::string> WriteCompareReport(const std::string& dir, const RigCapture& capture,
+                                            const CompareResult& result,
+                                            const RefineOptions& options, int num_threads,
+                                            const std::string& summary);
 
 }  // namespace rigfit

@@ -64,4 +64,10 @@ struct PairDiagnostics {
 std::vector<PairDiagnostics> Diagnose(const DiagnosticRig& rig, const PoseMap& poses,
                                       const IcpOptions& options, int num_threads);
 
+/// Per camera of `rig`, per point of its band, the residual (as PairDiagnostics::residuals_m)
+/// of its correspondence of smallest |r| at `poses` over every candidate pair it is the source
+/// of; NaN for a point without one. Deterministic whatever num_threads.
+std::vector<std::vector<float>> PointResiduals(const DiagnosticRig& rig, const PoseMap& poses,
+                                               const IcpOptions& options, int num_threads);
+
 }  // namespace rigfit

@@ -12,7 +12,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libpng-dev libcairo2-dev fonts-dejavu-core clang-format ccache
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module (docs/python.md)
-  chromium  # headless, for the test that opens a report's index.html
+  chromium  # headless, for the tests that open a report's index.html and 3-D view
+  libjs-three  # three.js, copied into every report's 3-D view (report/view3d.h)
 )
 
 missing=()

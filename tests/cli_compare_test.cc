@@ -142,6 +142,28 @@ TEST_F(CliCompareTest, WithoutGroundTruthJudgesByTheFit) {
   for (const char* run : kRuns) EXPECT_TRUE(compare["modes"][run]["errors"].is_null()) << run;
 }
 
+// --report writes the page with the printed comparison and the 3-D view with one pose set a
+// run, after the initial and the leveled poses; a report inside a missing folder is bad input.
+TEST_F(CliCompareTest, ReportHoldsTheComparisonAndA3dViewOfEveryRun) {
+  const std::string dir = Scratch("report");
+  const RunResult r = RunRigfit({"compare", "--capture", Rig("capture.h5"), "--extrinsics",
+                                 Rig("init.json"), "--report", dir, "--quiet"},
+                                root_);
+  ASSERT_EQ(r.exit_code, 0) << Describe(r);
+  EXPECT_NE(r.out.find("report: " + dir + "/index.html"), std::string::npos) << r.out;
+  EXPECT_NE(ReadText(dir + "/index.html").find("view3d.html"), std::string::npos);
+  const std::string data = ReadText(dir + "/view3d_data.js");
+  for (const char* set :
+       {"\"initial\"", "\"before (leveled)\"", "\"pairwise\"", "\"joint\"", "\"surface_bundle\""}) {
+    EXPECT_NE(data.find(set), std::string::npos) << set;
+  }
+  const RunResult bad = RunRigfit({"compare", "--capture", Rig("capture.h5"), "--extrinsics",
+                                   Rig("init.json"), "--report", Scratch("no/such/dir")},
+                                  root_);
+  EXPECT_EQ(bad.exit_code, 2) << Describe(bad);
+  EXPECT_NE(bad.err.find("--report"), std::string::npos) << bad.err;
+}
+
 TEST_F(CliCompareTest, SurfaceBundleConfigRunsPairwiseAndJointWithPointToPlane) {
   // icp.method surface_bundle needs joint mode: the pairwise run once failed validation. The
   // pairwise and joint runs now use point_to_plane; the third run is the surface bundle.

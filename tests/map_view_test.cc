@@ -266,13 +266,15 @@ TEST_F(MapPicture, ReportWritesThePictureAndThePage) {
   fs::remove_all(dir);
   const std::vector<std::string> files = WriteMapReport(
       dir.string(), "a title", {positions_, normals_, colors_, radii_}, {}, axes_, "the summary");
-  ASSERT_EQ(files.size(), 2u);
+  // The picture, the 3-D view (three.js, OrbitControls, its data, its page), the page.
+  ASSERT_EQ(files.size(), 6u);
   EXPECT_EQ(files[0], (dir / kMapTopFile).string());
-  EXPECT_EQ(files[1], (dir / kReportIndexFile).string());
+  EXPECT_EQ(files[4], (dir / kView3dFile).string());
+  EXPECT_EQ(files.back(), (dir / kReportIndexFile).string());
   const RgbRaster png = ReadPng(files[0]);
   EXPECT_EQ(png.width, kMapViewWidth);
   EXPECT_EQ(png.height, kMapViewHeight);
-  const std::string text = io_test::ReadText(files[1]);
+  const std::string text = io_test::ReadText(files.back());
   EXPECT_NE(text.find("the summary"), std::string::npos);
   EXPECT_NE(text.find("up axis (world +Y)"), std::string::npos);
   EXPECT_NE(text.find(std::to_string(positions_.size()) + " map points"), std::string::npos);
