@@ -10,7 +10,7 @@
 #include <string>
 
 #include "core/evaluate.h"
-#include "core/geometry.h"
+#include "core/pose.h"
 #include "rig/refine.h"
 #include "sim/simulate_rig.h"
 
