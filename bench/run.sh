@@ -320,9 +320,12 @@ run_micro() {
     echo "this process; wall (real) time is inflated when the machine is shared."
     echo
   } >>"$file"
-  # --quick: the shortest runs, and knn_bench at its smallest size and on the real scan only.
+  # --quick: the shortest runs; knn_bench at its smallest size and one tree of the real scan.
   local quick_time=() knn_filter=()
-  [ $quick = 1 ] && { quick_time=(--benchmark_min_time="$min_time"); knn_filter=(--benchmark_filter='/5000$|Real|Eigen|Camera'); }
+  [ $quick = 1 ] && {
+    quick_time=(--benchmark_min_time="$min_time")
+    knn_filter=(--benchmark_filter='/5000$|RealBuild/nanoflann|Eigen|Camera')
+  }
   micro_table io_bench "$file" --benchmark_repetitions="$reps" "${quick_time[@]}"
   micro_table knn_bench "$file" --benchmark_repetitions="$reps" --benchmark_min_time="$min_time" \
     "${knn_filter[@]}"
