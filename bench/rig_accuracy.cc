@@ -139,10 +139,19 @@ class BiasSplit {
 /// that alone would lower the first most.
 class SegmentationDiagnostic {
  public:
-  /// The bundle's input and result of one Refine (SetSurfaceBundleObserver).
-  std::vector<rigfit::PointCloud> used_points;
-  rigfit::SurfaceBundleResult bundle;
+  /// The bundle's planes and pixels of one Refine (icp.keep_surface_diagnostics) and the
+  /// cameras that kept their joint pose.
+  rigfit::SurfaceBundleReport bundle;
+  std::vector<bool> fallback;
   bool seen = false;
+
+  /// Takes the surface bundle's report of a Refine run with icp.keep_surface_diagnostics.
+  void Observe(const rigfit::RefineResult& result) {
+    bundle = result.surface;
+    fallback.clear();
+    for (const rigfit::CameraReport& c : result.cameras) fallback.push_back(c.surface_fallback);
+    seen = bundle.ran;
+  }
 
   /// Compares the observed run with the truth and prints a line per camera; returns the
   /// bounds of the used pixels (true faces; and one nuisance plane per bundle plane).
@@ -190,9 +199,9 @@ class SegmentationDiagnostic {
     // The true face of each bundle plane: the most frequent label of its pixels.
     const size_t planes = bundle.plane_list.size();
     std::vector<std::map<int, int>> votes(planes);
-    for (const SurfaceBundleResult::Term& t : bundle.terms) {
+    for (const SurfaceTerm& t : bundle.terms) {
       for (const int i : t.pixels) {
-        const auto it = label[t.camera].find(key(K[t.camera], used_points[t.camera][i]));
+        const auto it = label[t.camera].find(key(K[t.camera], bundle.points[t.camera][i]));
         ++votes[t.plane][it == label[t.camera].end() ? -1 : it->second.first];
       }
     }
@@ -220,10 +229,10 @@ class SegmentationDiagnostic {
     for (size_t c = 0; c < n; ++c) {
       used_true[c].serial = used_split[c].serial = truth.capture.cameras[c].serial;
     }
-    for (const SurfaceBundleResult::Term& t : bundle.terms) {
+    for (const SurfaceTerm& t : bundle.terms) {
       const size_t c = t.camera;
       for (const int i : t.pixels) {
-        const long long k = key(K[c], used_points[c][i]);
+        const long long k = key(K[c], bundle.points[c][i]);
         const auto it = label[c].find(k);
         const int f = it == label[c].end() ? -1 : it->second.first;
         if (f < 0 || f != face_of[t.plane]) {
@@ -244,7 +253,7 @@ class SegmentationDiagnostic {
     }
     int fallbacks = 0;
     for (size_t c = 0; c < n; ++c) {
-      const bool fell = c < bundle.fallback.size() && bundle.fallback[c];
+      const bool fell = c < fallback.size() && fallback[c];
       fallbacks += fell ? 1 : 0;
       std::printf(
           "       camera %zu: bound %lld px, used on the right face %lld (%.0f%%), outside "
@@ -447,6 +456,7 @@ int main(int argc, char** argv) {
   if (!config.empty()) options = LoadConfig(config);
   options.icp.mode = mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
   options.icp.method = RegistrationMethodNamed(method);
+  options.icp.keep_surface_diagnostics = segmentation;
 
   std::printf("mode %s, method %s, %d cameras %dx%d, noise %g, perturbation %g deg %g m%s\n",
               mode.c_str(), method.c_str(), sim.cameras, sim.width, sim.height, sim.noise,
@@ -479,18 +489,9 @@ int main(int argc, char** argv) {
       log.sink = [](LogLevel, const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
     }
     const PoseMap& start = from_gt ? rig.gt : rig.init;
-    diagnostic.seen = false;
-    if (segmentation) {
-      SetSurfaceBundleObserver(
-          [&](const std::vector<SurfaceCamera>& cams, const SurfaceBundleResult& result) {
-            diagnostic.used_points.clear();
-            for (const SurfaceCamera& c : cams) diagnostic.used_points.push_back(c.points);
-            diagnostic.bundle = result;
-            diagnostic.seen = result.usable;
-          });
-    }
     options.threads = threads;
     const RefineResult r = Refine(rig.capture, start, options, log);
+    diagnostic.Observe(r);
     const RigErrors before = EvaluateRig(start, rig.gt);
     const RigErrors after = EvaluateRig(r.refined, rig.gt);
     std::printf("%*s | %8.3f %8.2f %7.3f | %8.4f %8.2f %7.4f %8.2f | %6.3f %6.3f %6.3f | %s\n",

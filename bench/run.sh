@@ -4,8 +4,10 @@
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
 #   SECTION  accuracy | speed | real | micro | rgbd (default: all five, in that order)
-#   --quick  a few seconds to minutes: 1 seed, small images, 1 run per case; checks the script
-#            and the programs, its numbers are not for the docs
+#   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
+#            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
+#            bunny's registration left out), also view_bias, which has no table; checks the
+#            script and the programs, its numbers are not for the docs
 #   --build  Release build directory (default: <repo>/build) with rigfit, rig_accuracy, sequence_rig,
 #            bunny_rig (and io_bench, knn_bench, residuals_bench for micro): cmake --build DIR
 #            --target rigfit rig_accuracy sequence_rig bunny_rig io_bench knn_bench residuals_bench
@@ -49,7 +51,7 @@ while [ $# -gt 0 ]; do
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
     accuracy | speed | real | micro | rgbd) sections+=("$1") ;;
-    -h | --help) sed -n '2,38p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
@@ -60,7 +62,8 @@ out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
 out="$(cd "$out" && pwd)"
 rigfit="$build/cli/rigfit"
-for tool in "$rigfit" "$build/bench/rig_accuracy" "$build/bench/sequence_rig" "$build/bench/bunny_rig"; do
+for tool in "$rigfit" "$build/bench/rig_accuracy" "$build/bench/sequence_rig" "$build/bench/bunny_rig" \
+  "$build/bench/view_bias"; do
   [ -x "$tool" ] || { echo "bench/run.sh: $tool is missing: build it first" >&2; exit 2; }
 done
 for tool in /usr/bin/time python3; do
@@ -120,7 +123,6 @@ accuracy_tables() {
 run_accuracy() {
   local file seeds=10 size=() summary="$out/raw/accuracy-summary.md"
   file="$(header accuracy)"
-  if [ $quick = 1 ]; then seeds=1; size=(--width 320 --height 180); fi
   : >"$summary"
   local cases=(
     "default rig|joint|point_to_plane|"
@@ -140,6 +142,18 @@ run_accuracy() {
     "wide start (yaw 3 deg, 10 cm)|joint|point_to_plane|--perturb-yaw-deg 3 --perturb-xz-m 0.1"
     "wide start (yaw 3 deg, 10 cm)|pairwise|point_to_plane|--perturb-yaw-deg 3 --perturb-xz-m 0.1"
   )
+  if [ $quick = 1 ]; then
+    seeds=1
+    size=(--width 160 --height 90)
+    # One case per method; the surface bundle's with its bound and segmentation diagnostics.
+    cases=(
+      "default rig|joint|point_to_plane|"
+      "default rig|pairwise|gicp|"
+      "default rig|joint|surface_bundle|--crlb --segmentation"
+    )
+    echo "+ view_bias --seeds 1 ${size[*]}" >&2
+    nice "$build/bench/view_bias" --seeds 1 "${size[@]}" >"$out/raw/view_bias.txt"
+  fi
   local details="$out/raw/accuracy-details.md"
   : >"$details"
   for c in "${cases[@]}"; do
@@ -156,7 +170,7 @@ run_accuracy() {
     echo "Command per row: \`bench/rig_accuracy --mode M --method X --seeds $seeds ${size[*]}\` plus the"
     echo "rig's flags (\`--noise 0\`, \`--bare\`, \`--perturb-yaw-deg 3 --perturb-xz-m 0.1\`,"
     echo "\`--noise-corr-px 4 --noise-corr-share 0.8\`), seeds 0..$((seeds - 1)),"
-    echo "4 cameras$([ $quick = 1 ] && echo ' 320x180' || echo ' 640x360'), default config. Errors are gauge-free (core/evaluate.h); \"start\" is"
+    echo "4 cameras$([ $quick = 1 ] && echo ' 160x90' || echo ' 640x360'), default config. Errors are gauge-free (core/evaluate.h); \"start\" is"
     echo "the RMS over the seeds of each seed's RMS before refinement (rotation deg / translation mm /"
     echo "tilt deg); the others are RMS over every pair (tilt: every camera) of every seed."
     echo
@@ -225,7 +239,7 @@ speed_table_header() {
 run_speed() {
   local file runs=3 breakdown_runs=5 cams=(2 4 8 16) sizes=(320x180 640x360 1280x720) base=640x360
   file="$(header speed)"
-  [ $quick = 1 ] && { runs=1; breakdown_runs=1; cams=(2 3); sizes=(320x180); base=320x180; }
+  [ $quick = 1 ] && { runs=1; breakdown_runs=1; cams=(2); sizes=(160x90); base=160x90; }
   local data="$out/raw/captures"
   mkdir -p "$data"
   {
@@ -306,33 +320,54 @@ run_micro() {
     echo "this process; wall (real) time is inflated when the machine is shared."
     echo
   } >>"$file"
-  micro_table io_bench "$file" --benchmark_repetitions="$reps"
-  micro_table knn_bench "$file" --benchmark_repetitions="$reps" --benchmark_min_time="$min_time"
-  micro_table residuals_bench "$file" --benchmark_repetitions="$reps"
+  # --quick: the shortest runs; knn_bench at its smallest size and one tree of the real scan.
+  local quick_time=() knn_filter=()
+  [ $quick = 1 ] && {
+    quick_time=(--benchmark_min_time="$min_time")
+    knn_filter=(--benchmark_filter='/5000$|RealBuild/nanoflann|Eigen|Camera')
+  }
+  micro_table io_bench "$file" --benchmark_repetitions="$reps" "${quick_time[@]}"
+  micro_table knn_bench "$file" --benchmark_repetitions="$reps" --benchmark_min_time="$min_time" \
+    "${knn_filter[@]}"
+  micro_table residuals_bench "$file" --benchmark_repetitions="$reps" "${quick_time[@]}"
   echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end." >>"$file"
 }
 
 # ---------------------------------------------------------------------------------------------
 # real
 
+# --quick: writes a note in place of output $1 and succeeds (`quick_skip FILE || program >FILE`
+# runs the program only without --quick).
+quick_skip() {
+  [ $quick = 1 ] || return 1
+  printf '(not run with --quick)\n\n\n' >"$1"
+}
+
 run_real() {
   local file seeds=5
   file="$(header real)"
   [ $quick = 1 ] && seeds=1
+  # --quick: each program once (sequence_rig on TUM, bunny_rig with point_to_plane).
   local tum="$out/raw/tum.txt" tum_gt="$out/raw/tum-from-mocap.txt"
   echo "+ sequence_rig --seeds $seeds" >&2
   nice "$build/bench/sequence_rig" --seeds "$seeds" >"$tum"
-  nice "$build/bench/sequence_rig" --seeds 1 --perturb-deg 0 --perturb-m 0 >"$tum_gt"
+  quick_skip "$tum_gt" ||
+    nice "$build/bench/sequence_rig" --seeds 1 --perturb-deg 0 --perturb-m 0 >"$tum_gt"
   local tum_sb="$out/raw/tum-sb.txt"
-  nice "$build/bench/sequence_rig" --seeds "$seeds" --method surface_bundle >"$tum_sb" \
-    2>"$out/raw/tum-sb-warnings.txt"
+  : >"$out/raw/tum-sb-warnings.txt"
+  quick_skip "$tum_sb" ||
+    nice "$build/bench/sequence_rig" --seeds "$seeds" --method surface_bundle >"$tum_sb" \
+      2>"$out/raw/tum-sb-warnings.txt"
   local kitchen="$root/../shared/data/sevenscenes_kitchen" kitchen_frames=(0 10 20 30 40)
   echo "+ sequence_rig --dir sevenscenes_kitchen --frames ${kitchen_frames[*]}" >&2
-  nice "$build/bench/sequence_rig" --dir "$kitchen" --frames "${kitchen_frames[@]}" \
-    --seeds "$seeds" >"$out/raw/kitchen.txt"
-  nice "$build/bench/sequence_rig" --dir "$kitchen" --frames "${kitchen_frames[@]}" \
-    --seeds "$seeds" --method surface_bundle >"$out/raw/kitchen-sb.txt" \
-    2>"$out/raw/kitchen-sb-warnings.txt"
+  quick_skip "$out/raw/kitchen.txt" ||
+    nice "$build/bench/sequence_rig" --dir "$kitchen" --frames "${kitchen_frames[@]}" \
+      --seeds "$seeds" >"$out/raw/kitchen.txt"
+  : >"$out/raw/kitchen-sb-warnings.txt"
+  quick_skip "$out/raw/kitchen-sb.txt" ||
+    nice "$build/bench/sequence_rig" --dir "$kitchen" --frames "${kitchen_frames[@]}" \
+      --seeds "$seeds" --method surface_bundle >"$out/raw/kitchen-sb.txt" \
+      2>"$out/raw/kitchen-sb-warnings.txt"
 
   local bunny_dir="$root/../shared/data/stanford_bunny/data" scans=() capture="$out/raw/bunny.h5"
   for ply in "$bunny_dir"/*.ply; do
@@ -343,9 +378,11 @@ run_real() {
   "$rigfit" import-ply --force --out "$capture" "${scans[@]}" >"$out/raw/bunny-import.txt"
   echo "+ bunny_rig --check-gt, --seeds $seeds (point_to_plane, gicp)" >&2
   nice "$build/bench/bunny_rig" --capture "$capture" --check-gt >"$out/raw/bunny-check.txt"
-  nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" >"$out/raw/bunny-p2p.txt"
-  nice "$build/bench/bunny_rig" --capture "$capture" --seeds 1 --perturb-deg 0 --perturb-m 0 \
-    >"$out/raw/bunny-from-conf.txt"
+  quick_skip "$out/raw/bunny-p2p.txt" ||
+    nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" >"$out/raw/bunny-p2p.txt"
+  quick_skip "$out/raw/bunny-from-conf.txt" ||
+    nice "$build/bench/bunny_rig" --capture "$capture" --seeds 1 --perturb-deg 0 --perturb-m 0 \
+      >"$out/raw/bunny-from-conf.txt"
   [ $quick = 1 ] || nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" \
     --method gicp >"$out/raw/bunny-gicp.txt"
   [ $quick = 1 ] || nice "$build/bench/bunny_rig" --capture "$capture" --seeds "$seeds" \
@@ -466,7 +503,7 @@ run_rgbd() {
   file="$(header rgbd)"
   [ -x "$build/bench/rgbd_bench" ] || { echo "bench/run.sh: build rgbd_bench" >&2; exit 2; }
   local frames=300
-  [ $quick = 1 ] && frames=30
+  [ $quick = 1 ] && frames=10
   mkdir -p "$sim"
   "$rigfit" simulate-sequence --out "$sim/clean" --frames "$frames" --noise none --no-color \
     --force >"$out/raw/simulate-clean.txt" 2>&1
@@ -479,37 +516,38 @@ run_rgbd() {
     echo "|---|---|---|---|---|---|---|---|"
     local kitchen="$data/sevenscenes_kitchen"
     local max=()
-    [ $quick = 1 ] && max=(--max-frames 40)
+    [ $quick = 1 ] && max=(--max-frames 10)
     track_row "7-Scenes kitchen" "$kitchen" "${max[@]}"
-    track_row "7-Scenes kitchen" "$kitchen" --no-keyframes "${max[@]}"
+    # --quick: one row per sequence.
+    [ $quick = 1 ] || track_row "7-Scenes kitchen" "$kitchen" --no-keyframes
     if [ $quick = 0 ]; then
       track_row "7-Scenes kitchen" "$kitchen" --no-keyframes --no-bilateral --no-depth-weights
       track_row "7-Scenes kitchen" "$kitchen" --no-bilateral
       track_row "7-Scenes kitchen" "$kitchen" --no-depth-weights
       track_row "7-Scenes kitchen" "$kitchen" --huber 0.02
     fi
-    track_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset"
-    track_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset" --no-keyframes
+    track_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset" "${max[@]}"
+    [ $quick = 1 ] || track_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset" --no-keyframes
     track_row "simulated, noise-free" "$sim/clean"
-    track_row "simulated, noise-free" "$sim/clean" --no-keyframes
+    [ $quick = 1 ] || track_row "simulated, noise-free" "$sim/clean" --no-keyframes
     track_row "simulated, Kinect noise" "$sim/kinect"
-    track_row "simulated, Kinect noise" "$sim/kinect" --no-keyframes
+    [ $quick = 1 ] || track_row "simulated, Kinect noise" "$sim/kinect" --no-keyframes
     echo
     echo "#### \`rigfit slam SEQUENCE --evaluate [flags]\`"
     echo
     echo "| sequence | flags | ATE RMSE mm | RPE per frame mm / deg | frames/s, median (all runs) | map points at the end | peak RSS MB | load before each run |"
     echo "|---|---|---|---|---|---|---|---|"
-    slam_row "7-Scenes kitchen, 640x480" "$kitchen" "${max[@]}"
+    [ $quick = 1 ] || slam_row "7-Scenes kitchen, 640x480" "$kitchen"
     slam_row "7-Scenes kitchen, 320x240" "$kitchen" --halve 1 "${max[@]}"
-    slam_row "TUM fr1/xyz subset, 640x480" "$data/tum_fr1_xyz_subset"
+    [ $quick = 1 ] || slam_row "TUM fr1/xyz subset, 640x480" "$data/tum_fr1_xyz_subset"
     echo
     echo "bench/rgbd_bench: 7-Scenes frames 300 -> 301 (320x240: their level 1); tracking from"
     echo "the identity, pyramids built beforehand."
     echo
   } >>"$file"
-  local reps=5
-  [ $quick = 1 ] && reps=2
-  micro_table rgbd_bench "$file" --benchmark_repetitions=$reps
+  local reps=5 quick_time=()
+  [ $quick = 1 ] && { reps=2; quick_time=(--benchmark_min_time=0.01); }
+  micro_table rgbd_bench "$file" --benchmark_repetitions=$reps "${quick_time[@]}"
   echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end." >>"$file"
 }
 

@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
   app.add_option("--first-seed", first_seed);
   app.add_option("--seeds", seeds, "number of seeds");
   app.add_option("--noise", sim.noise, "depth noise of the noisy side (sigma = noise z^2)");
+  app.add_option("--width", sim.width, "image width, pixels");
+  app.add_option("--height", sim.height, "image height, pixels");
   app.add_option("--noisy", noisy, "which side has the depth noise")
       ->check(CLI::IsMember({"source", "target", "both", "none"}));
   app.add_flag("--same-view", same_view, "register each camera to its own noise-free image");

@@ -96,6 +96,11 @@ struct IcpOptions {
   DepthNoiseModel depth_noise_model = DepthNoiseModel::kGaussianDepth;
   /// Surface bundle: rounds of segmentation and solve after the joint point-to-plane start.
   int surface_rounds = 3;
+  /// Surface bundle: keep its last round's planes and pixels in RefineResult::surface
+  /// (SurfaceBundleReport::plane_list, terms, points) for a caller that looks inside it
+  /// (bench/rig_accuracy --segmentation). The refinement is the same either way; off, no pixel
+  /// is copied. Asked for in code, not a config key.
+  bool keep_surface_diagnostics = false;
   RobustLoss robust_loss = RobustLoss::kHuber;
   /// Scale of the robust loss on whitened residuals, in standard deviations.
   double robust_loss_scale = 2.0;

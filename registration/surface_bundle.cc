@@ -409,11 +409,6 @@ std::vector<double> Thickness(const std::vector<ClusterTerm>& terms,
   return rms;
 }
 
-SurfaceBundleObserver& Observer() {
-  static SurfaceBundleObserver observer;
-  return observer;
-}
-
 /// The last round's planes and pixels (SurfaceBundleResult::plane_list, terms).
 void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterTerm>& terms,
                SurfaceBundleResult* result) {
@@ -427,14 +422,10 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
 
 }  // namespace
 
-void SetSurfaceBundleObserver(SurfaceBundleObserver observer) { Observer() = std::move(observer); }
-
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
                                           const IcpOptions& options, int num_threads,
                                           const Log& log) {
-  SurfaceBundleResult result = Solve(cameras, options, num_threads, log);
-  if (Observer()) Observer()(cameras, result);
-  return result;
+  return Solve(cameras, options, num_threads, log);
 }
 
 namespace {
@@ -575,7 +566,7 @@ SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOp
     result.pixels = pixels;
     result.rounds = round + 1;
     result.usable = true;
-    if (Observer()) RecordUse(planes, terms, &result);
+    if (options.keep_surface_diagnostics) RecordUse(planes, terms, &result);
     log.Debug("surface bundle: round " + std::to_string(round) + ": " +
               std::to_string(planes.size()) + " planes, " + std::to_string(pixels) +
               " pixels, cost " + Fixed(2.0 * summary.final_cost / std::max(pixels, 1), 4) +

@@ -15,7 +15,6 @@
 // centre (the gauge); after each round its tilt is leveled again on the bundle's floor.
 #pragma once
 
-#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -88,8 +87,8 @@ struct SurfaceBundleResult {
   /// The last round's planes (world, n^T x + d = 0) and, per (camera, plane), the indices
   /// into that camera's SurfaceCamera::points of the pixels it used: for diagnostics
   /// (bench/rig_accuracy --segmentation compares them with the simulator's faces). Filled
-  /// only while an observer is set (SetSurfaceBundleObserver): no refinement needs the copy
-  /// of every pixel index.
+  /// only with options.keep_surface_diagnostics: no refinement needs the copy of every pixel
+  /// index.
   using Term = SurfaceTerm;
   std::vector<PlanarFace> plane_list;
   std::vector<Term> terms;
@@ -105,12 +104,5 @@ struct SurfaceBundleResult {
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
                                           const IcpOptions& options, int num_threads,
                                           const Log& log);
-
-/// Called by every RegisterSurfaceBundle with its input and result before it returns: a hook
-/// for benchmarks and tests that look inside a Refine (bench/rig_accuracy --segmentation).
-/// Process-wide; set it before running, not while a refinement runs. Empty: none.
-using SurfaceBundleObserver =
-    std::function<void(const std::vector<SurfaceCamera>& cameras, const SurfaceBundleResult&)>;
-void SetSurfaceBundleObserver(SurfaceBundleObserver observer);
 
 }  // namespace rigfit

@@ -135,7 +135,11 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     return;
   }
   SurfaceBundleReport& report = result->surface;
-  report = {true, bundle.planes, bundle.pixels, bundle.rounds, bundle.noise_scale};
+  report.ran = true;
+  report.planes = bundle.planes;
+  report.pixels = bundle.pixels;
+  report.rounds = bundle.rounds;
+  report.noise_scale = bundle.noise_scale;
   log.Info("surface bundle: " + std::to_string(bundle.planes) + " planes, " +
            std::to_string(bundle.pixels) + " pixels, " + std::to_string(bundle.rounds) +
            " rounds, noise scale " + Fixed(bundle.noise_scale, 3));
@@ -164,6 +168,11 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     joint->covariance[i] = bundle.covariance[i];
   }
   joint->covariance_ok = joint->covariance_ok && bundle.covariance_ok;
+  if (options.keep_surface_diagnostics) {
+    report.plane_list = bundle.plane_list;
+    report.terms = bundle.terms;
+    for (SurfaceCamera& camera : surfaces) report.points.push_back(std::move(camera.points));
+  }
 }
 
 /// The joint solve's per-camera results into the report: connectivity, covariance and weak

@@ -12,6 +12,7 @@
 #include "prepare/ground.h"
 #include "prepare/preprocess.h"
 #include "prepare/region.h"
+#include "registration/surface_bundle.h"
 #include "uncertainty/degeneracy.h"
 
 namespace rigfit {
@@ -62,6 +63,13 @@ struct SurfaceBundleReport {
   /// sqrt(cost / (N - p)): the residuals' spread against the noise model; near 1 when the
   /// model's k is right. k measured = noise_scale * k of the model.
   double noise_scale = 0.0;
+  /// Only with icp.keep_surface_diagnostics (empty otherwise): the last round's planes, per
+  /// (camera, plane) the indices into that camera's `points` of the pixels it used
+  /// (SurfaceBundleResult::plane_list, terms), and per camera (capture order) the band pixels
+  /// the bundle was given (camera frame; none for a camera the joint solve did not link).
+  std::vector<SurfacePlane> plane_list;
+  std::vector<SurfaceTerm> terms;
+  std::vector<PointCloud> points;
 };
 
 struct PairReport {

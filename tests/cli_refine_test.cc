@@ -159,11 +159,11 @@ TEST_F(CliRefineTest, RefinesTheRigAndPreservesUnknownKeys) {
   EXPECT_EQ(out["_meta"]["ground_refined"]["cameras"].size(), static_cast<size_t>(kCameras));
   EXPECT_TRUE(AllNumbersFinite(out));
 
-  // End to end, the noise-free rig ends at least twice as close to the truth as it started.
-  const RigErrors before = EvaluateRig(ReadExtrinsics(Init()).poses, gt);
+  // End to end, the noise-free rig ends near the truth: measured worst pair 0.0047 deg and
+  // 0.133 mm (from 0.93 deg and 39.3 mm at the start); the bounds leave a factor of 2.
   const RigErrors after = EvaluateRig(refined, gt);
-  EXPECT_LT(after.max_rotation_rad, 0.5 * before.max_rotation_rad);
-  EXPECT_LT(after.max_translation_m, 0.5 * before.max_translation_m);
+  EXPECT_LT(after.max_rotation_rad * kRadToDeg, 0.01);
+  EXPECT_LT(after.max_translation_m, 0.27e-3);
   EXPECT_NE(r.out.find("refined "), std::string::npos) << r.out;
   EXPECT_NE(r.out.find(Out()), std::string::npos) << r.out;
 }
@@ -213,7 +213,9 @@ TEST_F(CliRefineTest, NoIcpLevelsTheFloor) {
   const PoseMap leveled = ReadExtrinsics(Out()).poses;
   const PoseMap gt = ReadExtrinsics(Gt()).poses;
   EXPECT_GT(MaxPoseDifference(leveled, init), 1e-6);
-  EXPECT_LT(MaxTiltErrorDeg(leveled, gt), MaxTiltErrorDeg(init, gt));
+  // Noise-free floors level every camera: measured worst tilt 2.3e-5 deg (0.26 deg at the
+  // start); the bound leaves a factor of 2.
+  EXPECT_LT(MaxTiltErrorDeg(leveled, gt), 5e-5);
 
   // The floor found in each camera frame lies on y = 0, normal +Y, at the written pose.
   const double kFloorTolerance = 1e-9;

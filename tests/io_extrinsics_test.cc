@@ -141,7 +141,7 @@ TEST_F(ExtrinsicsTest, RealSevenScenesPoseIsAcceptedWithAWarning) {
   const std::string pose_file =
       io_test::SharedDataPath("sevenscenes_kitchen/frames/frame-000200.pose.txt");
   std::ifstream in(pose_file);
-  if (!in) GTEST_SKIP() << "shared data absent: " << pose_file;
+  RIGFIT_NEED_SHARED_DATA(pose_file);
   Eigen::Matrix4d M;
   for (int r = 0; r < 4; ++r) {
     for (int c = 0; c < 4; ++c) in >> M(r, c);

@@ -189,7 +189,7 @@ TEST_F(PlyTest, WriteRejectsMismatchedAttributes) {
 TEST(PlyRealData, StanfordBunnyAsciiScan) {
   // bun000.ply: "element vertex 40256" then a 204800-record range_grid of lists; metres.
   const std::string path = io_test::SharedDataPath("stanford_bunny/data/bun000.ply");
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared data absent: " << path;
+  RIGFIT_NEED_SHARED_DATA(path);
   const PlyCloud cloud = ReadPly(path);
   ASSERT_THAT(cloud.points, SizeIs(40256));
   EXPECT_THAT(cloud.normals, IsEmpty());
@@ -207,7 +207,7 @@ TEST(PlyRealData, StanfordBunnyAsciiScan) {
 TEST(PlyRealData, SmallGicpBinaryLidarScan) {
   // target.ply: binary_little_endian, "element vertex 69088", x y z scalar_intensity.
   const std::string path = io_test::SharedDataPath("small_gicp/target.ply");
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "shared data absent: " << path;
+  RIGFIT_NEED_SHARED_DATA(path);
   const PlyCloud cloud = ReadPly(path);
   ASSERT_THAT(cloud.points, SizeIs(69088));
   Vec3 lo = cloud.points[0], hi = cloud.points[0];

@@ -404,7 +404,7 @@ TEST_F(RgbdSequenceTest, RigCaptureBurstIsASequenceOfItsFrames) {
 
 TEST(RgbdSequenceRealData, TumFr1XyzSubset) {
   const std::string folder = io_test::SharedDataPath("tum_fr1_xyz_subset");
-  if (!fs::exists(folder)) GTEST_SKIP() << folder << " is absent";
+  RIGFIT_NEED_SHARED_DATA(folder);
   const auto sequence = OpenRgbdSequence(folder);
   ASSERT_EQ(sequence->size(), 37);
   EXPECT_THAT(sequence->Describe(), HasSubstr("fr1, depth.txt header"));
@@ -434,7 +434,7 @@ TEST(RgbdSequenceRealData, TumFr1XyzSubset) {
 
 TEST(RgbdSequenceRealData, SevenScenesKitchen) {
   const std::string frames = io_test::SharedDataPath("sevenscenes_kitchen/frames");
-  if (!fs::exists(frames)) GTEST_SKIP() << frames << " is absent";
+  RIGFIT_NEED_SHARED_DATA(frames);
   std::vector<std::string> warnings;
   const auto sequence = OpenRgbdSequence(frames, {}, &warnings);
   ASSERT_EQ(sequence->size(), 400);

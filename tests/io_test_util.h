@@ -44,11 +44,31 @@ class TempDirTest : public ::testing::Test {
   std::filesystem::path dir_;
 };
 
-/// The path of a file of ../shared/data (RIGFIT_SHARED_DATA_DIR). A test that reads one skips
-/// when it is absent (a bare clone): `if (!std::filesystem::exists(path)) GTEST_SKIP() << ...`.
+/// The path of a file of ../shared/data (RIGFIT_SHARED_DATA_DIR). A test that reads one
+/// starts with RIGFIT_NEED_SHARED_DATA(path).
 inline std::string SharedDataPath(const std::string& relative) {
   return std::string(RIGFIT_SHARED_DATA_DIR) + "/" + relative;
 }
+
+/// Under CI (the environment variable CI is "true" or "1", as .ci/run sets it).
+inline bool InCi() {
+  const char* ci = std::getenv("CI");
+  return ci != nullptr && (std::strcmp(ci, "true") == 0 || std::strcmp(ci, "1") == 0);
+}
+
+}  // namespace rigfit::io_test
+
+/// Skips the calling test when `path` (SharedDataPath) is absent, saying so, in a bare local
+/// clone; fails it under CI (io_test::InCi), where a missing data set must not pass unnoticed.
+#define RIGFIT_NEED_SHARED_DATA(path)                                                       \
+  do {                                                                                      \
+    if (!std::filesystem::exists(path)) {                                                   \
+      if (::rigfit::io_test::InCi()) FAIL() << (path) << " is absent (CI=true: fails)";     \
+      GTEST_SKIP() << (path) << " is absent: the real data of ../shared/data (outside CI)"; \
+    }                                                                                       \
+  } while (0)
+
+namespace rigfit::io_test {
 
 inline void WriteText(const std::string& path, const std::string& text) {
   std::ofstream out(path, std::ios::binary);

@@ -127,34 +127,32 @@ TEST(SurfaceBundle, MeasuresTheNoisesCorrelationAndWeighsItsPixelsByIt) {
   }
 }
 
-TEST(SurfaceBundle, TheObserverSeesEveryPixelOfTheLastRound) {
-  // bench/rig_accuracy --segmentation reads the bundle's planes and pixels through the hook.
+TEST(SurfaceBundle, KeptDiagnosticsHoldEveryPixelOfTheLastRound) {
+  // bench/rig_accuracy --segmentation reads the bundle's planes and pixels from the result.
   const SimulatedRig rig = NoiseFreeRig(3);
   RefineOptions options;
   options.icp.method = RegistrationMethod::kSurfaceBundle;
-  int calls = 0;
-  SurfaceBundleResult seen;
-  std::vector<size_t> points;
-  SetSurfaceBundleObserver(
-      [&](const std::vector<SurfaceCamera>& cameras, const SurfaceBundleResult& result) {
-        ++calls;
-        seen = result;
-        points.clear();
-        for (const SurfaceCamera& camera : cameras) points.push_back(camera.points.size());
-      });
+  const RefineResult plain = Refine(rig.capture, rig.init, options);
+  options.icp.keep_surface_diagnostics = true;
   const RefineResult result = Refine(rig.capture, rig.init, options);
-  SetSurfaceBundleObserver(nullptr);
   ASSERT_TRUE(result.surface.ran);
-  EXPECT_EQ(calls, 1);
-  EXPECT_EQ(static_cast<int>(seen.plane_list.size()), result.surface.planes);
+  // Asked for or not, the refinement is the same; only the copy differs.
+  EXPECT_TRUE(plain.surface.plane_list.empty() && plain.surface.terms.empty() &&
+              plain.surface.points.empty());
+  for (const auto& [serial, T] : plain.refined) {
+    EXPECT_EQ(T.matrix(), result.refined.at(serial).matrix()) << serial;
+  }
+  const SurfaceBundleReport& seen = result.surface;
+  ASSERT_EQ(seen.points.size(), rig.capture.cameras.size());
+  EXPECT_EQ(static_cast<int>(seen.plane_list.size()), seen.planes);
   int pixels = 0;
-  for (const SurfaceBundleResult::Term& t : seen.terms) {
-    ASSERT_LT(static_cast<size_t>(t.camera), points.size());
+  for (const SurfaceTerm& t : seen.terms) {
+    ASSERT_LT(static_cast<size_t>(t.camera), seen.points.size());
     ASSERT_LT(static_cast<size_t>(t.plane), seen.plane_list.size());
-    for (const int i : t.pixels) ASSERT_LT(static_cast<size_t>(i), points[t.camera]);
+    for (const int i : t.pixels) ASSERT_LT(static_cast<size_t>(i), seen.points[t.camera].size());
     pixels += static_cast<int>(t.pixels.size());
   }
-  EXPECT_EQ(pixels, result.surface.pixels);
+  EXPECT_EQ(pixels, seen.pixels);
   EXPECT_EQ(std::count_if(seen.plane_list.begin(), seen.plane_list.end(),
                           [](const PlanarFace& p) { return p.floor; }),
             1);

@@ -1,25 +1,21 @@
 """Tests of the Python module (docs/python.md), run by ctest (python_tests).
 
-Skipped, not failed, when the module was not built (RIGFIT_PYTHON off) or numpy is missing.
-RIGFIT_CLI (set by ctest) is the rigfit executable of the same build.
+RIGFIT_CLI (set by ctest) is the rigfit executable of the same build; without it the tests that
+need it skip in a bare local clone and fail under CI (support.py).
 """
 
 import dataclasses
 import inspect
 import json
 import logging
-import os
 import re
 import subprocess
 
+import numpy as np
 import pytest
 
-np = pytest.importorskip("numpy")
-rigfit = pytest.importorskip("rigfit")
-
-CLI = os.environ.get("RIGFIT_CLI", "")
-need_cli = pytest.mark.skipif(not CLI or not os.path.exists(CLI),
-                              reason="RIGFIT_CLI (the rigfit executable) not set")
+import rigfit
+from support import CLI, require_cli
 
 # A small rig keeps the suite short: 3 cameras of 160x90 (the simulator's room, seed 0).
 SIM_ARGS = ["--cameras", "3", "--width", "160", "--height", "90"]
@@ -28,8 +24,7 @@ SIM_ARGS = ["--cameras", "3", "--width", "160", "--height", "90"]
 @pytest.fixture(scope="module")
 def rig(tmp_path_factory):
     """A simulated rig and the CLI's refinement of it: (dir, cli output document)."""
-    if not CLI or not os.path.exists(CLI):
-        pytest.skip("RIGFIT_CLI (the rigfit executable) not set")
+    require_cli()
     d = tmp_path_factory.mktemp("rig")
     subprocess.run([CLI, "simulate", "--out", str(d), *SIM_ARGS], check=True,
                    stdout=subprocess.DEVNULL)
@@ -37,7 +32,7 @@ def rig(tmp_path_factory):
     done = subprocess.run([CLI, "refine", "--capture", str(d / "capture.h5"), "--extrinsics",
                            str(d / "init.json"), "--out", str(out), "--no-timings", "-q"],
                           stdout=subprocess.DEVNULL)
-    assert done.returncode in (0, 3)
+    assert done.returncode == 0  # 3 would be "nothing refined"
     with open(out) as f:
         return d, json.load(f)
 
@@ -68,7 +63,7 @@ def test_refine_equals_cli(rig):
 
 def test_refine_from_memory_arrays(rig):
     """Arrays made here, never read from a file: uint16 millimetres with a depth_scale give the
-    same poses as the same depths in float64 metres, and both move the start towards the truth."""
+    same poses as the same depths in float64 metres, and the refinement nears the truth."""
     d, doc = rig
     cameras = rigfit.read_capture(d / "capture.h5")
     initial = rigfit.read_extrinsics(d / "init.json")
@@ -86,21 +81,18 @@ def test_refine_from_memory_arrays(rig):
     for serial in truth:
         assert np.array_equal(a.extrinsics[serial], b.extrinsics[serial]), serial
 
-    def error(poses):
-        """Largest translation error of a camera relative to the first (gauge-free)."""
-        ref = sorted(truth)[0]
-        worst = 0.0
-        for serial in truth:
-            rel = np.linalg.inv(poses[ref]) @ poses[serial]
-            rel_true = np.linalg.inv(truth[ref]) @ truth[serial]
-            worst = max(worst, np.abs(rel[:3, 3] - rel_true[:3, 3]).max())
-        return worst
-
-    assert error(a.extrinsics) < 0.5 * error(initial)
+    # Each camera relative to the first: measured worst 0.475 deg and 46.8 mm (from 3.61 deg and
+    # 155 mm; 160x90 pixels with the default noise, its planes barely fix the translation along
+    # the walls); the bounds leave a factor of 2.
+    ref = sorted(truth)[0]
+    errors = [relative_pose_error(a.extrinsics, truth, ref, s) for s in truth if s != ref]
+    assert max(rotation for rotation, _ in errors) < 0.95
+    assert max(translation for _, translation in errors) < 0.094
 
 
 def test_points_cameras_in_memory():
-    """A rig of point clouds made here: a floor and two walls seen by two cameras."""
+    """A rig of point clouds made here: a floor and two walls seen by two cameras, with 2 mm of
+    noise, the second started 1 deg and 39 mm off its pose; the refinement brings it back."""
     rng = np.random.default_rng(0)
     n = 4000
     floor = np.c_[rng.uniform(-2, 2, n), np.zeros(n), rng.uniform(-2, 2, n)]
@@ -113,10 +105,32 @@ def test_points_cameras_in_memory():
         T = np.eye(4)
         T[:3, 3] = [x, 1.0, 0.0]
         poses[serial] = T
-        cameras[serial] = {"points": world - T[:3, 3]}
-    result = rigfit.refine(cameras, poses, config={"region": {"band_height": 0.0}})
+        cameras[serial] = {"points": world - T[:3, 3] + rng.normal(0.0, 0.002, world.shape)}
+    start = {k: v.copy() for k, v in poses.items()}
+    yaw = np.radians(1.0)
+    start["b"][:3, :3] = np.array([[np.cos(yaw), 0, np.sin(yaw)], [0, 1, 0],
+                                   [-np.sin(yaw), 0, np.cos(yaw)]])
+    start["b"][:3, 3] += [0.03, 0.0, -0.025]
+    result = rigfit.refine(cameras, start, config={"region": {"band_height": 0.0}})
     assert set(result.extrinsics) == {"a", "b"}
+    assert result.success, result.message
     assert "icp_refined" in result.meta
+    rotation_deg, translation_m = relative_pose_error(result.extrinsics, poses, "a", "b")
+    # Measured 0.00144 deg and 0.085 mm; the bounds leave a factor of 2.
+    assert rotation_deg < 0.003
+    assert translation_m < 0.17e-3
+
+
+def relative_pose_error(poses, truth, a, b):
+    """Rotation (deg) and translation (m) error of b's pose relative to a's (gauge-free)."""
+    rel = np.linalg.inv(poses[a]) @ poses[b]
+    rel_true = np.linalg.inv(truth[a]) @ truth[b]
+    delta = np.linalg.inv(rel_true) @ rel
+    # The rotation angle from the skew part (exact to the last digits for small angles, where
+    # arccos of the trace is not).
+    r = delta[:3, :3]
+    sin = 0.5 * np.linalg.norm([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    return np.degrees(np.arcsin(min(sin, 1.0))), np.linalg.norm(delta[:3, 3])
 
 
 def test_dict_config_checked_as_yaml(rig):

@@ -3,18 +3,14 @@
 """
 
 import inspect
-import os
 import re
 import subprocess
 
+import numpy as np
 import pytest
 
-np = pytest.importorskip("numpy")
-rigfit = pytest.importorskip("rigfit")
-
-CLI = os.environ.get("RIGFIT_CLI", "")
-need_cli = pytest.mark.skipif(not CLI or not os.path.exists(CLI),
-                              reason="RIGFIT_CLI (the rigfit executable) not set")
+import rigfit
+from support import CLI, need_cli
 
 SMALL = {"cameras": 3, "width": 160, "height": 90}
 
