@@ -278,6 +278,9 @@ py::dict TrackedFrameDict(int index, double timestamp, const TrackResult& track)
   d["matched_ratio"] = track.matched_ratio;
   d["rmse_m"] = track.rmse_m;
   d["weak_directions"] = track.weak_directions;
+  py::list weak;
+  for (const Vec6& direction : track.weak) weak.append(WeakDirectionName(direction));
+  d["weak_direction_names"] = weak;
   return d;
 }
 
@@ -344,6 +347,8 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
     const OdometryFrame& f = result.frames[k];
     py::dict d = TrackedFrameDict(f.index, result.trajectory.timestamps[k], f.track);
     d["keyframe"] = f.keyframe;
+    d["recovered"] = f.recovered;
+    d["diverged"] = f.diverged;
     frames.append(d);
   }
   py::dict out;
@@ -353,6 +358,9 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
   out["frames"] = frames;
   out["failures"] = result.failures;
   out["restarts"] = result.restarts;
+  out["recovered"] = result.recovered;
+  out["diverged"] = result.diverged;
+  out["weak_frames"] = result.weak_frames;
   py::dict timings;
   timings["load_s"] = result.load_s;
   timings["preprocess_s"] = result.preprocess_s;
@@ -473,6 +481,8 @@ py::dict Slam(const py::object& source, int first, int max_frames, int stride, i
     d["folded"] = f.fusion.folded;
     d["removed"] = f.fusion.removed;
     d["map_size"] = f.map_size;
+    d["recovered"] = f.recovered;
+    d["diverged"] = f.diverged;
     frames.append(d);
     map_sizes.push_back(f.map_size);
   }
@@ -485,6 +495,9 @@ py::dict Slam(const py::object& source, int first, int max_frames, int stride, i
   out["map_sizes"] = VectorToNumpy(std::move(map_sizes), {n});
   out["failures"] = result.failures;
   out["restarts"] = result.restarts;
+  out["recovered"] = result.recovered;
+  out["diverged"] = result.diverged;
+  out["weak_frames"] = result.weak_frames;
   py::dict timings;
   timings["load_s"] = result.load_s;
   timings["preprocess_s"] = result.preprocess_s;

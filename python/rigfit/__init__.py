@@ -345,7 +345,10 @@ class TrackedFrame:
 
     ``success`` False: tracking failed and the frame kept the predicted pose (``message`` says
     why). ``keyframe``: became the reference of the next frames. ``weak_directions``: directions
-    of the motion the frame could not fix (a flat wall), held at their prediction.
+    of the motion the frame could not fix (a flat wall), held at their prediction, named in
+    ``weak_direction_names`` ("translation along camera x", ...). ``recovered``: suspected of
+    divergence and re-tracked from the last good pose; ``diverged``: so was the re-track (a
+    failure that kept the last good pose; docs/rgbd.md).
     """
 
     index: int
@@ -358,13 +361,18 @@ class TrackedFrame:
     matched_ratio: float
     rmse_m: float
     weak_directions: int
+    weak_direction_names: List[str]
+    recovered: bool
+    diverged: bool
 
 
 @dataclass
 class Trajectory:
     """A camera trajectory: (N,) timestamps in seconds and (N, 4, 4) T_world_camera.
 
-    From ``track`` also ``frames`` (one ``TrackedFrame`` per pose), ``failures``, ``restarts``
+    From ``track`` also ``frames`` (one ``TrackedFrame`` per pose), ``failures``, ``restarts``,
+    ``recovered`` and ``diverged`` (frames the divergence guard re-tracked, or declared
+    diverged: counted in ``failures`` too), ``weak_frames`` (frames with weak directions held)
     and ``timings`` (seconds: ``load_s``, ``preprocess_s``, ``track_s``); a ground truth or a
     loaded file has none.
     """
@@ -374,6 +382,9 @@ class Trajectory:
     frames: List[TrackedFrame] = field(default_factory=list)
     failures: int = 0
     restarts: int = 0
+    recovered: int = 0
+    diverged: int = 0
+    weak_frames: int = 0
     timings: Dict[str, float] = field(default_factory=dict)
 
     def __len__(self) -> int:
@@ -396,6 +407,9 @@ class SlamFrame:
     matched_ratio: float
     rmse_m: float
     weak_directions: int
+    weak_direction_names: List[str]
+    recovered: bool
+    diverged: bool
     model_pixels: int
     input_points: int
     merged: int
@@ -604,7 +618,8 @@ def track(
     return Trajectory(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
-        restarts=raw["restarts"], timings=dict(raw["timings"]))
+        restarts=raw["restarts"], recovered=raw["recovered"], diverged=raw["diverged"],
+        weak_frames=raw["weak_frames"], timings=dict(raw["timings"]))
 
 
 def slam(
@@ -666,7 +681,8 @@ def slam(
     return SlamResult(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[SlamFrame(**f) for f in raw["frames"]], failures=raw["failures"],
-        restarts=raw["restarts"], timings=dict(raw["timings"]), map=SurfelMap(**raw["map"]),
+        restarts=raw["restarts"], recovered=raw["recovered"], diverged=raw["diverged"],
+        weak_frames=raw["weak_frames"], timings=dict(raw["timings"]), map=SurfelMap(**raw["map"]),
         map_sizes=raw["map_sizes"])
 
 
