@@ -66,24 +66,17 @@ std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Traject
   return text;
 }
 
-void AddGuardFlags(CLI::App* sub, GuardOptions* guard, ProjectiveIcpOptions* icp) {
+void AddGuardFlags(CLI::App* sub, GuardOptions* guard, double* weak_ratio) {
   sub->add_flag("--guard,!--no-guard", guard->enabled,
                 "Guard against divergence: damp the constant-velocity prior along weak "
                 "directions, re-track a frame that jumps, loses its matches or whose residual "
                 "rises from the last good pose, count it recovered or diverged (default; "
                 "docs/rgbd.md)");
-  sub->add_option("--weak-ratio", icp->weak_direction_ratio,
+  sub->add_option("--weak-ratio", *weak_ratio,
                   "A direction of the motion is weak (held at the prediction) when its "
                   "eigenvalue of the scaled information matrix is below this share of the "
                   "largest")
       ->capture_default_str();
-}
-
-void CheckGuardFlags(const std::string& command, const ProjectiveIcpOptions& icp) {
-  if (!(icp.weak_direction_ratio > 0.0 && icp.weak_direction_ratio < 1.0)) {
-    throw InputError(command + ": --weak-ratio must be in (0, 1), got " +
-                     std::to_string(icp.weak_direction_ratio));
-  }
 }
 
 void CountWeakDirections(const TrackResult& track, GuardCounts* counts) {

@@ -40,11 +40,9 @@ std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
 std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Trajectory& estimate,
                                      const Log& log);
 
-/// The guard's flags both commands take: --guard/--no-guard and --weak-ratio (checked by
-/// CheckGuardFlags).
-void AddGuardFlags(CLI::App* sub, GuardOptions* guard, ProjectiveIcpOptions* icp);
-/// --weak-ratio in (0, 1): throws InputError "<command>: --weak-ratio ...".
-void CheckGuardFlags(const std::string& command, const ProjectiveIcpOptions& icp);
+/// The guard's flags both commands take: --guard/--no-guard and --weak-ratio (into
+/// *weak_ratio, applied by rgbd/tracking_options.h's ApplyWeakRatio).
+void AddGuardFlags(CLI::App* sub, GuardOptions* guard, double* weak_ratio);
 
 /// What a run's frames went through, for the summary and the trajectory's metadata.
 struct GuardCounts {

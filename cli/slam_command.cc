@@ -23,6 +23,7 @@
 #include "report/trajectory_report.h"
 #include "rgbd/slam.h"
 #include "rgbd/slam_options.h"
+#include "rgbd/tracking_options.h"
 
 namespace rigfit::cli {
 namespace {
@@ -38,6 +39,7 @@ struct SlamArgs {
   std::string prior = "constant-velocity";
   std::vector<int> iterations = {10, 5, 4};
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
+  double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
   bool evaluate = false;
   bool quiet = false;
 };
@@ -69,7 +71,7 @@ int RunSlamCommand(SlamArgs a) {
   ApplyTrackingFlags("slam", a.prior, a.iterations, a.slam.threads, a.slam.max_frames,
                      &a.slam.prior, &a.slam.frame, &a.slam.icp);
   CheckSlamSettings("slam", OptionSpelling::kFlag, a.slam);
-  CheckGuardFlags("slam", a.slam.icp);
+  ApplyWeakRatio("slam", OptionSpelling::kFlag, a.weak_ratio, &a.slam.icp);
   ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
@@ -220,7 +222,7 @@ Command AddSlamCommand(CLI::App& app) {
       "Render each map point over its surfel disc, or on its nearest pixel only (default)");
   sub->add_flag("--color,!--no-color", a.slam.color,
                 "Fuse the sequence's registered colour when it has one (default)");
-  AddGuardFlags(sub, &a.slam.guard, &a.slam.icp);
+  AddGuardFlags(sub, &a.slam.guard, &a.weak_ratio);
   sub->add_option("--threads", a.slam.threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", a.evaluate,
                 "Print ATE and RPE against the sequence's own ground truth");

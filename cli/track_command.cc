@@ -28,6 +28,7 @@ struct TrackArgs {
   std::vector<int> iterations = {10, 5, 4};
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
   double min_step_m = ProjectiveIcpOptions{}.converged_translation_m;
+  double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
   bool evaluate = false;
   bool quiet = false;
 };
@@ -36,7 +37,7 @@ int RunTrack(TrackArgs a) {
   ApplyTrackingFlags("track", a.prior, a.iterations, a.odometry.threads, a.odometry.max_frames,
                      &a.odometry.prior, &a.odometry.frame, &a.odometry.icp);
   ApplyMinStep("track", OptionSpelling::kFlag, a.min_step_m, &a.odometry.icp);
-  CheckGuardFlags("track", a.odometry.icp);
+  ApplyWeakRatio("track", OptionSpelling::kFlag, a.weak_ratio, &a.odometry.icp);
 
   ApplyIntrinsicsOption(a.intrinsics, "track", &a.sequence);
 
@@ -142,7 +143,7 @@ Command AddTrackCommand(CLI::App& app) {
                   "A pyramid level ends when a step moves the camera less than this (metres) and "
                   "turns it less than this many radians")
       ->capture_default_str();
-  AddGuardFlags(sub, &args->odometry.guard, &args->odometry.icp);
+  AddGuardFlags(sub, &args->odometry.guard, &args->weak_ratio);
   sub->add_option("--threads", args->odometry.threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", args->evaluate,
                 "Print ATE and RPE against the sequence's own ground truth");

@@ -303,6 +303,8 @@ py::dict TrackDefaults() {
   d["depth_weights"] = o.icp.weighting.depth_noise;
   d["huber"] = o.icp.weighting.huber_delta_m;
   d["min_step"] = o.icp.converged_translation_m;
+  d["guard"] = o.guard.enabled;
+  d["weak_ratio"] = o.icp.weak_direction_ratio;
   d["threads"] = o.threads;
   return d;
 }
@@ -310,8 +312,8 @@ py::dict TrackDefaults() {
 py::dict Track(const py::object& source, int first, int max_frames, int stride,
                const std::vector<int>& iterations, const std::string& prior, bool keyframes,
                double min_depth, double max_depth, bool bilateral, double max_distance,
-               double max_angle, bool depth_weights, double huber, double min_step, int threads,
-               const py::object& logger) {
+               double max_angle, bool depth_weights, double huber, double min_step, bool guard,
+               double weak_ratio, int threads, const py::object& logger) {
   OdometryOptions options;
   options.first_frame = first;
   options.max_frames = max_frames;
@@ -328,6 +330,8 @@ py::dict Track(const py::object& source, int first, int max_frames, int stride,
   ApplyTrackingSettings("track", OptionSpelling::kKeyword, prior, iterations, threads, max_frames,
                         &options.prior, &options.frame, &options.icp);
   ApplyMinStep("track", OptionSpelling::kKeyword, min_step, &options.icp);
+  ApplyWeakRatio("track", OptionSpelling::kKeyword, weak_ratio, &options.icp);
+  options.guard.enabled = guard;
 
   std::unique_ptr<ArraySequence> arrays;
   const RgbdSequence& sequence = SequenceOf(source, "track", &arrays);
@@ -394,6 +398,8 @@ py::dict SlamDefaults() {
   d["model_recent"] = o.render.recent_frames;
   d["splat"] = o.render.splat;
   d["color"] = o.color;
+  d["guard"] = o.guard.enabled;
+  d["weak_ratio"] = o.icp.weak_direction_ratio;
   d["threads"] = o.threads;
   return d;
 }
@@ -429,7 +435,7 @@ py::dict Slam(const py::object& source, int first, int max_frames, int stride, i
               double max_depth, double max_distance, double max_angle, double fuse_distance,
               double fuse_angle, int dormant_frames, double cover_radius, bool fold,
               double min_stable_weight, float model_weight, int model_recent, bool splat,
-              bool color, int threads, const py::object& logger) {
+              bool color, bool guard, double weak_ratio, int threads, const py::object& logger) {
   SlamOptions options;
   options.first_frame = first;
   options.max_frames = max_frames;
@@ -453,6 +459,8 @@ py::dict Slam(const py::object& source, int first, int max_frames, int stride, i
   ApplyTrackingSettings("slam", OptionSpelling::kKeyword, prior, iterations, threads, max_frames,
                         &options.prior, &options.frame, &options.icp);
   CheckSlamSettings("slam", OptionSpelling::kKeyword, options);
+  ApplyWeakRatio("slam", OptionSpelling::kKeyword, weak_ratio, &options.icp);
+  options.guard.enabled = guard;
 
   std::unique_ptr<ArraySequence> arrays;
   const RgbdSequence& sequence = SequenceOf(source, "slam", &arrays);
@@ -564,7 +572,7 @@ void AddRgbdFunctions(py::module_& m) {
         py::arg("stride"), py::arg("iterations"), py::arg("prior"), py::arg("keyframes"),
         py::arg("min_depth"), py::arg("max_depth"), py::arg("bilateral"), py::arg("max_distance"),
         py::arg("max_angle"), py::arg("depth_weights"), py::arg("huber"), py::arg("min_step"),
-        py::arg("threads"), py::arg("logger"));
+        py::arg("guard"), py::arg("weak_ratio"), py::arg("threads"), py::arg("logger"));
   m.def("slam_defaults", &SlamDefaults);
   m.def("slam", &Slam, py::arg("source"), py::arg("first"), py::arg("max_frames"),
         py::arg("stride"), py::arg("halve"), py::arg("iterations"), py::arg("prior"),
@@ -572,7 +580,7 @@ void AddRgbdFunctions(py::module_& m) {
         py::arg("fuse_distance"), py::arg("fuse_angle"), py::arg("dormant_frames"),
         py::arg("cover_radius"), py::arg("fold"), py::arg("min_stable_weight"),
         py::arg("model_weight"), py::arg("model_recent"), py::arg("splat"), py::arg("color"),
-        py::arg("threads"), py::arg("logger"));
+        py::arg("guard"), py::arg("weak_ratio"), py::arg("threads"), py::arg("logger"));
   m.def("evaluate_trajectory", &EvaluateTrajectoryErrors, py::arg("est_timestamps"),
         py::arg("est_poses"), py::arg("gt_timestamps"), py::arg("gt_poses"), py::arg("max_dt"),
         py::arg("delta"));

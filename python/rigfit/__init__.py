@@ -585,6 +585,8 @@ def track(
     depth_weights: bool = _TRACK["depth_weights"],
     huber: float = _TRACK["huber"],
     min_step: float = _TRACK["min_step"],
+    guard: bool = _TRACK["guard"],
+    weak_ratio: float = _TRACK["weak_ratio"],
     threads: int = _TRACK["threads"],
 ) -> Trajectory:
     """Frame-to-frame dense RGB-D odometry, as ``rigfit track`` (rgbd/odometry.h).
@@ -614,7 +616,8 @@ def track(
         _frames_source(frames, "track"), operator.index(first), operator.index(max_frames), operator.index(stride),
         [operator.index(n) for n in iterations], str(prior), bool(keyframes), float(min_depth),
         float(max_depth), bool(bilateral), float(max_distance), float(max_angle),
-        bool(depth_weights), float(huber), float(min_step), operator.index(threads), logger)
+        bool(depth_weights), float(huber), float(min_step), bool(guard), float(weak_ratio),
+        operator.index(threads), logger)
     return Trajectory(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
@@ -645,6 +648,8 @@ def slam(
     model_recent: int = _SLAM["model_recent"],
     splat: bool = _SLAM["splat"],
     color: bool = _SLAM["color"],
+    guard: bool = _SLAM["guard"],
+    weak_ratio: float = _SLAM["weak_ratio"],
     threads: int = _SLAM["threads"],
 ) -> SlamResult:
     """Frame-to-model dense RGB-D SLAM, as ``rigfit slam`` (rgbd/slam.h, docs/rgbd.md section 6).
@@ -677,7 +682,8 @@ def slam(
         str(prior), float(min_depth), float(max_depth), float(max_distance), float(max_angle),
         float(fuse_distance), float(fuse_angle), operator.index(dormant_frames),
         float(cover_radius), bool(fold), float(min_stable_weight), float(model_weight),
-        operator.index(model_recent), bool(splat), bool(color), operator.index(threads), logger)
+        operator.index(model_recent), bool(splat), bool(color), bool(guard), float(weak_ratio),
+        operator.index(threads), logger)
     return SlamResult(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[SlamFrame(**f) for f in raw["frames"]], failures=raw["failures"],
