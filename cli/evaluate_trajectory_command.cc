@@ -52,6 +52,11 @@ int RunEvaluateTrajectory(const EvaluateTrajectoryArgs& a) {
           "%.3f deg\n",
           a.delta, e.rpe_pairs, e.rpe_translation_rmse_m * 1e3,
           e.rpe_rotation_rmse_rad * kRadToDeg);
+  const LoopDrift loop = MeasureLoopDrift(est, gt, a.max_dt);
+  Appendf(
+      &summary, "%s %.2f mm / %.3f deg (the motion from the first matched pose to the last)\n",
+      loop.closed ? "closed loop (the ground truth ends where it starts): end drift" : "end drift",
+      loop.translation_m * 1e3, loop.rotation_rad * kRadToDeg);
   std::fputs(summary.c_str(), stdout);
   if (!a.report_dir.empty()) {
     for (const std::string& file :

@@ -53,11 +53,78 @@ std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Traject
               "end-point drift: not measured (the first frame has no ground-truth pose within "
               "0.02 s, or the camera did not move)\n");
     }
+    const LoopDrift loop = MeasureLoopDrift(estimate, gt, 0.02);
+    if (loop.closed) {
+      Appendf(&text,
+              "closed loop: end drift %.2f mm / %.3f deg (the last pose against the first)\n",
+              loop.translation_m * 1e3, loop.rotation_rad * kRadToDeg);
+    }
   } catch (const std::invalid_argument& error) {
     // The trajectory is written; only the comparison is impossible.
     log.Warning(std::string("--evaluate: ") + error.what());
   }
   return text;
+}
+
+void AddGuardFlags(CLI::App* sub, GuardOptions* guard, double* weak_ratio) {
+  sub->add_flag("--guard,!--no-guard", guard->enabled,
+                "Guard against divergence: damp the constant-velocity prior along weak "
+                "directions, re-track a frame that jumps, loses its matches or whose residual "
+                "rises from the last good pose, count it recovered or diverged (default; "
+                "docs/rgbd.md)");
+  sub->add_option("--weak-ratio", *weak_ratio,
+                  "A direction of the motion is weak (held at the prediction) when its "
+                  "eigenvalue of the scaled information matrix is below this share of the "
+                  "largest")
+      ->capture_default_str();
+}
+
+void CountWeakDirections(const TrackResult& track, GuardCounts* counts) {
+  for (const Vec6& weak : track.weak) ++counts->weak_names[WeakDirectionName(weak)];
+}
+
+namespace {
+
+std::string WeakNamesText(const GuardCounts& counts) {
+  std::string text;
+  for (const auto& [name, frames] : counts.weak_names) {
+    Appendf(&text, "%s%s (%d)", text.empty() ? "" : ", ", name.c_str(), frames);
+  }
+  return text;
+}
+
+}  // namespace
+
+std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
+  if (counts.weak_frames > 0) {
+    log.Warning(std::to_string(counts.weak_frames) +
+                " frame(s) saw too little structure to fix every direction of the motion (a flat "
+                "wall, a floor): " +
+                WeakNamesText(counts) + " held at the prediction");
+  }
+  if (counts.diverged > 0) {
+    log.Warning(std::to_string(counts.diverged) +
+                " frame(s) diverged and kept the last good pose (see the warnings above)");
+  }
+  std::string text;
+  Appendf(&text,
+          "degenerate views: %d frame(s) with weak directions held; divergence: %d frame(s) "
+          "recovered, %d diverged\n",
+          counts.weak_frames, counts.recovered, counts.diverged);
+  return text;
+}
+
+std::vector<std::string> GuardMetadata(const std::string& command, const GuardCounts& counts) {
+  std::vector<std::string> lines;
+  std::string line;
+  Appendf(&line,
+          "rigfit %s: frames %d, failed %d, restarts %d, recovered %d, diverged %d, "
+          "weak-direction frames %d",
+          command.c_str(), counts.frames, counts.failures, counts.restarts, counts.recovered,
+          counts.diverged, counts.weak_frames);
+  lines.push_back(line);
+  if (!counts.weak_names.empty()) lines.push_back("weak directions: " + WeakNamesText(counts));
+  return lines;
 }
 
 }  // namespace rigfit::cli

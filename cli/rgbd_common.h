@@ -2,6 +2,8 @@
 // and the --evaluate lines against the sequence's ground truth.
 #pragma once
 
+#include <CLI/CLI.hpp>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -11,6 +13,7 @@
 #include "core/trajectory.h"
 #include "io/rgbd_sequence.h"
 #include "rgbd/frame.h"
+#include "rgbd/motion_guard.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
 
@@ -36,5 +39,31 @@ std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
 /// sequence has none or the two cannot be compared.
 std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Trajectory& estimate,
                                      const Log& log);
+
+/// The guard's flags both commands take: --guard/--no-guard and --weak-ratio (into
+/// *weak_ratio, applied by rgbd/tracking_options.h's ApplyWeakRatio).
+void AddGuardFlags(CLI::App* sub, GuardOptions* guard, double* weak_ratio);
+
+/// What a run's frames went through, for the summary and the trajectory's metadata.
+struct GuardCounts {
+  int frames = 0;
+  int failures = 0;
+  int restarts = 0;
+  int recovered = 0;
+  int diverged = 0;
+  int weak_frames = 0;
+  std::map<std::string, int> weak_names;  ///< WeakDirectionName -> frames held along it
+};
+
+/// Adds a tracked frame's weak directions to counts->weak_names.
+void CountWeakDirections(const TrackResult& track, GuardCounts* counts);
+
+/// The guard's line of the summary: "degenerate views: ...; divergence: R recovered, D
+/// diverged"; also warns (log) when frames had weak directions, naming them.
+std::string GuardSummaryText(const GuardCounts& counts, const Log& log);
+
+/// The '#' lines of the TUM output: "<command>: frames F, failed X, restarts S, recovered R,
+/// diverged D, weak-direction frames W" and, when any, the weak directions' counts.
+std::vector<std::string> GuardMetadata(const std::string& command, const GuardCounts& counts);
 
 }  // namespace rigfit::cli

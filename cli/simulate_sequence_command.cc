@@ -35,6 +35,7 @@ struct SimulateSequenceArgs {
   bool force = false;
   bool no_color = false;
   std::string noise = "kinect";
+  std::string lone_plane = "none";
   SimSequenceOptions sequence;
 };
 
@@ -49,6 +50,17 @@ void CheckArgs(const SimulateSequenceArgs& a) {
   if (!(o.rate_hz > 0.0) || !std::isfinite(o.rate_hz)) fail("--rate must be a finite number > 0");
   if (!(o.speed_mps > 0.0 && o.speed_mps <= kMaxSpeedMps)) {
     fail("--speed must be in (0, " + std::to_string(static_cast<int>(kMaxSpeedMps)) + "] m/s");
+  }
+  if (o.closed_loop && o.frames < 2) fail("--closed-loop needs --frames of at least 2");
+  const LonePlaneStretch& l = o.lone_plane;
+  if (!(l.start_s >= 0.0 && std::isfinite(l.start_s))) {
+    fail("--lone-plane-start must be a finite number >= 0 (seconds)");
+  }
+  if (!(l.seconds > 0.0 && std::isfinite(l.seconds))) {
+    fail("--lone-plane-seconds must be a finite number > 0");
+  }
+  if (!(l.turn_s > 0.0 && std::isfinite(l.turn_s))) {
+    fail("--lone-plane-turn must be a finite number > 0");
   }
 }
 
@@ -72,6 +84,9 @@ std::vector<std::uint16_t> TumDepth(const std::vector<float>& depth_m) {
 int RunSimulateSequence(SimulateSequenceArgs a) {
   a.sequence.noise = a.noise == "none" ? SequenceNoise::kNone : SequenceNoise::kKinect;
   a.sequence.color = !a.no_color;
+  a.sequence.lone_plane.plane = a.lone_plane == "floor"  ? LonePlane::kFloor
+                                : a.lone_plane == "wall" ? LonePlane::kWall
+                                                         : LonePlane::kNone;
   CheckArgs(a);
   // Any earlier content: the frames of an earlier, longer run would stay beside new ones.
   PrepareOutputDir("simulate-sequence", a.out_dir, a.force, {});
@@ -120,9 +135,11 @@ int RunSimulateSequence(SimulateSequenceArgs a) {
   const PinholeIntrinsics K = SequenceIntrinsics(o.width, o.height);
   std::printf(
       "simulate-sequence: %d frames, %dx%d at %g Hz (fx %g, fy %g, cx %g, cy %g), seed %llu, "
-      "noise %s%s, path %.2f m -> %s\n",
+      "noise %s%s%s%s, path %.2f m -> %s\n",
       o.frames, o.width, o.height, o.rate_hz, K.fx, K.fy, K.cx, K.cy,
-      static_cast<unsigned long long>(o.seed), a.noise.c_str(), o.bare ? ", bare room" : "", path_m,
+      static_cast<unsigned long long>(o.seed), a.noise.c_str(), o.bare ? ", bare room" : "",
+      o.closed_loop ? ", one closed loop" : "",
+      a.lone_plane == "none" ? "" : (", lone " + a.lone_plane + " stretch").c_str(), path_m,
       a.out_dir.c_str());
   return kExitOk;
 }
@@ -155,6 +172,25 @@ Command AddSimulateSequenceCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_flag("--no-color", args->no_color, "Depth only: no rgb/ and rgb.txt");
   sub->add_flag("--bare", o.bare, "Floor and walls only");
+  sub->add_flag("--closed-loop", o.closed_loop,
+                "Walk exactly one loop: the speed is set so that the last frame is back at the "
+                "first frame's pose (--speed ignored)");
+  sub->add_option("--lone-plane", args->lone_plane,
+                  "A stretch that sees one plane only: none, floor (the camera turns to look 75 "
+                  "deg down, only the floor rendered) or wall (it turns to face the nearest "
+                  "wall, only that wall rendered)")
+      ->check(CLI::IsMember({"none", "floor", "wall"}))
+      ->capture_default_str();
+  sub->add_option("--lone-plane-start", o.lone_plane.start_s,
+                  "Seconds from which the camera sees only the lone plane (it turns toward it "
+                  "--lone-plane-turn seconds before and back after)")
+      ->capture_default_str();
+  sub->add_option("--lone-plane-seconds", o.lone_plane.seconds,
+                  "How long the camera sees only the lone plane, seconds")
+      ->capture_default_str();
+  sub->add_option("--lone-plane-turn", o.lone_plane.turn_s,
+                  "Seconds the camera takes to turn toward the lone plane, and back")
+      ->capture_default_str();
   sub->add_flag("--force", args->force, "Write into DIR even if it is not empty");
   return {sub, [args] { return RunSimulateSequence(*args); }};
 }

@@ -23,6 +23,7 @@
 #include "report/trajectory_report.h"
 #include "rgbd/slam.h"
 #include "rgbd/slam_options.h"
+#include "rgbd/tracking_options.h"
 
 namespace rigfit::cli {
 namespace {
@@ -38,6 +39,7 @@ struct SlamArgs {
   std::string prior = "constant-velocity";
   std::vector<int> iterations = {10, 5, 4};
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
+  double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
   bool evaluate = false;
   bool quiet = false;
 };
@@ -69,6 +71,7 @@ int RunSlamCommand(SlamArgs a) {
   ApplyTrackingFlags("slam", a.prior, a.iterations, a.slam.threads, a.slam.max_frames,
                      &a.slam.prior, &a.slam.frame, &a.slam.icp);
   CheckSlamSettings("slam", OptionSpelling::kFlag, a.slam);
+  ApplyWeakRatio("slam", OptionSpelling::kFlag, a.weak_ratio, &a.slam.icp);
   ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
@@ -82,16 +85,24 @@ int RunSlamCommand(SlamArgs a) {
     std::fprintf(stderr, "slam: %d/%d frames, map %d points\n", done, total, frame.map_size);
   };
   const SlamResult result = RunSlam(*sequence, a.slam, log, progress);
-  WriteTumTrajectory(a.out_path, result.trajectory);
-  if (!a.map_path.empty()) WritePly(a.map_path, SurfelMapToPly(result.map));
-
   const int frames = static_cast<int>(result.frames.size());
   int largest = 0;
   double matched = 0.0;
+  GuardCounts counts{frames,
+                     result.failures,
+                     result.restarts,
+                     result.recovered,
+                     result.diverged,
+                     result.weak_frames,
+                     {}};
   for (const SlamFrame& frame : result.frames) {
     largest = std::max(largest, frame.map_size);
     matched += frame.track.matched_ratio;
+    CountWeakDirections(frame.track, &counts);
   }
+  WriteTumTrajectory(a.out_path, result.trajectory, GuardMetadata("slam", counts));
+  if (!a.map_path.empty()) WritePly(a.map_path, SurfelMapToPly(result.map));
+
   const double work_s = result.preprocess_s + result.render_s + result.track_s + result.fuse_s;
   std::string summary;
   Appendf(&summary, "tracked and fused %d frames (%d failed, %d restarts%s) -> %s\n", frames,
@@ -108,6 +119,7 @@ int RunSlamCommand(SlamArgs a) {
           "tracking %.2f, fusion %.2f (%.1f frames/s without loading)\n",
           frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s,
           result.render_s, result.track_s, result.fuse_s, work_s > 0.0 ? frames / work_s : 0.0);
+  summary += GuardSummaryText(counts, log);
   if (a.evaluate) summary += TrajectoryEvaluationText(*sequence, result.trajectory, log);
   std::fputs(summary.c_str(), stdout);
   if (!a.report_dir.empty()) {
@@ -211,6 +223,7 @@ Command AddSlamCommand(CLI::App& app) {
       "Render each map point over its surfel disc, or on its nearest pixel only (default)");
   sub->add_flag("--color,!--no-color", a.slam.color,
                 "Fuse the sequence's registered colour when it has one (default)");
+  AddGuardFlags(sub, &a.slam.guard, &a.weak_ratio);
   sub->add_option("--threads", a.slam.threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", a.evaluate,
                 "Print ATE and RPE against the sequence's own ground truth");

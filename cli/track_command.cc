@@ -28,6 +28,7 @@ struct TrackArgs {
   std::vector<int> iterations = {10, 5, 4};
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
   double min_step_m = ProjectiveIcpOptions{}.converged_translation_m;
+  double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
   bool evaluate = false;
   bool quiet = false;
 };
@@ -36,6 +37,7 @@ int RunTrack(TrackArgs a) {
   ApplyTrackingFlags("track", a.prior, a.iterations, a.odometry.threads, a.odometry.max_frames,
                      &a.odometry.prior, &a.odometry.frame, &a.odometry.icp);
   ApplyMinStep("track", OptionSpelling::kFlag, a.min_step_m, &a.odometry.icp);
+  ApplyWeakRatio("track", OptionSpelling::kFlag, a.weak_ratio, &a.odometry.icp);
 
   ApplyIntrinsicsOption(a.intrinsics, "track", &a.sequence);
 
@@ -50,22 +52,23 @@ int RunTrack(TrackArgs a) {
     std::fprintf(stderr, "track: %d/%d frames\n", done, total);
   };
   const OdometryResult result = RunOdometry(*sequence, a.odometry, log, progress);
-  WriteTumTrajectory(a.out_path, result.trajectory);
 
   const int frames = static_cast<int>(result.frames.size());
   int keyframes = 0;
-  int weak = 0;
   double matched = 0.0;
+  GuardCounts counts{frames,
+                     result.failures,
+                     result.restarts,
+                     result.recovered,
+                     result.diverged,
+                     result.weak_frames,
+                     {}};
   for (const OdometryFrame& frame : result.frames) {
     keyframes += frame.keyframe ? 1 : 0;
-    weak += frame.track.weak_directions > 0 ? 1 : 0;
     matched += frame.track.matched_ratio;
+    CountWeakDirections(frame.track, &counts);
   }
-  if (weak > 0) {
-    log.Warning(std::to_string(weak) +
-                " frame(s) saw too little structure to fix every direction of the motion (a flat "
-                "wall, a floor): those directions kept their predicted value");
-  }
+  WriteTumTrajectory(a.out_path, result.trajectory, GuardMetadata("track", counts));
   const double tracked_s = result.preprocess_s + result.track_s;
   std::printf("tracked %d frames (%d failed, %d restarts, %d keyframes) -> %s\n", frames,
               result.failures, result.restarts, keyframes, a.out_path.c_str());
@@ -74,6 +77,7 @@ int RunTrack(TrackArgs a) {
       "(%.1f frames/s without loading)\n",
       frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s, result.track_s,
       tracked_s > 0.0 ? frames / tracked_s : 0.0);
+  std::fputs(GuardSummaryText(counts, log).c_str(), stdout);
   if (a.evaluate) {
     std::fputs(TrajectoryEvaluationText(*sequence, result.trajectory, log).c_str(), stdout);
   }
@@ -139,6 +143,7 @@ Command AddTrackCommand(CLI::App& app) {
                   "A pyramid level ends when a step moves the camera less than this (metres) and "
                   "turns it less than this many radians")
       ->capture_default_str();
+  AddGuardFlags(sub, &args->odometry.guard, &args->weak_ratio);
   sub->add_option("--threads", args->odometry.threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", args->evaluate,
                 "Print ATE and RPE against the sequence's own ground truth");

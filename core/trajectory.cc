@@ -141,4 +141,26 @@ EndPointDrift MeasureEndPointDrift(const Trajectory& est, const Trajectory& gt, 
   return drift;
 }
 
+LoopDrift MeasureLoopDrift(const Trajectory& est, const Trajectory& gt, double max_dt) {
+  const std::vector<std::pair<int, int>> pairs =
+      AssociateByTimestamp(est.timestamps, gt.timestamps, max_dt);
+  if (pairs.size() < 2) {
+    throw std::invalid_argument(
+        "the loop's end drift needs at least 2 poses matched in time, got " +
+        std::to_string(pairs.size()));
+  }
+  constexpr double kClosedM = 1e-3;
+  constexpr double kClosedRad = 0.1 * kDegToRad;
+  const auto& [e0, g0] = pairs.front();
+  const auto& [e1, g1] = pairs.back();
+  const Pose gt_motion = gt.poses[g0].inverse() * gt.poses[g1];
+  const Pose error = gt_motion.inverse() * (est.poses[e0].inverse() * est.poses[e1]);
+  LoopDrift drift;
+  drift.translation_m = error.translation().norm();
+  drift.rotation_rad = LogSO3(error.linear()).norm();
+  drift.closed =
+      gt_motion.translation().norm() < kClosedM && LogSO3(gt_motion.linear()).norm() < kClosedRad;
+  return drift;
+}
+
 }  // namespace rigfit

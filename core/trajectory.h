@@ -69,4 +69,16 @@ struct EndPointDrift {
 };
 EndPointDrift MeasureEndPointDrift(const Trajectory& est, const Trajectory& gt, double max_dt);
 
+/// The end drift of a loop: the error of the estimated motion from the first matched pose to
+/// the last, E = (T_gt_first^-1 T_gt_last)^-1 (T_est_first^-1 T_est_last), independent of the
+/// estimate's frame. On a closed loop (the ground truth's last pose back at its first within
+/// 1 mm and 0.1 degree: `closed`) it is the last pose against the first. Throws
+/// std::invalid_argument with fewer than 2 pairs (AssociateByTimestamp with max_dt).
+struct LoopDrift {
+  double translation_m = 0.0;  ///< |E's translation|
+  double rotation_rad = 0.0;   ///< E's rotation angle
+  bool closed = false;
+};
+LoopDrift MeasureLoopDrift(const Trajectory& est, const Trajectory& gt, double max_dt);
+
 }  // namespace rigfit

@@ -50,9 +50,12 @@ Trajectory ReadTumTrajectory(const std::string& path) {
   return trajectory;
 }
 
-void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory) {
+void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory,
+                        const std::vector<std::string>& comments) {
   std::ostringstream out;
-  out << "# timestamp tx ty tz qx qy qz qw\n" << std::setprecision(17);
+  out << "# timestamp tx ty tz qx qy qz qw\n";
+  for (const std::string& comment : comments) out << "# " << comment << '\n';
+  out << std::setprecision(17);
   for (size_t k = 0; k < trajectory.poses.size(); ++k) {
     const Pose& T = trajectory.poses[k];
     const Eigen::Quaterniond q(T.linear());

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/trajectory.h"
 
@@ -16,6 +17,9 @@ namespace rigfit {
 Trajectory ReadTumTrajectory(const std::string& path);
 
 /// Writes a TUM trajectory (every number with enough digits to read back exactly), atomically.
-void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory);
+/// Each line of `comments` (e.g. the run's counts of failed and recovered frames) is written
+/// after the column header as a '#' line, which readers skip.
+void WriteTumTrajectory(const std::string& path, const Trajectory& trajectory,
+                        const std::vector<std::string>& comments = {});
 
 }  // namespace rigfit

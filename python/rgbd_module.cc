@@ -22,6 +22,7 @@
 #include "io/trajectory_tum.h"
 #include "python/convert.h"
 #include "python/keywords.h"
+#include "rgbd/motion_guard.h"
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
 #include "rgbd/slam_options.h"
@@ -282,17 +283,25 @@ py::dict TrackedFrameDict(int index, double timestamp, const TrackResult& track)
   d["matched_ratio"] = track.matched_ratio;
   d["rmse_m"] = track.rmse_m;
   d["weak_directions"] = track.weak_directions;
+  py::list weak;
+  for (const Vec6& direction : track.weak) weak.append(WeakDirectionName(direction));
+  d["weak_direction_names"] = weak;
   return d;
 }
 
-/// The timestamps (N,) and poses (N, 4, 4) of a run, its failures and restarts.
-py::dict RunToDict(const Trajectory& trajectory, int failures, int restarts) {
-  const py::tuple arrays = TrajectoryToTuple(trajectory);
+/// The timestamps (N,) and poses (N, 4, 4) of a run (OdometryResult or SlamResult), its
+/// failures, restarts and what the motion guard did.
+template <typename Result>
+py::dict RunToDict(const Result& result) {
+  const py::tuple arrays = TrajectoryToTuple(result.trajectory);
   py::dict out;
   out["timestamps"] = arrays[0];
   out["poses"] = arrays[1];
-  out["failures"] = failures;
-  out["restarts"] = restarts;
+  out["failures"] = result.failures;
+  out["restarts"] = result.restarts;
+  out["recovered"] = result.recovered;
+  out["diverged"] = result.diverged;
+  out["weak_frames"] = result.weak_frames;
   return out;
 }
 
@@ -303,6 +312,7 @@ struct TrackKeywords {
   std::vector<int> iterations = OdometryOptions{}.icp.iterations;
   std::string prior = MotionPriorName(OdometryOptions{}.prior);
   double min_step = OdometryOptions{}.icp.converged_translation_m;
+  double weak_ratio = OdometryOptions{}.icp.weak_direction_ratio;
 };
 
 const KeywordTable<TrackKeywords>& TrackTable() {
@@ -323,6 +333,8 @@ const KeywordTable<TrackKeywords>& TrackTable() {
           .Add("depth_weights", [](K& k) { return &k.odometry.icp.weighting.depth_noise; })
           .Add("huber", [](K& k) { return &k.odometry.icp.weighting.huber_delta_m; })
           .Add("min_step", [](K& k) { return &k.min_step; })
+          .Add("guard", [](K& k) { return &k.odometry.guard.enabled; })
+          .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
           .Add("threads", [](K& k) { return &k.odometry.threads; });
   return table;
 }
@@ -334,6 +346,7 @@ OdometryOptions TrackOptionsOf(const py::dict& keywords) {
   ApplyTrackingSettings("track", OptionSpelling::kKeyword, k.prior, k.iterations, o.threads,
                         o.max_frames, &o.prior, &o.frame, &o.icp);
   ApplyMinStep("track", OptionSpelling::kKeyword, k.min_step, &o.icp);
+  ApplyWeakRatio("track", OptionSpelling::kKeyword, k.weak_ratio, &o.icp);
   return o;
 }
 
@@ -357,9 +370,11 @@ py::dict Track(const py::object& source, const py::dict& keywords, const py::obj
     const OdometryFrame& f = result.frames[k];
     py::dict d = TrackedFrameDict(f.index, result.trajectory.timestamps[k], f.track);
     d["keyframe"] = f.keyframe;
+    d["recovered"] = f.recovered;
+    d["diverged"] = f.diverged;
     frames.append(d);
   }
-  py::dict out = RunToDict(result.trajectory, result.failures, result.restarts);
+  py::dict out = RunToDict(result);
   out["frames"] = frames;
   py::dict timings;
   timings["load_s"] = result.load_s;
@@ -375,6 +390,7 @@ struct SlamKeywords {
   SlamOptions slam;
   std::vector<int> iterations = SlamOptions{}.icp.iterations;
   std::string prior = MotionPriorName(SlamOptions{}.prior);
+  double weak_ratio = SlamOptions{}.icp.weak_direction_ratio;
 };
 
 const KeywordTable<SlamKeywords>& SlamTable() {
@@ -401,6 +417,8 @@ const KeywordTable<SlamKeywords>& SlamTable() {
           .Add("model_recent", [](K& k) { return &k.slam.render.recent_frames; })
           .Add("splat", [](K& k) { return &k.slam.render.splat; })
           .Add("color", [](K& k) { return &k.slam.color; })
+          .Add("guard", [](K& k) { return &k.slam.guard.enabled; })
+          .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
           .Add("threads", [](K& k) { return &k.slam.threads; });
   return table;
 }
@@ -412,6 +430,7 @@ SlamOptions SlamOptionsOf(const py::dict& keywords) {
   ApplyTrackingSettings("slam", OptionSpelling::kKeyword, k.prior, k.iterations, o.threads,
                         o.max_frames, &o.prior, &o.frame, &o.icp);
   CheckSlamSettings("slam", OptionSpelling::kKeyword, o);
+  ApplyWeakRatio("slam", OptionSpelling::kKeyword, k.weak_ratio, &o.icp);
   return o;
 }
 
@@ -470,10 +489,12 @@ py::dict Slam(const py::object& source, const py::dict& keywords, const py::obje
     d["folded"] = f.fusion.folded;
     d["removed"] = f.fusion.removed;
     d["map_size"] = f.map_size;
+    d["recovered"] = f.recovered;
+    d["diverged"] = f.diverged;
     frames.append(d);
     map_sizes.push_back(f.map_size);
   }
-  py::dict out = RunToDict(result.trajectory, result.failures, result.restarts);
+  py::dict out = RunToDict(result);
   out["frames"] = frames;
   const auto n = static_cast<py::ssize_t>(map_sizes.size());
   out["map_sizes"] = VectorToNumpy(std::move(map_sizes), {n});

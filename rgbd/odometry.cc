@@ -28,8 +28,10 @@ OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& 
   FramePyramid reference;
   Pose T_world_reference = Pose::Identity();
   Pose T_world_previous = Pose::Identity();
-  Pose velocity = Pose::Identity();  // T_previous_current of the last step
+  Pose velocity = Pose::Identity();  // T_previous_current of the last step, weak parts damped
+  double previous_timestamp = 0.0;
   int failures_in_a_row = 0;
+  MotionGuard guard(options.guard);
   for (std::size_t k = 0; k < indices.size(); ++k) {
     auto start = std::chrono::steady_clock::now();
     const RgbdFrame frame = sequence.Frame(indices[k]);
@@ -50,18 +52,33 @@ OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& 
       const Pose predicted = options.prior == MotionPrior::kConstantVelocity
                                  ? T_world_previous * velocity
                                  : T_world_previous;
-      tracked.track = TrackProjective(pyramid, reference, T_world_reference.inverse() * predicted,
-                                      options.icp, options.threads);
+      const TrackFrom track_from = [&](const Pose& T_world_start) {
+        TrackResult track =
+            TrackProjective(pyramid, reference, T_world_reference.inverse() * T_world_start,
+                            options.icp, options.threads);
+        return std::make_pair(track, Reorthonormalized(T_world_reference * track.T_target_source));
+      };
+      const GuardedTrack guarded =
+          guard.Track(track_from, predicted, T_world_previous, frame.timestamp - previous_timestamp,
+                      "frame " + std::to_string(indices[k]) + " (" + frame.source + ")", log);
       result.track_s += SecondsSince(start);
+      tracked.track = guarded.track;
+      tracked.recovered = guarded.recovered;
+      tracked.diverged = guarded.diverged;
+      result.recovered += guarded.recovered ? 1 : 0;
+      result.diverged += guarded.diverged ? 1 : 0;
       if (tracked.track.success) {
-        T_world_current = Reorthonormalized(T_world_reference * tracked.track.T_target_source);
+        T_world_current = guarded.T_world_camera;
         failures_in_a_row = 0;
+        result.weak_frames += tracked.track.weak_directions > 0 ? 1 : 0;
       } else {
-        T_world_current = Reorthonormalized(predicted);
+        T_world_current = guarded.diverged ? guarded.T_world_camera : Reorthonormalized(predicted);
         ++result.failures;
         ++failures_in_a_row;
-        log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
-                    "): tracking failed: " + tracked.track.message + "; kept the prediction");
+        if (!guarded.diverged) {
+          log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
+                      "): tracking failed: " + tracked.track.message + "; kept the prediction");
+        }
       }
       const Pose from_reference = T_world_reference.inverse() * T_world_current;
       // A failed frame is nobody's reference: the next frame tries the last good one, unless
@@ -85,9 +102,11 @@ OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& 
             LogSO3(from_reference.linear()).norm() > options.keyframe_rotation_deg * kDegToRad ||
             tracked.track.matched_ratio < options.keyframe_min_matched_ratio));
     }
-    velocity = Reorthonormalized(T_world_previous.inverse() * T_world_current);
+    velocity = NextVelocity(T_world_previous, T_world_current, T_world_reference, tracked.track,
+                            tracked.diverged, options.guard);
     if (k == 0) velocity = Pose::Identity();
     T_world_previous = T_world_current;
+    previous_timestamp = frame.timestamp;
     if (tracked.keyframe) {
       reference = std::move(pyramid);
       T_world_reference = T_world_current;

@@ -201,6 +201,7 @@ StepSolution SolveStep(const NormalEquations& equations, double length_m, double
   const Eigen::SelfAdjointEigenSolver<Mat6> eigen(H_y);
   const double largest = eigen.eigenvalues()(5);
   if (!(largest > 0.0)) return solution;
+  solution.conditioning = std::max(0.0, eigen.eigenvalues()(0)) / largest;
   Vec6 y = Vec6::Zero();
   for (int k = 0; k < 6; ++k) {
     const double lambda = eigen.eigenvalues()(k);
@@ -241,6 +242,7 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
     return result;
   }
   const double length_m = depth_sum / valid;
+  result.length_m = length_m;
 
   Pose T = T_init;
   NormalEquations last;
@@ -257,6 +259,8 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
       T = ApplyLeftUpdate(step.x, T);
       ++result.iterations;
       result.weak_directions = step.weak_directions;
+      result.weak = step.weak;
+      result.conditioning = step.conditioning;
       if (Converged(step.x, options)) break;
     }
   }

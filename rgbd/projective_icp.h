@@ -111,6 +111,8 @@ struct StepSolution {
   Vec6 x = Vec6::Zero();  ///< [w; dt]: rotation vector (rad) and translation (m)
   int weak_directions = 0;
   std::vector<Vec6> weak;  ///< the held directions, unit in the scaled space
+  /// The smallest eigenvalue of the scaled H over its largest (0 without a system).
+  double conditioning = 0.0;
 };
 
 /// Solves H x = -g in the span of the well-determined directions; the weak directions
@@ -128,8 +130,9 @@ struct ProjectiveIcpOptions {
   /// Converged when the step's rotation and translation are both below these.
   double converged_rotation_rad = 1e-4;
   double converged_translation_m = 1e-4;
-  /// Weak directions: eigenvalue below this ratio of the largest (scaled by the mean depth).
-  double weak_direction_ratio = 1e-4;
+  /// Weak directions: eigenvalue below this ratio of the largest (scaled by the mean depth;
+  /// docs/rgbd.md, "Degenerate views and divergence", for the value).
+  double weak_direction_ratio = 1e-3;
   /// Tracking fails when fewer than this share of the finest level's valid source pixels
   /// are matched at the end (the frames do not overlap, or the motion was too fast).
   double min_matched_ratio = 0.1;
@@ -147,6 +150,11 @@ struct TrackResult {
   double matched_ratio = 0.0;
   double rmse_m = 0.0;      ///< RMS point-to-plane distance of the final pairs
   int weak_directions = 0;  ///< held at the finest level's last step
+  /// Those directions (StepSolution::weak: [w; dt] with the rotation scaled by length_m, in
+  /// the target camera's axes) and that step's conditioning.
+  std::vector<Vec6> weak;
+  double conditioning = 0.0;
+  double length_m = 1.0;  ///< the scale of the rotation: the source's mean depth
 };
 
 /// Coarse-to-fine projective ICP of `source` onto `target` from T_init (T_target_source):

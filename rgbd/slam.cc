@@ -173,8 +173,11 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
 
   SlamResult result;
   Pose T_world_previous = Pose::Identity();
-  Pose velocity = Pose::Identity();  // T_previous_current of the last step
+  Pose velocity = Pose::Identity();        // T_previous_current of the last step, weak parts damped
+  Pose T_world_target = Pose::Identity();  // where the model was rendered for the last track
+  double previous_timestamp = 0.0;
   int failures_in_a_row = 0;
+  MotionGuard guard(options.guard);
   bool use_color = false;
   FramePyramid model;  // the rendered model and its z-buffer, reused every frame
   ZBuffer zbuffer;
@@ -210,29 +213,44 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
                                  : T_world_previous;
       start = std::chrono::steady_clock::now();
       const FrameLevel& base = pyramid.levels[0];
-      model.levels.resize(1);
-      RenderModel(result.map, predicted, base.width, base.height, base.intrinsics, options.render,
-                  indices[k], options.threads, &zbuffer, &model.levels[0], &view);
-      BuildCoarserLevels(&model, options.frame.levels, options.frame.max_depth_jump_ratio,
-                         options.threads);
-      tracked.model_pixels = static_cast<int>(model.levels[0].valid_pixels.size());
-      result.render_s += SecondsSince(start);
-      start = std::chrono::steady_clock::now();
-      // The model is rendered at the prediction: the frame starts at the identity in it.
-      tracked.track =
-          TrackProjective(pyramid, model, Pose::Identity(), options.icp, options.threads);
+      // The model rendered at the start pose: the frame starts at the identity in it.
+      const TrackFrom track_from = [&](const Pose& T_world_start) {
+        const auto render_start = std::chrono::steady_clock::now();
+        model.levels.resize(1);
+        RenderModel(result.map, T_world_start, base.width, base.height, base.intrinsics,
+                    options.render, indices[k], options.threads, &zbuffer, &model.levels[0], &view);
+        BuildCoarserLevels(&model, options.frame.levels, options.frame.max_depth_jump_ratio,
+                           options.threads);
+        tracked.model_pixels = static_cast<int>(model.levels[0].valid_pixels.size());
+        result.render_s += SecondsSince(render_start);
+        TrackResult track =
+            TrackProjective(pyramid, model, Pose::Identity(), options.icp, options.threads);
+        return std::make_pair(track, Reorthonormalized(T_world_start * track.T_target_source));
+      };
+      const GuardedTrack guarded =
+          guard.Track(track_from, predicted, T_world_previous, frame.timestamp - previous_timestamp,
+                      "frame " + std::to_string(indices[k]) + " (" + frame.source + ")", log);
       result.track_s += SecondsSince(start);
+      tracked.track = guarded.track;
+      tracked.recovered = guarded.recovered;
+      tracked.diverged = guarded.diverged;
+      result.recovered += guarded.recovered ? 1 : 0;
+      result.diverged += guarded.diverged ? 1 : 0;
+      T_world_target = guarded.recovered ? T_world_previous : predicted;
       if (tracked.track.success) {
-        T_world_current = Reorthonormalized(predicted * tracked.track.T_target_source);
+        T_world_current = guarded.T_world_camera;
         failures_in_a_row = 0;
+        result.weak_frames += tracked.track.weak_directions > 0 ? 1 : 0;
       } else {
-        T_world_current = Reorthonormalized(predicted);
+        T_world_current = guarded.diverged ? guarded.T_world_camera : Reorthonormalized(predicted);
         fuse = false;
         ++result.failures;
         ++failures_in_a_row;
-        log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
-                    "): tracking failed: " + tracked.track.message +
-                    "; kept the prediction, not fused");
+        if (!guarded.diverged) {
+          log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
+                      "): tracking failed: " + tracked.track.message +
+                      "; kept the prediction, not fused");
+        }
         if (failures_in_a_row >= options.restart_after_failures && !base.valid_pixels.empty()) {
           log.Warning("lost track for " + std::to_string(failures_in_a_row) +
                       " frames: restarted the map from frame " + std::to_string(indices[k]) +
@@ -259,9 +277,11 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
       result.fuse_s += SecondsSince(start);
     }
     tracked.map_size = result.map.size();
-    velocity =
-        k == 0 ? Pose::Identity() : Reorthonormalized(T_world_previous.inverse() * T_world_current);
+    velocity = k == 0 ? Pose::Identity()
+                      : NextVelocity(T_world_previous, T_world_current, T_world_target,
+                                     tracked.track, tracked.diverged, options.guard);
     T_world_previous = T_world_current;
+    previous_timestamp = frame.timestamp;
     result.trajectory.timestamps.push_back(frame.timestamp);
     result.trajectory.poses.push_back(T_world_current);
     result.frames.push_back(tracked);

@@ -61,6 +61,8 @@ struct SlamOptions {
   FusionOptions fusion;
   RenderOptions render;
   MotionPrior prior = MotionPrior::kConstantVelocity;
+  /// Weak directions held, divergence detected and recovered (rgbd/motion_guard.h).
+  GuardOptions guard;
   /// After this many failed frames in a row the map is dropped and restarted from the
   /// current frame at its predicted pose (counted in SlamResult::restarts).
   int restart_after_failures = 5;
@@ -80,11 +82,13 @@ struct SlamOptions {
 
 /// One frame of the run.
 struct SlamFrame {
-  int index = 0;         ///< frame index in the sequence
-  TrackResult track;     ///< against the rendered model (T_target_source: predicted <- frame)
-  int model_pixels = 0;  ///< valid pixels of the rendered model's level 0
-  FusionStats fusion;    ///< what FuseFrame did (zeros for a failed frame: not fused)
-  int map_size = 0;      ///< map points after this frame
+  int index = 0;           ///< frame index in the sequence
+  TrackResult track;       ///< against the rendered model (T_target_source: predicted <- frame)
+  int model_pixels = 0;    ///< valid pixels of the rendered model's level 0
+  FusionStats fusion;      ///< what FuseFrame did (zeros for a failed frame: not fused)
+  int map_size = 0;        ///< map points after this frame
+  bool recovered = false;  ///< suspected of divergence, re-tracked from the last good pose
+  bool diverged = false;   ///< so was the re-track: kept the last good pose, not fused
 };
 
 struct SlamResult {
@@ -93,6 +97,9 @@ struct SlamResult {
   SurfelMap map;     ///< the final map (since the last restart)
   int failures = 0;  ///< frames whose tracking failed (their pose is the prediction)
   int restarts = 0;
+  int recovered = 0;    ///< frames suspected of divergence and recovered (MotionGuard)
+  int diverged = 0;     ///< frames declared diverged (counted in failures too)
+  int weak_frames = 0;  ///< frames tracked with weak directions held
   /// Frames tracked but not fused because they had no colour image while the map (from a
   /// first frame with colour) is coloured.
   int without_color = 0;
@@ -106,9 +113,11 @@ struct SlamResult {
 /// Runs frame-to-model SLAM over the sequence. The first frame's pose is its ground truth
 /// when it has one (the identity otherwise) and it is fused as it is. Every next frame is
 /// tracked against the map rendered at the motion prior's prediction, then fused at the
-/// tracked pose. A frame whose tracking fails keeps the prediction, is counted, warned about
-/// and not fused; after restart_after_failures failures in a row the map restarts from the
-/// current frame. `progress(done, total, frame)` is called after every frame.
+/// tracked pose; the MotionGuard (rgbd/motion_guard.h) re-tracks a suspect frame against the
+/// map rendered at the previous pose, and a diverged frame keeps that pose and is not fused. A
+/// frame whose tracking fails keeps the prediction, is counted, warned about and not fused; after
+/// restart_after_failures failures in a row the map restarts from the current frame.
+/// `progress(done, total, frame)` is called after every frame.
 SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, const Log& log = {},
                    const std::function<void(int, int, const SlamFrame&)>& progress = {});
 

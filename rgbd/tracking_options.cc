@@ -57,4 +57,12 @@ void ApplyMinStep(const std::string& command, OptionSpelling spelling, double mi
   icp->converged_rotation_rad = min_step_m;
 }
 
+void ApplyWeakRatio(const std::string& command, OptionSpelling spelling, double weak_ratio,
+                    ProjectiveIcpOptions* icp) {
+  if (!(weak_ratio > 0.0 && weak_ratio < 1.0)) {
+    throw InputError(command + ": " + OptionName("weak_ratio", spelling) + " must be in (0, 1)");
+  }
+  icp->weak_direction_ratio = weak_ratio;
+}
+
 }  // namespace rigfit

@@ -37,4 +37,10 @@ void ApplyTrackingSettings(const std::string& command, OptionSpelling spelling,
 void ApplyMinStep(const std::string& command, OptionSpelling spelling, double min_step_m,
                   ProjectiveIcpOptions* icp);
 
+/// Sets the weak-direction ratio of `--weak-ratio` (rigfit.track's and rigfit.slam's
+/// weak_ratio; docs/rgbd.md section 4a). Throws InputError "<command>: <option> must be in
+/// (0, 1)".
+void ApplyWeakRatio(const std::string& command, OptionSpelling spelling, double weak_ratio,
+                    ProjectiveIcpOptions* icp);
+
 }  // namespace rigfit

@@ -31,6 +31,9 @@ constexpr double kMinPitchDownDeg = 10.0, kMaxPitchDownDeg = 25.0, kNodDeg = 5.0
 constexpr double kRollDeg = 3.0;
 constexpr int kArcSamples = 4096;  // arc length of a loop, for the speed
 
+// The lone-plane stretch (LonePlaneStretch).
+constexpr double kFloorPitchDeg = -75.0;
+
 constexpr float kNaNf = std::numeric_limits<float>::quiet_NaN();
 
 void CheckOptions(const SimSequenceOptions& o) {
@@ -52,6 +55,39 @@ void CheckOptions(const SimSequenceOptions& o) {
     fail("disparity_constant must be finite and > 0");
   }
   if (!std::isfinite(k.disparity_offset)) fail("disparity_offset must be finite");
+  if (o.closed_loop && o.frames < 2) fail("a closed loop needs at least 2 frames");
+  const LonePlaneStretch& l = o.lone_plane;
+  if (l.plane != LonePlane::kNone &&
+      !(finite_non_negative(l.start_s) && l.seconds > 0.0 && std::isfinite(l.seconds) &&
+        l.turn_s > 0.0 && std::isfinite(l.turn_s))) {
+    fail("the lone-plane stretch needs start_s >= 0, seconds > 0 and turn_s > 0");
+  }
+}
+
+// 0 outside [t0 - turn, t1 + turn], 1 inside [t0, t1], a smoothstep between.
+double StretchBlend(const LonePlaneStretch& l, double t) {
+  const double t0 = l.start_s, t1 = l.start_s + l.seconds;
+  if (t >= t0 && t <= t1) return 1.0;
+  const double u = t < t0 ? 1.0 - (t0 - t) / l.turn_s : 1.0 - (t - t1) / l.turn_s;
+  if (u <= 0.0) return 0.0;
+  return u * u * (3.0 - 2.0 * u);
+}
+
+// The wall slab nearest to `centre` and the yaw of a camera there facing it.
+const OrientedBox& NearestWall(const Scene& scene, const Vec3& centre, double* yaw) {
+  const OrientedBox* nearest = nullptr;
+  for (const OrientedBox& box : scene.boxes) {
+    if (box.kind != SurfaceKind::kWall) continue;
+    if (!nearest || SignedDistance(box, centre) < SignedDistance(*nearest, centre)) {
+      nearest = &box;
+    }
+  }
+  int thin = 0;  // the slab's thickness axis: its normal
+  nearest->half_extents.minCoeff(&thin);
+  const Vec3 local = nearest->R_world_box.transpose() * (centre - nearest->center);
+  const Vec3 toward = -std::copysign(1.0, local(thin)) * nearest->R_world_box.col(thin);
+  *yaw = std::atan2(toward.x(), toward.z());
+  return *nearest;
 }
 
 }  // namespace
@@ -128,6 +164,7 @@ HandheldTrajectory::HandheldTrajectory(const Scene& scene, double speed_mps, std
     length += (p - previous).norm();
     previous = p;
   }
+  loop_length_m_ = length;
   omega_ = 2.0 * M_PI * speed_mps / length;
 }
 
@@ -141,19 +178,30 @@ Vec3 HandheldTrajectory::Centre(double theta) const {
           kThirdHarmonicM * std::sin(3 * theta + f[2]) + kSwayM * std::sin(7 * theta + f[6]));
 }
 
-Pose HandheldTrajectory::At(double t) const {
+HandheldTrajectory::Attitude HandheldTrajectory::AttitudeAt(double t) const {
   const double theta = phase_[0] + direction_ * omega_ * t;
-  const Vec3 centre = Centre(theta);
+  Attitude a;
+  a.centre = Centre(theta);
   // Heading toward the room centre (never at it: the curve keeps about a metre away), then
   // the swing, nod and roll.
-  const double yaw = std::atan2(-centre.x(), -centre.z()) +
-                     kYawSwingDeg * kDegToRad * std::sin(2 * theta + phase_[7]);
-  const double pitch = pitch_ + kNodDeg * kDegToRad * std::sin(3 * theta + phase_[4]);
-  const double roll = kRollDeg * kDegToRad * std::sin(5 * theta + phase_[1]);
-  const Vec3 forward(std::cos(pitch) * std::sin(yaw), std::sin(pitch),
-                     std::cos(pitch) * std::cos(yaw));
-  return CameraLookingAlong(centre, forward, roll);
+  a.yaw = std::atan2(-a.centre.x(), -a.centre.z()) +
+          kYawSwingDeg * kDegToRad * std::sin(2 * theta + phase_[7]);
+  a.pitch = pitch_ + kNodDeg * kDegToRad * std::sin(3 * theta + phase_[4]);
+  a.roll = kRollDeg * kDegToRad * std::sin(5 * theta + phase_[1]);
+  return a;
 }
+
+namespace {
+
+Pose AttitudePose(const HandheldTrajectory::Attitude& a) {
+  const Vec3 forward(std::cos(a.pitch) * std::sin(a.yaw), std::sin(a.pitch),
+                     std::cos(a.pitch) * std::cos(a.yaw));
+  return CameraLookingAlong(a.centre, forward, a.roll);
+}
+
+}  // namespace
+
+Pose HandheldTrajectory::At(double t) const { return AttitudePose(AttitudeAt(t)); }
 
 PinholeIntrinsics SequenceIntrinsics(int width, int height) {
   constexpr double kF = 525.0, kCx = 319.5, kCy = 239.5, kWidth = 640.0, kHeight = 480.0;
@@ -198,7 +246,41 @@ SimulatedSequence::SimulatedSequence(const SimSequenceOptions& options) : option
   CheckOptions(options);
   scene_ = SimulateRoom(options.seed, options.bare);
   trajectory_ = HandheldTrajectory(scene_, options.speed_mps, options.seed);
+  if (options.closed_loop) {
+    options_.speed_mps = trajectory_.LoopLength() / Timestamp(options.frames - 1);
+    trajectory_ = HandheldTrajectory(scene_, options_.speed_mps, options.seed);
+  }
   intrinsics_ = SequenceIntrinsics(options.width, options.height);
+  const LonePlaneStretch& l = options.lone_plane;
+  if (l.plane == LonePlane::kNone) return;
+  lone_plane_scene_ = scene_;
+  lone_plane_scene_.boxes.clear();
+  if (l.plane == LonePlane::kFloor) {
+    for (const OrientedBox& box : scene_.boxes) {
+      if (box.kind == SurfaceKind::kFloor) lone_plane_scene_.boxes.push_back(box);
+    }
+  } else {
+    const Vec3 centre = trajectory_.AttitudeAt(l.start_s + 0.5 * l.seconds).centre;
+    lone_plane_scene_.boxes.push_back(NearestWall(scene_, centre, &lone_plane_yaw_));
+  }
+}
+
+Pose SimulatedSequence::CameraPose(double t) const {
+  HandheldTrajectory::Attitude a = trajectory_.AttitudeAt(t);
+  const LonePlaneStretch& l = options_.lone_plane;
+  if (l.plane == LonePlane::kNone) return AttitudePose(a);
+  const double s = StretchBlend(l, t);
+  const double target_yaw = l.plane == LonePlane::kWall ? lone_plane_yaw_ : a.yaw;
+  const double target_pitch = l.plane == LonePlane::kWall ? 0.0 : kFloorPitchDeg * kDegToRad;
+  a.yaw += s * std::remainder(target_yaw - a.yaw, 2.0 * M_PI);
+  a.pitch += s * (target_pitch - a.pitch);
+  a.roll *= 1.0 - s;
+  return AttitudePose(a);
+}
+
+bool SimulatedSequence::InLonePlaneStretch(double t) const {
+  const LonePlaneStretch& l = options_.lone_plane;
+  return l.plane != LonePlane::kNone && t >= l.start_s && t <= l.start_s + l.seconds;
 }
 
 double SimulatedSequence::Timestamp(int index) const {
@@ -216,9 +298,10 @@ RgbdFrame SimulatedSequence::Frame(int index) const {
   frame.width = options_.width;
   frame.height = options_.height;
   frame.intrinsics = intrinsics_;
-  const Pose T_world_camera = trajectory_.At(frame.timestamp);
+  const Pose T_world_camera = CameraPose(frame.timestamp);
   frame.T_world_camera_gt = T_world_camera;
-  frame.depth_m = RenderDepth(scene_, T_world_camera, intrinsics_, options_.width, options_.height,
+  const Scene& scene = InLonePlaneStretch(frame.timestamp) ? lone_plane_scene_ : scene_;
+  frame.depth_m = RenderDepth(scene, T_world_camera, intrinsics_, options_.width, options_.height,
                               options_.max_depth_m, options_.color ? &frame.color : nullptr);
   if (options_.noise == SequenceNoise::kKinect) {
     SimRng rng(options_.seed, kFrameStream + static_cast<std::uint64_t>(index));
@@ -232,7 +315,7 @@ Trajectory SimulatedSequence::GroundTruth() const {
   Trajectory gt;
   for (int i = 0; i < options_.frames; ++i) {
     gt.timestamps.push_back(Timestamp(i));
-    gt.poses.push_back(trajectory_.At(gt.timestamps.back()));
+    gt.poses.push_back(CameraPose(gt.timestamps.back()));
   }
   return gt;
 }
@@ -241,7 +324,14 @@ std::string SimulatedSequence::Describe() const {
   return "simulated sequence: " + std::to_string(options_.frames) + " frames of " +
          std::to_string(options_.width) + "x" + std::to_string(options_.height) + " at " +
          std::to_string(options_.rate_hz) + " Hz, seed " + std::to_string(options_.seed) +
-         (options_.noise == SequenceNoise::kKinect ? ", Kinect noise" : ", no noise");
+         (options_.noise == SequenceNoise::kKinect ? ", Kinect noise" : ", no noise") +
+         (options_.closed_loop ? ", one closed loop" : "") +
+         (options_.lone_plane.plane == LonePlane::kNone
+              ? ""
+              : std::string(", only the ") +
+                    (options_.lone_plane.plane == LonePlane::kFloor ? "floor" : "nearest wall") +
+                    " seen from " + std::to_string(options_.lone_plane.start_s) + " s for " +
+                    std::to_string(options_.lone_plane.seconds) + " s");
 }
 
 }  // namespace rigfit

@@ -68,14 +68,27 @@ class HandheldTrajectory {
   HandheldTrajectory() = default;
   HandheldTrajectory(const Scene& scene, double speed_mps, std::uint64_t seed);
 
+  /// Where the camera is at t seconds and how it is turned: T_world_camera is
+  /// CameraLookingAlong(centre, forward(yaw, pitch), roll) (sim/simulate_rig.h), yaw about
+  /// world +Y from +Z, pitch up from the horizontal, radians.
+  struct Attitude {
+    Vec3 centre = Vec3::Zero();
+    double yaw = 0.0;
+    double pitch = 0.0;
+    double roll = 0.0;
+  };
+  Attitude AttitudeAt(double t) const;
   /// T_world_camera at t seconds.
   Pose At(double t) const;
   /// Seconds per loop of the closed curve.
   double LoopSeconds() const { return 2.0 * M_PI / omega_; }
+  /// Length of one loop of the centre's curve, metres.
+  double LoopLength() const { return loop_length_m_; }
 
  private:
   Vec3 Centre(double theta) const;
 
+  double loop_length_m_ = 0.0;
   double omega_ = 1.0;  ///< rad/s
   double radius_x_ = 1.0, radius_z_ = 1.0, height_ = 1.4;
   double phase_[8] = {};
@@ -85,6 +98,23 @@ class HandheldTrajectory {
 
 /// Depth noise of a simulated sequence.
 enum class SequenceNoise { kNone, kKinect };
+
+/// The one surface a lone-plane stretch shows.
+enum class LonePlane { kNone, kFloor, kWall };
+
+/// A stretch of the path where the camera sees a single plane and nothing else (the
+/// degenerate views of docs/rgbd.md, "Degenerate views and divergence"): it turns within
+/// turn_s seconds (smoothly, from its hand-held attitude) to look 75 degrees down at the floor,
+/// or level at the wall nearest to it, stays so for `seconds` from start_s, and turns back.
+/// During [start_s, start_s + seconds] only that surface is rendered (the floor slab, or the
+/// one wall slab: furniture, baseboards and other walls are not), so every frame of the stretch
+/// shows one plane.
+struct LonePlaneStretch {
+  LonePlane plane = LonePlane::kNone;
+  double start_s = 5.0;
+  double seconds = 1.0;
+  double turn_s = 0.7;
+};
 
 /// What to simulate. Defaults are those of `rigfit simulate-sequence`.
 struct SimSequenceOptions {
@@ -96,8 +126,12 @@ struct SimSequenceOptions {
   int height = 480;
   SequenceNoise noise = SequenceNoise::kKinect;
   KinectNoiseOptions kinect;
-  bool color = true;          ///< render the registered colour image
-  bool bare = false;          ///< floor and walls only
+  bool color = true;  ///< render the registered colour image
+  bool bare = false;  ///< floor and walls only
+  /// Walk exactly one loop: the speed is set (speed_mps ignored) so that the last frame is
+  /// back at the first frame's pose (a closed loop, for the end drift of docs/usage.md).
+  bool closed_loop = false;
+  LonePlaneStretch lone_plane;
   double max_depth_m = 10.0;  ///< depths beyond are invalid (NaN)
 };
 
@@ -115,8 +149,9 @@ std::vector<float> RenderDepth(const Scene& scene, const Pose& T_world_camera,
                                double max_depth_m, std::vector<std::uint8_t>* color);
 
 /// A simulated sequence read like a dataset: frame i is rendered on demand at timestamp
-/// i / rate_hz (seconds), with its exact T_world_camera_gt; the pixel noise of a frame comes
-/// from its own random stream, so frames can be rendered in any order.
+/// i / rate_hz (seconds), with its exact T_world_camera_gt (the hand-held path, turned toward
+/// the lone plane during its stretch); the pixel noise of a frame comes from its own random
+/// stream, so frames can be rendered in any order.
 class SimulatedSequence : public RgbdSequence {
  public:
   /// Throws std::invalid_argument for options out of range (frames < 1, width or
@@ -132,6 +167,10 @@ class SimulatedSequence : public RgbdSequence {
   const Scene& scene() const { return scene_; }
   const HandheldTrajectory& trajectory() const { return trajectory_; }
   const SimSequenceOptions& options() const { return options_; }
+  /// T_world_camera at t seconds: the hand-held path with the lone-plane stretch's turn.
+  Pose CameraPose(double t) const;
+  /// Whether the camera sees only the lone plane at t seconds.
+  bool InLonePlaneStretch(double t) const;
   /// Seconds of frame index: index / rate_hz rounded to the microsecond, so that the
   /// TUM files' 6-decimal names and timestamps are exact.
   double Timestamp(int index) const;
@@ -141,6 +180,8 @@ class SimulatedSequence : public RgbdSequence {
   Scene scene_;
   HandheldTrajectory trajectory_;
   PinholeIntrinsics intrinsics_;
+  Scene lone_plane_scene_;       ///< the stretch's one surface
+  double lone_plane_yaw_ = 0.0;  ///< looking at the wall: the yaw facing it
 };
 
 }  // namespace rigfit

@@ -81,6 +81,51 @@ TEST_F(CliTrack, TracksASyntheticSequenceToTheMillimetre) {
   EXPECT_LT(e.rpe_translation_rmse_m, 2e-3);
 }
 
+TEST_F(CliTrack, AFloorOnlySequenceReportsItsWeakDirectionsInTheSummaryAndTheFile) {
+  // Every frame sees only the floor: its slides and the turn about its normal are weak.
+  const fs::path seq = *dir_ / "floor";
+  const cli_test::RunResult sim = cli_test::RunRigfit(
+      {"simulate-sequence", "--out", seq.string(), "--frames", "6", "--width",
+       std::to_string(kWidth), "--height", std::to_string(kHeight), "--noise", "none", "--no-color",
+       "--lone-plane", "floor", "--lone-plane-start", "0"},
+      *dir_);
+  ASSERT_EQ(sim.exit_code, 0) << cli_test::Describe(sim);
+  for (const std::string command : {"track", "slam"}) {
+    const fs::path out = *dir_ / (command + "-floor.txt");
+    const cli_test::RunResult r = cli_test::RunRigfit(
+        {command, seq.string(), "--out", out.string(), "--intrinsics", Intrinsics()}, *dir_);
+    ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
+    EXPECT_NE(r.out.find("degenerate views: 5 frame(s) with weak directions held; divergence: 0 "
+                         "frame(s) recovered, 0 diverged"),
+              std::string::npos)
+        << r.out;
+    EXPECT_NE(r.err.find("held at the prediction"), std::string::npos) << r.err;
+    const std::string file = cli_test::ReadText(out);
+    EXPECT_NE(file.find("# rigfit " + command +
+                        ": frames 6, failed 0, restarts 0, recovered 0, diverged 0, "
+                        "weak-direction frames 5"),
+              std::string::npos)
+        << file;
+    EXPECT_EQ(ReadTumTrajectory(out.string()).poses.size(), 6u);  // the '#' lines are skipped
+  }
+}
+
+TEST_F(CliTrack, EvaluateTrajectoryReportsTheEndDriftOfAClosedLoop) {
+  const fs::path seq = *dir_ / "loop";
+  const cli_test::RunResult sim =
+      cli_test::RunRigfit({"simulate-sequence", "--out", seq.string(), "--frames", "3", "--width",
+                           "16", "--height", "16", "--no-color", "--closed-loop"},
+                          *dir_);
+  ASSERT_EQ(sim.exit_code, 0) << cli_test::Describe(sim);
+  const std::string gt = (seq / "groundtruth.txt").string();
+  const cli_test::RunResult r = cli_test::RunRigfit({"evaluate-trajectory", gt, gt}, *dir_);
+  ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
+  EXPECT_NE(r.out.find("closed loop (the ground truth ends where it starts): end drift 0.00 mm / "
+                       "0.000 deg"),
+            std::string::npos)
+      << r.out;
+}
+
 TEST_F(CliTrack, EvaluateOnASequenceTooShortToCompareWarns) {
   const fs::path out = *dir_ / "short.txt";
   const cli_test::RunResult r =

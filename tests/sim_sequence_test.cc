@@ -275,6 +275,53 @@ TEST(SimSequence, KinectNoiseShiftKeepsInvalidPixelsAndBlursEdges) {
   EXPECT_GT(invalid, kHeight / 4);
 }
 
+TEST(SimSequence, AClosedLoopEndsWhereItStarts) {
+  SimSequenceOptions o = SmallSequence(SequenceNoise::kNone);
+  o.frames = 90;
+  o.closed_loop = true;
+  const SimulatedSequence sequence(o);
+  const Trajectory gt = sequence.GroundTruth();
+  // The timestamps are rounded to the microsecond: at most 1 um x a few m/s off.
+  EXPECT_LT((gt.poses.back().translation() - gt.poses.front().translation()).norm(), 1e-5);
+  EXPECT_LT(LogSO3(gt.poses.back().linear().transpose() * gt.poses.front().linear()).norm(), 1e-5);
+}
+
+TEST(SimSequence, ALonePlaneStretchSeesOnlyThatPlane) {
+  for (const LonePlane plane : {LonePlane::kFloor, LonePlane::kWall}) {
+    SimSequenceOptions o = SmallSequence(SequenceNoise::kNone);
+    o.frames = 40;
+    o.lone_plane.plane = plane;
+    o.lone_plane.start_s = 0.5;
+    o.lone_plane.seconds = 0.5;
+    const SimulatedSequence sequence(o);
+    int stretch = 0;
+    for (int i = 0; i < o.frames; ++i) {
+      const RgbdFrame frame = sequence.Frame(i);
+      if (!sequence.InLonePlaneStretch(frame.timestamp)) continue;
+      ++stretch;
+      // Every valid pixel lies on one plane: the floor (world y = 0) or one wall.
+      const Pose& T = *frame.T_world_camera_gt;
+      const PinholeIntrinsics& K = frame.intrinsics;
+      std::vector<Vec3> points;
+      for (int v = 0; v < frame.height; v += 4) {
+        for (int u = 0; u < frame.width; u += 4) {
+          const float z = frame.depth_m[v * frame.width + u];
+          if (std::isfinite(z)) {
+            points.push_back(T * Vec3((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z));
+          }
+        }
+      }
+      ASSERT_GT(points.size(), 100u);
+      const Vec3 normal = (points[1] - points[0]).cross(points.back() - points[0]).normalized();
+      for (const Vec3& p : points)
+        EXPECT_NEAR(normal.dot(p - points[0]), 0.0, 1e-4);  // float depth
+      if (plane == LonePlane::kFloor) EXPECT_GT(std::abs(normal.y()), 1.0 - 1e-4);
+      if (plane == LonePlane::kWall) EXPECT_LT(std::abs(normal.y()), 1e-2);
+    }
+    EXPECT_EQ(stretch, 16);  // 0.5 s at 30 Hz: frames 15 to 30
+  }
+}
+
 TEST(SimSequence, RejectsBadOptions) {
   SimSequenceOptions o = SmallSequence(SequenceNoise::kNone);
   o.frames = 0;

@@ -95,6 +95,29 @@ TEST(Trajectory, EndPointDriftOfAnAnchoredEstimate) {
   EXPECT_THROW(MeasureEndPointDrift(one, gt, 0.02), std::invalid_argument);
 }
 
+TEST(Trajectory, LoopDriftIsTheErrorOfTheFirstToLastMotion) {
+  // A closed truth: the last pose is the first one again.
+  Trajectory gt = Loop();
+  gt.timestamps.push_back(gt.timestamps.back() + (gt.timestamps[1] - gt.timestamps[0]));
+  gt.poses.push_back(gt.poses.front());
+  // The estimate, moved as a whole (the drift does not see it), ends 2 cm and 1 deg off.
+  Pose moved = Pose::Identity();
+  moved.translation() = Vec3(1.0, 2.0, 3.0);
+  moved.linear() = ExpSO3(Vec3(0.1, 0.2, 0.3));
+  Trajectory est = gt;
+  for (Pose& pose : est.poses) pose = moved * pose;
+  Pose off = Pose::Identity();
+  off.translation() = Vec3(0.0, 0.02, 0.0);
+  off.linear() = ExpSO3(Vec3(0.0, 0.0, 1.0 * kDegToRad));
+  est.poses.back() = est.poses.back() * off;
+  const LoopDrift drift = MeasureLoopDrift(est, gt, 0.02);
+  EXPECT_TRUE(drift.closed);
+  EXPECT_NEAR(drift.translation_m, 0.02, 1e-9);
+  EXPECT_NEAR(drift.rotation_rad, 1.0 * kDegToRad, 1e-9);
+  // An open truth is not a closed loop.
+  EXPECT_FALSE(MeasureLoopDrift(est, Loop(), 0.02).closed);
+}
+
 class TumTrajectoryTest : public io_test::TempDirTest {};
 
 TEST_F(TumTrajectoryTest, RoundTripIsExact) {

@@ -473,7 +473,10 @@ class TrackedFrame:
 
     ``success`` False: tracking failed and the frame kept the predicted pose (``message`` says
     why). ``keyframe``: became the reference of the next frames. ``weak_directions``: directions
-    of the motion the frame could not fix (a flat wall), held at their prediction.
+    of the motion the frame could not fix (a flat wall), held at their prediction, named in
+    ``weak_direction_names`` ("translation along camera x", ...). ``recovered``: suspected of
+    divergence and re-tracked from the last good pose; ``diverged``: so was the re-track (a
+    failure that kept the last good pose; docs/rgbd.md).
     """
 
     index: int
@@ -486,6 +489,9 @@ class TrackedFrame:
     matched_ratio: float
     rmse_m: float
     weak_directions: int
+    weak_direction_names: List[str]
+    recovered: bool
+    diverged: bool
 
 
 @dataclass
@@ -518,6 +524,9 @@ class TrackResult(Trajectory):
     failures: int
     restarts: int
     timings: TrackTimings
+    recovered: int = 0  #: frames the motion guard re-tracked successfully
+    diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
+    weak_frames: int = 0  #: frames with a weakly constrained direction held
 
 
 @dataclass
@@ -536,6 +545,7 @@ class SlamFrame:
     matched_ratio: float
     rmse_m: float
     weak_directions: int
+    weak_direction_names: List[str]
     model_pixels: int
     input_points: int
     merged: int
@@ -544,6 +554,8 @@ class SlamFrame:
     folded: int
     removed: int
     map_size: int
+    recovered: bool
+    diverged: bool
 
 
 @dataclass
@@ -599,6 +611,9 @@ class SlamResult(Trajectory):
     timings: SlamTimings
     map: SurfelMap
     map_sizes: "np.ndarray"
+    recovered: int = 0  #: frames the motion guard re-tracked successfully
+    diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
+    weak_frames: int = 0  #: frames with a weakly constrained direction held
 
 
 def _frame(raw: Mapping[str, Any]) -> Frame:
@@ -711,7 +726,9 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
     count is the number of levels); ``prior`` "constant-velocity" or "identity"; ``min_depth``
     and ``max_depth`` (metres) the depth used; ``bilateral`` the level-0 normals;
     ``max_distance`` (m) and ``max_angle`` (deg) the association; ``depth_weights`` and
-    ``huber`` the weighting; ``min_step`` the convergence test; ``threads``. Runs without the
+    ``huber`` the weighting; ``min_step`` the convergence test; ``guard`` and ``weak_ratio`` the
+    motion guard (weak directions held, divergence detected and re-tracked; docs/rgbd.md);
+    ``threads``. Runs without the
     GIL; progress (every tenth) and warnings (failed frames) go to the logger ``"rigfit"``. A
     failed frame keeps its prediction and is counted, as in the CLI.
 
@@ -721,7 +738,8 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
     return TrackResult(
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
-        restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]))
+        restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]),
+        recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"])
 
 
 @_keywords("slam")
@@ -740,7 +758,8 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
     ``max_distance``, ``max_angle``); fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg)
     gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
     ``cover_radius`` (the coverage rule; 0: off), ``fold``; the model: ``model_weight``,
-    ``model_recent``, ``splat``; ``color``; ``threads``. Runs without the GIL; progress (every
+    ``model_recent``, ``splat``; ``color``; ``guard`` and ``weak_ratio`` as for ``track``;
+    ``threads``. Runs without the GIL; progress (every
     tenth, with the map size) and warnings go to the logger ``"rigfit"``. A failed frame keeps
     its prediction and is not fused; a frame without colour while the map is coloured is
     tracked but not fused, with a warning (``color=False`` fuses depth only).
@@ -752,7 +771,8 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[SlamFrame(**f) for f in raw["frames"]], failures=raw["failures"],
         restarts=raw["restarts"], timings=SlamTimings(**raw["timings"]),
-        map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"])
+        map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
+        diverged=raw["diverged"], weak_frames=raw["weak_frames"])
 
 
 @dataclass

@@ -1,0 +1,220 @@
+// The divergence guard (rgbd/motion_guard.h) in the keyframe odometry and frame-to-model SLAM:
+// simulated hand-held sequences that see only the floor or only a wall for most of a second
+// (sim/simulate_sequence.h, LonePlaneStretch) at 320x240 and 640x480 stay bounded and report
+// their weak directions; a corrupted frame is detected, warned about and counted.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "core/pose.h"
+#include "core/rgbd.h"
+#include "rgbd/motion_guard.h"
+#include "rgbd/odometry.h"
+#include "rgbd/slam.h"
+#include "sim/simulate_sequence.h"
+
+namespace rigfit {
+namespace {
+
+// A Kinect-noise sequence whose camera turns to the lone plane from t = 0 and sees only it
+// from 0.7 s for 0.8 s (24 frames at 30 Hz), then turns back for 0.1 s.
+SimSequenceOptions LonePlaneSequence(LonePlane plane, int width, int height, int frames) {
+  SimSequenceOptions o;
+  o.frames = frames;
+  o.width = width;
+  o.height = height;
+  o.seed = 3;
+  o.color = false;
+  o.lone_plane.plane = plane;
+  o.lone_plane.start_s = 0.7;
+  o.lone_plane.seconds = 0.8;
+  return o;
+}
+
+// The largest distance of the estimate from the truth over the lone-plane frames (both start
+// at the truth), and how many of them had weak directions.
+struct StretchErrors {
+  double max_error_m = 0.0;
+  int weak_frames = 0;
+  int stretch_frames = 0;
+  int diverged = 0;  ///< over the whole run
+};
+
+StretchErrors MeasureStretch(const SimulatedSequence& sequence, const Trajectory& estimate,
+                             const std::vector<int>& weak_directions) {
+  StretchErrors e;
+  for (std::size_t k = 0; k < estimate.poses.size(); ++k) {
+    const double t = estimate.timestamps[k];
+    if (!sequence.InLonePlaneStretch(t)) continue;
+    ++e.stretch_frames;
+    e.weak_frames += weak_directions[k] > 0 ? 1 : 0;
+    const Vec3 error = estimate.poses[k].translation() - sequence.CameraPose(t).translation();
+    e.max_error_m = std::max(e.max_error_m, error.norm());
+  }
+  return e;
+}
+
+StretchErrors TrackStretch(const SimulatedSequence& sequence) {
+  const OdometryResult result = RunOdometry(sequence, OdometryOptions{});
+  std::vector<int> weak;
+  for (const OdometryFrame& f : result.frames) weak.push_back(f.track.weak_directions);
+  StretchErrors e = MeasureStretch(sequence, result.trajectory, weak);
+  e.diverged = result.diverged;
+  return e;
+}
+
+StretchErrors SlamStretch(const SimulatedSequence& sequence) {
+  const SlamResult result = RunSlam(sequence, SlamOptions{});
+  std::vector<int> weak;
+  for (const SlamFrame& f : result.frames) weak.push_back(f.track.weak_directions);
+  StretchErrors e = MeasureStretch(sequence, result.trajectory, weak);
+  e.diverged = result.diverged;
+  return e;
+}
+
+// The stretches below are issue 34's target MISSED (docs/benchmarks.md, "Degenerate views and
+// divergence"): the camera turns down (or round) within 0.7 s and the error grows through the
+// turn and the stretch to decimetres. The bounds are 2x what is measured, so that a change
+// that makes it worse is caught; the weak directions are reported through the stretch.
+TEST(RgbdGuard, FloorOnlyStretchAt320x240StaysBoundedAndReportsWeakDirections) {
+  const SimulatedSequence sequence(LonePlaneSequence(LonePlane::kFloor, 320, 240, 46));
+  const StretchErrors track = TrackStretch(sequence);
+  const StretchErrors slam = SlamStretch(sequence);
+  EXPECT_EQ(track.stretch_frames, 25);  // 0.7 s to 1.5 s at 30 Hz, both ends
+  // Measured: track 502 mm, slam 134 mm at most over the stretch; slam declared 2 frames
+  // diverged (warned), track none.
+  EXPECT_LT(track.max_error_m, 1.0);
+  EXPECT_LT(slam.max_error_m, 0.27);
+  EXPECT_LE(track.diverged + slam.diverged, 4);
+  EXPECT_GE(track.weak_frames, 20);
+  EXPECT_GE(slam.weak_frames, 20);
+}
+
+TEST(RgbdGuard, WallOnlyStretchAt320x240StaysBoundedAndReportsWeakDirections) {
+  const SimulatedSequence sequence(LonePlaneSequence(LonePlane::kWall, 320, 240, 46));
+  const StretchErrors track = TrackStretch(sequence);
+  const StretchErrors slam = SlamStretch(sequence);
+  // Measured: track 661 mm, slam 1317 mm at most over the stretch; track declared 5 frames
+  // diverged (warned), slam none.
+  EXPECT_LT(track.max_error_m, 1.3);
+  EXPECT_LT(slam.max_error_m, 2.6);
+  EXPECT_LE(track.diverged + slam.diverged, 10);
+  EXPECT_GE(track.weak_frames, 20);
+  EXPECT_GE(slam.weak_frames, 20);
+}
+
+TEST(RgbdGuard, FloorOnlyAt640x480HoldsItsThreeWeakDirections) {
+  // Starting inside the stretch: every frame sees only the floor. Noise-free: with Kinect
+  // noise the floor's weak eigenvalues come out above 1e-3 of the largest at 640x480 (0 or 1
+  // weak directions per frame: the ratio does not catch them, docs/benchmarks.md).
+  SimSequenceOptions o = LonePlaneSequence(LonePlane::kFloor, 640, 480, 8);
+  o.noise = SequenceNoise::kNone;
+  o.lone_plane.start_s = 0.0;
+  const SimulatedSequence sequence(o);
+  const OdometryResult track = RunOdometry(sequence, OdometryOptions{});
+  const SlamResult slam = RunSlam(sequence, SlamOptions{});
+  for (std::size_t k = 1; k < track.frames.size(); ++k) {
+    // A floor fixes its normal's translation and the two tilts, not the rest.
+    EXPECT_EQ(track.frames[k].track.weak_directions, 3) << k;
+    EXPECT_EQ(slam.frames[k].track.weak_directions, 3) << k;
+  }
+  std::vector<int> weak(track.frames.size(), 3);
+  const double track_error = MeasureStretch(sequence, track.trajectory, weak).max_error_m;
+  const double slam_error = MeasureStretch(sequence, slam.trajectory, weak).max_error_m;
+  // Measured: 107.6 mm for both after 7 frames: the camera's slide along the floor (1.5 cm a
+  // frame), which no frame sees and no verified velocity predicts, is held at zero.
+  EXPECT_LT(track_error, 0.2);
+  EXPECT_LT(slam_error, 0.2);
+}
+
+// A sequence whose frame `corrupt` shows what frame `source` sees (a camera that jumps), with
+// the timestamp and ground truth of `corrupt`.
+class CorruptedSequence final : public RgbdSequence {
+ public:
+  CorruptedSequence(const RgbdSequence& base, int corrupt, int source)
+      : base_(base), corrupt_(corrupt), source_(source) {}
+  int size() const override { return base_.size(); }
+  RgbdFrame Frame(int index) const override {
+    if (index != corrupt_) return base_.Frame(index);
+    RgbdFrame frame = base_.Frame(source_);
+    const RgbdFrame truth = base_.Frame(index);
+    frame.index = truth.index;
+    frame.timestamp = truth.timestamp;
+    frame.T_world_camera_gt = truth.T_world_camera_gt;
+    return frame;
+  }
+  Trajectory GroundTruth() const override { return base_.GroundTruth(); }
+  std::string Describe() const override { return "corrupted " + base_.Describe(); }
+
+ private:
+  const RgbdSequence& base_;
+  int corrupt_;
+  int source_;
+};
+
+// Collects the warnings.
+Log WarningsInto(std::vector<std::string>* warnings) {
+  return Log{[warnings](LogLevel level, const std::string& message) {
+    if (level == LogLevel::kWarning) warnings->push_back(message);
+  }};
+}
+
+bool AnyContains(const std::vector<std::string>& lines, const std::string& text) {
+  return std::any_of(lines.begin(), lines.end(),
+                     [&](const std::string& line) { return line.find(text) != std::string::npos; });
+}
+
+TEST(RgbdGuard, ACorruptedFrameIsDetectedWarnedAndCounted) {
+  SimSequenceOptions o;
+  o.frames = 20;
+  o.width = 320;
+  o.height = 240;
+  o.color = false;
+  o.seed = 5;
+  const SimulatedSequence base(o);
+  const CorruptedSequence sequence(base, 12, 18);
+  std::vector<std::string> track_warnings, slam_warnings;
+  const OdometryResult track =
+      RunOdometry(sequence, OdometryOptions{}, WarningsInto(&track_warnings));
+  const SlamResult slam = RunSlam(sequence, SlamOptions{}, WarningsInto(&slam_warnings));
+  EXPECT_EQ(track.diverged + track.recovered, 1);
+  EXPECT_EQ(slam.diverged + slam.recovered, 1);
+  EXPECT_TRUE(track.frames[12].diverged || track.frames[12].recovered);
+  EXPECT_TRUE(slam.frames[12].diverged || slam.frames[12].recovered);
+  EXPECT_TRUE(AnyContains(track_warnings, "frame 12"));
+  EXPECT_TRUE(AnyContains(slam_warnings, "frame 12"));
+  // The frames after it are tracked again: the end is where the truth is. Measured: track
+  // 0.9 mm, slam 2.9 mm.
+  const Trajectory gt = base.GroundTruth();
+  EXPECT_LT((track.trajectory.poses.back().translation() - gt.poses.back().translation()).norm(),
+            2e-3);
+  EXPECT_LT((slam.trajectory.poses.back().translation() - gt.poses.back().translation()).norm(),
+            6e-3);
+}
+
+TEST(RgbdGuard, DampingActsOnTheWeakDirectionsOnly) {
+  // A velocity of 1 cm along camera x and 2 cm along z, 0.01 rad about y; x is weak.
+  Pose velocity = Pose::Identity();
+  velocity.translation() = Vec3(0.01, 0.0, 0.02);
+  velocity.linear() = ExpSO3(Vec3(0.0, 0.01, 0.0));
+  Vec6 weak_x = Vec6::Zero();
+  weak_x(3) = 1.0;
+  const Pose damped = DampWeakVelocity(velocity, {weak_x}, 2.0, Mat3::Identity(), 0.5);
+  EXPECT_NEAR(damped.translation().x(), 0.005, 1e-12);
+  EXPECT_NEAR(damped.translation().z(), 0.02, 1e-12);
+  EXPECT_LT((LogSO3(damped.linear()) - Vec3(0.0, 0.01, 0.0)).norm(), 1e-12);
+  EXPECT_EQ(WeakDirectionName(weak_x), "translation along camera x");
+  // Turned into another camera's axes, the same direction there.
+  const Mat3 R = ExpSO3(Vec3(0.0, 0.0, M_PI / 2));  // target x = previous y
+  Vec6 weak_target_x = Vec6::Zero();
+  weak_target_x(3) = 1.0;
+  Pose along_y = Pose::Identity();
+  along_y.translation() = Vec3(0.0, 0.01, 0.0);
+  EXPECT_NEAR(DampWeakVelocity(along_y, {weak_target_x}, 2.0, R, 0.0).translation().norm(), 0.0,
+              1e-12);
+}
+
+}  // namespace
+}  // namespace rigfit
