@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "core/pose.h"
-#include "registration/log.h"
+#include "core/log.h"
 #include "rgbd/projective_icp.h"
 
 namespace rigfit {
