@@ -425,6 +425,10 @@ int main(int argc, char** argv) {
   app.add_option("--miscalibrated-cameras", sim.miscalibrated_cameras,
                  "indices; default every camera but 0")
       ->delimiter(',');
+  int edge_margin_px = 0;
+  app.add_option("--edge-margin-px", edge_margin_px,
+                 "leave out depth pixels within N px of a depth jump or a hole rim "
+                 "(RegionOptions::edge_margin_px)");
   app.add_option("--mode", mode)->check(CLI::IsMember({"joint", "pairwise"}));
   app.add_option("--method", method)
       ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));
@@ -459,6 +463,7 @@ int main(int argc, char** argv) {
   CheckSimOptions(sim, "rig_accuracy", OptionSpelling::kFlag);
   if (!config.empty()) options = LoadConfig(config);
   options.icp.mode = mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
+  if (edge_margin_px > 0) options.region.edge_margin_px = edge_margin_px;
   options.icp.method = RegistrationMethodNamed(method);
 
   std::printf("mode %s, method %s, %d cameras %dx%d, noise %g, perturbation %g deg %g m%s\n",
