@@ -18,6 +18,7 @@
 #include "core/evaluate.h"
 #include "core/format.h"
 #include "core/geometry.h"
+#include "core/stopwatch.h"
 #include "io/config_yaml.h"
 #include "prepare/region.h"
 #include "registration/surface_bundle.h"
@@ -423,6 +424,20 @@ int main(int argc, char** argv) {
                  "share of the noise variance that is correlated");
   app.add_option("--disparity-quant-px", sim.disparity_quant_px,
                  "disparity quantisation step, pixels");
+  std::string depth_model = "gaussian";
+  app.add_option("--depth-model", depth_model, "gaussian or stereo (rigfit simulate's)")
+      ->check(CLI::IsMember({"gaussian", "stereo"}));
+  app.add_option("--stereo-upsample", sim.stereo_upsample, "stereo: matched at this resolution");
+  app.add_option("--stereo-baseline-m", sim.stereo_baseline_m);
+  app.add_option("--disparity-offset-px", sim.disparity_offset_px, "miscalibration");
+  app.add_option("--depth-scale", sim.depth_scale, "miscalibration");
+  app.add_option("--miscalibrated-cameras", sim.miscalibrated_cameras,
+                 "indices; default every camera but 0")
+      ->delimiter(',');
+  int edge_margin_px = 0;
+  app.add_option("--edge-margin-px", edge_margin_px,
+                 "leave out depth pixels within N px of a depth jump or a hole rim "
+                 "(RegionOptions::edge_margin_px)");
   app.add_option("--mode", mode)->check(CLI::IsMember({"joint", "pairwise"}));
   app.add_option("--method", method)
       ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));
@@ -453,14 +468,25 @@ int main(int argc, char** argv) {
   app.add_flag("--from-gt", from_gt, "start at the true poses (measures the estimator's bias)");
   app.add_flag("--verbose", verbose, "solver progress to stderr");
   CLI11_PARSE(app, argc, argv);
+  sim.depth_model = depth_model == "stereo" ? DepthModel::kStereo : DepthModel::kGaussian;
+  CheckSimOptions(sim, "rig_accuracy", OptionSpelling::kFlag);
   if (!config.empty()) options = LoadConfig(config);
   options.icp.mode = mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
+  if (edge_margin_px > 0) options.region.edge_margin_px = edge_margin_px;
   options.icp.method = RegistrationMethodNamed(method);
   options.icp.keep_surface_diagnostics = segmentation;
 
   std::printf("mode %s, method %s, %d cameras %dx%d, noise %g, perturbation %g deg %g m%s\n",
               mode.c_str(), method.c_str(), sim.cameras, sim.width, sim.height, sim.noise,
               sim.perturb_yaw_deg, sim.perturb_xz_m, sim.bare ? ", bare" : "");
+  if (sim.depth_model == DepthModel::kStereo) {
+    std::printf("depth model stereo (noise unused), baseline %g m, matched at %dx\n",
+                sim.stereo_baseline_m, sim.stereo_upsample);
+  }
+  if (sim.disparity_offset_px != 0.0 || sim.depth_scale != 1.0) {
+    std::printf("miscalibration: disparity offset %g px, depth scale %g\n", sim.disparity_offset_px,
+                sim.depth_scale);
+  }
   // With several draws a row is "seed:draw".
   const int seed_width = noise_draws > 1 ? 7 : 4;
   std::printf("%*s | %8s %8s %7s | %8s %8s %7s %8s | %6s %6s %6s | %s\n", seed_width, "seed",
@@ -470,6 +496,8 @@ int main(int argc, char** argv) {
   AgainstReference bound, estimator, surface, correlated_surface;
   std::map<int, AgainstReference> away_from_boundaries;  // --bound-boundary-px
   int runs_with_weak = 0;
+  int worse_rotation = 0, worse_translation = 0;
+  double simulate_s = 0.0;
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0;
   BiasSplit bias;
@@ -483,7 +511,9 @@ int main(int argc, char** argv) {
     sim.noise_draw = static_cast<std::uint64_t>(draw);
     const std::string label =
         std::to_string(seed) + (noise_draws > 1 ? ":" + std::to_string(draw) : "");
+    const auto simulate_start = std::chrono::steady_clock::now();
     const SimulatedRig rig = SimulateRig(sim);
+    simulate_s += SecondsSince(simulate_start);
     Log log;
     if (verbose) {
       log.sink = [](LogLevel, const std::string& m) { std::fprintf(stderr, "%s\n", m.c_str()); };
@@ -502,6 +532,8 @@ int main(int argc, char** argv) {
                 r.times.preprocessing_s, r.times.registration_s + r.times.pose_graph_s,
                 r.success ? "ok" : r.message.c_str());
     failures += r.success ? 0 : 1;
+    worse_rotation += after.rms_rotation_rad > before.rms_rotation_rad ? 1 : 0;
+    worse_translation += after.rms_translation_m > before.rms_translation_m ? 1 : 0;
     int weak = 0;
     for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
     runs_with_weak += weak > 0 ? 1 : 0;
@@ -511,6 +543,9 @@ int main(int argc, char** argv) {
       // noise-free (with several draws, once per draw: their dropout differs).
       SimOptions clean = sim;
       clean.noise = 0.0;
+      clean.depth_model = DepthModel::kGaussian;  // the truth: ray-cast depth, calibrated
+      clean.disparity_offset_px = 0.0;
+      clean.depth_scale = 1.0;
       const SimulatedRig truth = SimulateRig(clean);
       RefineOptions bound_options = options;
       bound_options.icp.reference = r.reference;
@@ -623,6 +658,11 @@ int main(int argc, char** argv) {
       runs, unit, std::sqrt(sum_r2 / pairs) * kRadToDeg, std::sqrt(sum_t2 / pairs) * 1e3,
       worst_t * 1e3, std::sqrt(sum_tilt2 / cameras) * kRadToDeg, failures);
   std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, runs);
+  std::printf(
+      "runs ending worse than their start: %d in RMS rotation, %d in RMS translation, of %d\n",
+      worse_rotation, worse_translation, runs);
+  std::printf("simulation: %.2f s per rig (%d cameras %dx%d)\n", simulate_s / runs, sim.cameras,
+              sim.width, sim.height);
   if (noise_draws > 1) {
     const auto [rotation, translation] = bias.Shares();
     std::printf(

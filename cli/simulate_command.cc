@@ -152,9 +152,25 @@ nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
     simulated["noise_corr_px"] = o.noise_corr_px;
     simulated["noise_corr_share"] = o.noise_corr_share;
   }
-  if (o.disparity_quant_px > 0.0) {
-    simulated["disparity_quant_px"] = o.disparity_quant_px;
+  if (o.disparity_quant_px > 0.0 || o.depth_model == DepthModel::kStereo) {
+    if (o.disparity_quant_px > 0.0) simulated["disparity_quant_px"] = o.disparity_quant_px;
     simulated["stereo_baseline_m"] = o.stereo_baseline_m;
+  }
+  if (o.depth_model == DepthModel::kStereo) {
+    simulated["depth_model"] = "stereo";
+    simulated["stereo_upsample"] = o.stereo_upsample;
+  }
+  if (o.disparity_offset_px != 0.0 || o.depth_scale != 1.0) {
+    simulated["stereo_baseline_m"] = o.stereo_baseline_m;
+    simulated["disparity_offset_px"] = o.disparity_offset_px;
+    simulated["depth_scale"] = o.depth_scale;
+    nlohmann::json cameras = nlohmann::json::array();
+    for (int i = 0; i < o.cameras; ++i) {
+      const bool listed = std::find(o.miscalibrated_cameras.begin(), o.miscalibrated_cameras.end(),
+                                    i) != o.miscalibrated_cameras.end();
+      if (o.miscalibrated_cameras.empty() ? i != 0 : listed) cameras.push_back(SimSerial(i));
+    }
+    simulated["miscalibrated_cameras"] = cameras;
   }
   return meta;
 }
@@ -183,6 +199,37 @@ int RunSimulate(const SimulateArgs& a) {
   }
   if (a.crlb) PrintBound(a);
   return kExitOk;
+}
+
+/// The depth model's and the miscalibration's flags (docs/usage.md, "simulate"). Their defaults
+/// are in the descriptions, not shown as CLI11 defaults: rigfit.simulate has no such keywords
+/// (python/tests/test_simulate.py holds the two to the same shown defaults).
+void AddStereoOptions(CLI::App* sub, SimOptions* o) {
+  sub->add_option_function<std::string>(
+         "--depth-model",
+         [o](const std::string& model) {
+           o->depth_model = model == "stereo" ? DepthModel::kStereo : DepthModel::kGaussian;
+         },
+         "gaussian (default): ray-cast depth plus --noise; stereo: block matching (OpenCV "
+         "StereoSGBM) of a rendered, textured left/right pair (--noise, --dropout and the "
+         "correlated noise not used)")
+      ->check(CLI::IsMember({"gaussian", "stereo"}));
+  sub->add_option("--stereo-baseline-m", o->stereo_baseline_m,
+                  "Stereo baseline, metres: the stereo model's, --disparity-quant-px's and the "
+                  "miscalibration's (disparity = fx x baseline / z; default 0.12)");
+  sub->add_option("--stereo-upsample", o->stereo_upsample,
+                  "Stereo model: render and match at this many times the resolution, then "
+                  "average the disparity down (as ZED HD modes do), 1 to 4 (default 1)");
+  sub->add_option("--disparity-offset-px", o->disparity_offset_px,
+                  "Miscalibration: add this to the disparity of the miscalibrated cameras, "
+                  "pixels, either depth model (default 0)");
+  sub->add_option("--depth-scale", o->depth_scale,
+                  "Miscalibration: multiply the depth of the miscalibrated cameras by this, "
+                  "in [0.5, 2] (default 1)");
+  sub->add_option("--miscalibrated-cameras", o->miscalibrated_cameras,
+                  "Indices (0 = the reference) of the cameras --disparity-offset-px and "
+                  "--depth-scale apply to, comma-separated; default every camera but 0")
+      ->delimiter(',');
 }
 
 }  // namespace
@@ -219,6 +266,7 @@ Command AddSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--dropout", o.dropout, "Fraction of depth pixels dropped at random")
       ->capture_default_str();
+  AddStereoOptions(sub, &o);
   sub->add_option("--perturb-yaw-deg", o.perturb_yaw_deg,
                   "init: yaw about world +Y, uniform in +-this, degrees")
       ->capture_default_str();

@@ -32,6 +32,9 @@ struct CameraCapture {
   PinholeIntrinsics intrinsics;
   std::vector<float> confidence;    ///< optional, [height, width], larger = more reliable
   std::vector<std::uint8_t> color;  ///< optional, [height, width, 3] RGB
+  /// Optional: a stereo camera's baseline in metres (depth = fx baseline_m / disparity);
+  /// 0 when unknown or not a stereo camera.
+  double baseline_m = 0.0;
   /// Finite depth samples beyond 1000 m that were read as invalid: sensor glitches
   /// (io/capture_h5.h; every sample of a burst counts).
   std::int64_t glitch_depth_samples = 0;

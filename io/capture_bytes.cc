@@ -25,6 +25,7 @@ class CaptureBytes {
       out.PutVector(c.confidence);
       out.PutVector(c.color);
       out.Put(c.glitch_depth_samples);
+      out.Put(c.baseline_m);
       out.PutVector(c.points);
       out.PutVector(c.normals);
     }
@@ -54,6 +55,7 @@ class CaptureBytes {
       c.confidence = in.GetVector<float>();
       c.color = in.GetVector<std::uint8_t>();
       c.glitch_depth_samples = in.Get<std::int64_t>();
+      c.baseline_m = in.Get<double>();
       c.points = in.GetVector<Vec3>();
       c.normals = in.GetVector<Vec3>();
     }

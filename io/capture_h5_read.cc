@@ -343,6 +343,20 @@ void ReadColor(hid_t group, CameraCapture& camera, const Context& where) {
   camera.color = ReadAll<std::uint8_t>(d, H5T_NATIVE_UINT8, where);
 }
 
+/// The optional stereo baseline: a float scalar (or a one-element array), finite and > 0.
+void ReadBaseline(hid_t group, CameraCapture& camera, const Context& where) {
+  const Dataset d = OpenDataset(group, "baseline_m", where);
+  ExpectFloat(d, where);
+  if (d.Elements() != 1) {
+    where.Fail("baseline_m", "expected a scalar, got shape " + DescribeDims(d.dims));
+  }
+  const double baseline = ReadAll<double>(d, H5T_NATIVE_DOUBLE, where)[0];
+  if (!(baseline > 0.0 && std::isfinite(baseline))) {
+    where.Fail("baseline_m", "must be finite and > 0, got " + std::to_string(baseline));
+  }
+  camera.baseline_m = baseline;
+}
+
 /// Reads one camera; with `frames`, every frame of its depth too (ReadDepth).
 CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::string& file,
                          std::vector<float>* frames = nullptr) {
@@ -356,9 +370,9 @@ CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::st
     where.Fail("", "has both depth and points (a camera has one or the other)");
   }
   if (!has_depth && !has_points) where.Fail("", "has neither depth nor points");
-  for (const char* name : has_depth
-                              ? std::vector<const char*>{"normals"}
-                              : std::vector<const char*>{"intrinsics", "confidence", "color"}) {
+  for (const char* name :
+       has_depth ? std::vector<const char*>{"normals"}
+                 : std::vector<const char*>{"intrinsics", "confidence", "color", "baseline_m"}) {
     if (has(name)) {
       where.Fail(name, has_depth ? "only allowed beside points" : "only allowed beside depth");
     }
@@ -371,6 +385,7 @@ CameraCapture ReadCamera(hid_t cameras, const std::string& serial, const std::st
     ReadIntrinsics(group.get(), camera, where);
     if (has("confidence")) ReadConfidence(group.get(), camera, where);
     if (has("color")) ReadColor(group.get(), camera, where);
+    if (has("baseline_m")) ReadBaseline(group.get(), camera, where);
   } else {
     camera.points = ReadVectors(group.get(), "points", kMaxRangeM, where);
     if (has("normals")) {

@@ -57,6 +57,10 @@ void CheckWritable(const RigCapture& capture, const CaptureWriteOptions& options
       if (!camera.confidence.empty() && camera.confidence.size() != pixels) {
         where.Fail("confidence", "size does not match the depth image");
       }
+      if (camera.baseline_m != 0.0 &&
+          !(camera.baseline_m > 0.0 && std::isfinite(camera.baseline_m))) {
+        where.Fail("baseline_m", "must be > 0 and finite (0: not recorded)");
+      }
       if (!camera.color.empty() && camera.color.size() != 3 * pixels) {
         where.Fail("color", "size does not match the depth image (3 bytes per pixel)");
       }
@@ -102,6 +106,18 @@ void WriteDataset(hid_t group, const std::string& name, hid_t file_type, hid_t m
       H5Dclose);
   if (!dataset.valid() ||
       H5Dwrite(dataset.get(), memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0) {
+    where.Fail(name, "cannot write dataset");
+  }
+}
+
+/// A scalar float64 dataset (the contract's baseline_m).
+void WriteScalarDataset(hid_t group, const char* name, double value, const Context& where) {
+  const H5Id space(H5Screate(H5S_SCALAR), H5Sclose);
+  const H5Id dataset(
+      H5Dcreate2(group, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose);
+  if (!dataset.valid() ||
+      H5Dwrite(dataset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, &value) < 0) {
     where.Fail(name, "cannot write dataset");
   }
 }
@@ -185,6 +201,8 @@ void WriteCamera(hid_t cameras, const CameraCapture& camera, const CaptureWriteO
     WriteDataset(group.get(), "color", H5T_STD_U8LE, H5T_NATIVE_UINT8, {image[0], image[1], 3},
                  camera.color.data(), where);
   }
+  if (camera.baseline_m > 0.0)
+    WriteScalarDataset(group.get(), "baseline_m", camera.baseline_m, where);
 }
 
 void WriteFile(const std::string& tmp_path, const RigCapture& capture,

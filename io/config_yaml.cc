@@ -96,6 +96,11 @@ std::vector<Section> Schema(RefineOptions& o) {
            {"pixel_stride", &r.pixel_stride, "Use every n-th depth pixel in u and v (>= 1)."},
            {"min_depth_m", &r.min_depth_m, "Closer depth samples are dropped (> 0)."},
            {"max_depth_m", &r.max_depth_m, "Farther depth samples are dropped (> min_depth_m)."},
+           {"edge_margin_px", &r.edge_margin_px,
+            "Depth pixels within this many pixels of a depth jump or a hole's rim are dropped; "
+            "0 keeps them (>= 0)."},
+           {"edge_jump", &r.edge_jump,
+            "A depth jump: a neighbour farther by more than this times the depth (> 0)."},
        }},
       {"icp",
        "Registration refinement.",

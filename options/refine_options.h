@@ -44,6 +44,12 @@ struct RegionOptions {
   int pixel_stride = 2;
   double min_depth_m = 0.2;
   double max_depth_m = 10.0;
+  /// Depth pixels within edge_margin_px pixels of a depth jump (a 4-neighbour farther by more
+  /// than edge_jump x its depth) or of the rim of a hole (an invalid neighbour with at least 4
+  /// invalid pixels around it: not an isolated dropout) are left out; 0 keeps them all.
+  /// Block-matched depth fattens edges and leaves unreliable rims around its holes.
+  int edge_margin_px = 0;
+  double edge_jump = 0.05;
 };
 
 /// Registration refinement (joint or pairwise).

@@ -458,6 +458,72 @@ int ApplySafetyBounds(const std::vector<Pose>& leveled, const std::vector<Pose>&
   return moved;
 }
 
+/// Whether pixel (u, v) of a depth image (row-major, w x h, NaN invalid) marks an edge or a hole
+/// rim for RegionOptions::edge_margin_px: a valid 4-neighbour farther by more than jump x its
+/// depth, or an invalid 4-neighbour that is no isolated dropout (4 or more invalid pixels in
+/// that neighbour's 3 x 3).
+bool EdgeOrRim(const std::vector<float>& z, int w, int h, int u, int v, double jump) {
+  const auto at = [&](int x, int y) { return z[static_cast<size_t>(y) * w + x]; };
+  const float here = at(u, v);
+  if (!std::isfinite(here)) return false;
+  constexpr int kDu[] = {1, -1, 0, 0};
+  constexpr int kDv[] = {0, 0, 1, -1};
+  for (int k = 0; k < 4; ++k) {
+    const int x = u + kDu[k];
+    const int y = v + kDv[k];
+    if (x < 0 || y < 0 || x >= w || y >= h) continue;
+    const float there = at(x, y);
+    if (std::isfinite(there)) {
+      if (there - here > jump * here) return true;  // the near side of a jump
+      continue;
+    }
+    int invalid = 0;
+    for (int dy = -1; dy <= 1; ++dy) {
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int xx = x + dx;
+        const int yy = y + dy;
+        invalid += xx >= 0 && yy >= 0 && xx < w && yy < h && !std::isfinite(at(xx, yy)) ? 1 : 0;
+      }
+    }
+    if (invalid >= 4) return true;
+  }
+  return false;
+}
+
+/// The camera with its depth pixels near edges and hole rims invalid (edge_margin_px).
+CameraCapture WithoutEdges(const CameraCapture& camera, const RegionOptions& region) {
+  const int w = camera.width;
+  const int h = camera.height;
+  const int m = region.edge_margin_px;
+  // Marks, then their dilation by m pixels: along rows, then along columns.
+  std::vector<char> marked(camera.depth_m.size(), 0), rows(camera.depth_m.size(), 0);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      marked[static_cast<size_t>(v) * w + u] =
+          EdgeOrRim(camera.depth_m, w, h, u, v, region.edge_jump);
+    }
+  }
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      for (int x = std::max(0, u - m); x <= std::min(w - 1, u + m); ++x) {
+        if (marked[static_cast<size_t>(v) * w + x]) rows[static_cast<size_t>(v) * w + u] = 1;
+      }
+    }
+  }
+  CameraCapture kept = camera;
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      for (int y = std::max(0, v - m); y <= std::min(h - 1, v + m); ++y) {
+        if (rows[static_cast<size_t>(y) * w + u]) {
+          kept.depth_m[static_cast<size_t>(v) * w + u] = std::numeric_limits<float>::quiet_NaN();
+          break;
+        }
+      }
+    }
+  }
+  return kept;
+}
+
 }  // namespace
 
 double CameraDepthNoise(const IcpOptions& options, const CameraCapture& camera,
@@ -475,6 +541,9 @@ PointCloud RegistrationPoints(const CameraCapture& camera, const RegionOptions& 
           ? UnprojectOptions{region.pixel_stride, region.min_depth_m, region.max_depth_m}
           : UnprojectOptions{1, -std::numeric_limits<double>::infinity(),
                              std::numeric_limits<double>::infinity()};
+  if (camera.HasDepth() && region.edge_margin_px > 0) {
+    return CameraPoints(WithoutEdges(camera, region), unproject);
+  }
   return CameraPoints(camera, unproject);
 }
 

@@ -118,7 +118,8 @@ double CameraDepthNoise(const IcpOptions& options, const CameraCapture& camera,
                         const GroundResult& ground);
 
 /// The camera-frame points the pipeline uses: a depth camera's valid pixels at the region's
-/// stride and within its depth range; every finite point of a points camera.
+/// stride and within its depth range, away from edges and hole rims when the region says so
+/// (RegionOptions::edge_margin_px); every finite point of a points camera.
 PointCloud RegistrationPoints(const CameraCapture& camera, const RegionOptions& region);
 
 /// The registration inputs of a rig at its leveled poses: each camera's near-floor band

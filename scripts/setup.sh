@@ -10,6 +10,7 @@ packages=(
   libyaml-cpp-dev nlohmann-json3-dev libcli11-dev
   libnanoflann-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libopencv-calib3d-dev  # StereoSGBM for `rigfit simulate --depth-model stereo` (sim/ only)
   libpng-dev libcairo2-dev fonts-dejavu-core clang-format ccache
   pybind11-dev python3-dev python3-numpy python3-pytest  # the Python module (docs/python.md)
   chromium  # headless, for the tests that open a report's index.html and 3-D view

@@ -12,6 +12,7 @@
 #include "core/errors.h"
 #include "sim/noise_field.h"
 #include "sim/random.h"
+#include "sim/stereo_depth.h"
 
 namespace rigfit {
 namespace {
@@ -23,6 +24,8 @@ constexpr std::uint64_t kPixelStream = 1000;
 constexpr std::uint64_t kNoiseDrawStreams = std::uint64_t{1} << 32;  // above any camera index
 // The correlated noise field of camera i: kFieldStream + i (+ the noise draw's offset).
 constexpr std::uint64_t kFieldStream = 2000;
+// The stereo pair's image noise of camera i: kStereoStream + i (+ the noise draw's offset).
+constexpr std::uint64_t kStereoStream = 3000;
 
 // Room and camera layout.
 constexpr double kWallHeight = 2.5;
@@ -64,6 +67,33 @@ void CheckOptions(const SimOptions& o) {
   }
   if (!(o.stereo_baseline_m > 0.0) || !std::isfinite(o.stereo_baseline_m)) {
     fail("stereo_baseline_m must be finite and > 0");
+  }
+  if (o.stereo_upsample < 1) fail("stereo_upsample must be at least 1");
+  if (!std::isfinite(o.disparity_offset_px)) fail("disparity_offset_px must be finite");
+  if (!(o.depth_scale > 0.0) || !std::isfinite(o.depth_scale)) {
+    fail("depth_scale must be finite and > 0");
+  }
+}
+
+/// Whether camera `index` is one of the miscalibrated ones (SimOptions::miscalibrated_cameras)
+/// with a miscalibration to apply.
+bool Miscalibrated(const SimOptions& o, int index) {
+  if (o.disparity_offset_px == 0.0 && o.depth_scale == 1.0) return false;
+  if (o.miscalibrated_cameras.empty()) return index != 0;
+  return std::find(o.miscalibrated_cameras.begin(), o.miscalibrated_cameras.end(), index) !=
+         o.miscalibrated_cameras.end();
+}
+
+/// A miscalibrated camera's Gaussian-model depth: disparity f B / z offset, depth scaled;
+/// NaN where the disparity is no longer positive or the depth beyond max_depth_m.
+void MiscalibrateDepth(const SimOptions& o, double fx, std::vector<float>* depth_m) {
+  const double f_b = fx * o.stereo_baseline_m;
+  for (float& z : *depth_m) {
+    if (!std::isfinite(z)) continue;
+    const double d = f_b / z + o.disparity_offset_px;
+    const double scaled = o.depth_scale * f_b / d;
+    z = d > 0.0 && scaled <= o.max_depth_m ? static_cast<float>(scaled)
+                                           : std::numeric_limits<float>::quiet_NaN();
   }
 }
 
@@ -302,8 +332,8 @@ namespace {
 /// Ray-casts one camera and corrupts its depth like a stereo camera (see SimulateRig).
 /// Every pixel draws its dropout and noise variates in row-major order, hit or not, so
 /// the noise of a pixel depends only on the seed, the noise draw, the camera and the pixel.
-void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_world_camera,
-                  int index, CameraCapture* camera) {
+void RenderCameraGaussian(const SimOptions& options, const Scene& scene, const Pose& T_world_camera,
+                          int index, CameraCapture* camera) {
   SimRng rng(options.seed, kPixelStream + options.noise_draw * kNoiseDrawStreams +
                                static_cast<std::uint64_t>(index));
   const int w = options.width;
@@ -353,6 +383,31 @@ void RenderCamera(const SimOptions& options, const Scene& scene, const Pose& T_w
       camera->depth_m[i] = static_cast<float>(z);
     }
   }
+}
+
+/// One camera: colour and depth as the depth model says, then its miscalibration.
+void RenderCamera(const SimOptions& options, const Scene& scene,
+                  const std::vector<SurfaceTexture>& textures, const Pose& T_world_camera,
+                  int index, CameraCapture* camera) {
+  RenderCameraGaussian(options, scene, T_world_camera, index, camera);
+  const bool miscalibrated = Miscalibrated(options, index);
+  if (options.depth_model == DepthModel::kGaussian) {
+    if (miscalibrated) MiscalibrateDepth(options, camera->intrinsics.fx, &camera->depth_m);
+    return;
+  }
+  StereoOptions stereo;
+  stereo.baseline_m = options.stereo_baseline_m;
+  stereo.upsample = options.stereo_upsample;
+  stereo.max_depth_m = options.max_depth_m;
+  if (miscalibrated) {
+    stereo.disparity_offset_px = options.disparity_offset_px;
+    stereo.depth_scale = options.depth_scale;
+  }
+  SimRng rng(options.seed, kStereoStream + options.noise_draw * kNoiseDrawStreams +
+                               static_cast<std::uint64_t>(index));
+  camera->depth_m = StereoDepth(scene, textures, T_world_camera, camera->intrinsics, camera->width,
+                                camera->height, stereo, rng);
+  camera->baseline_m = options.stereo_baseline_m;
 }
 
 }  // namespace
@@ -411,6 +466,39 @@ void CheckSimImageSize(const std::string& command, int width, int height, Option
   }
 }
 
+namespace {
+
+/// CheckSimOptions' checks of the stereo model's and the miscalibration's options.
+template <typename Fail>
+void CheckStereoOptions(const SimOptions& o, const Fail& fail, OptionSpelling spelling) {
+  if (!(o.stereo_baseline_m > 0.0) || !std::isfinite(o.stereo_baseline_m)) {
+    fail("stereo_baseline_m", "must be a finite number > 0");
+  }
+  if (o.stereo_upsample < 1 || o.stereo_upsample > 4) {
+    fail("stereo_upsample", "must be in [1, 4], got " + std::to_string(o.stereo_upsample));
+  }
+  if (!std::isfinite(o.disparity_offset_px)) fail("disparity_offset_px", "must be finite");
+  if (!(o.depth_scale >= 0.5 && o.depth_scale <= 2.0)) fail("depth_scale", "must be in [0.5, 2]");
+  for (const int index : o.miscalibrated_cameras) {
+    if (index < 0 || index >= o.cameras) {
+      fail("miscalibrated_cameras", "must be camera indices in [0, " +
+                                        std::to_string(o.cameras - 1) + "], got " +
+                                        std::to_string(index));
+    }
+  }
+  if (o.depth_model != DepthModel::kStereo) return;
+  if (o.disparity_quant_px > 0.0) {
+    fail("disparity_quant_px", "must be 0 with " + OptionName("depth_model", spelling) +
+                                   " stereo (the block matcher quantises by itself)");
+  }
+  if (o.noise_corr_share > 0.0) {
+    fail("noise_corr_share", "must be 0 with " + OptionName("depth_model", spelling) +
+                                 " stereo (its noise comes from the matching)");
+  }
+}
+
+}  // namespace
+
 void CheckSimOptions(const SimOptions& o, const std::string& command, OptionSpelling spelling) {
   const auto fail = [&](const char* key, const std::string& what) {
     throw InputError(command + ": " + OptionName(key, spelling) + " " + what);
@@ -442,6 +530,7 @@ void CheckSimOptions(const SimOptions& o, const std::string& command, OptionSpel
   if (!finite_non_negative(o.disparity_quant_px)) {
     fail("disparity_quant_px", "must be a finite number >= 0");
   }
+  CheckStereoOptions(o, fail, spelling);
 }
 
 SimulatedRig SimulateRig(const SimOptions& options) {
@@ -451,6 +540,9 @@ SimulatedRig SimulateRig(const SimOptions& options) {
   const std::vector<Pose> gt = PlaceCameras(options, rig.scene);
   const std::vector<Pose> init = PerturbPoses(options, gt);
   rig.capture.cameras.resize(gt.size());
+  const std::vector<SurfaceTexture> textures = options.depth_model == DepthModel::kStereo
+                                                   ? SimulateTextures(rig.scene, options.seed)
+                                                   : std::vector<SurfaceTexture>();
   // Cameras are independent (own noise stream), so they render in parallel threads.
   const int threads =
       std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, options.cameras);
@@ -458,7 +550,7 @@ SimulatedRig SimulateRig(const SimOptions& options) {
   for (int t = 0; t < threads; ++t) {
     workers.emplace_back([&, t] {
       for (int i = t; i < options.cameras; i += threads) {
-        RenderCamera(options, rig.scene, gt[i], i, &rig.capture.cameras[i]);
+        RenderCamera(options, rig.scene, textures, gt[i], i, &rig.capture.cameras[i]);
       }
     });
   }

@@ -17,6 +17,14 @@ namespace rigfit {
 /// Horizontal field of view of the simulated pinhole cameras (ZED-like), degrees.
 inline constexpr double kSimHorizontalFovDeg = 85.0;
 
+/// How a simulated camera's depth is made.
+enum class DepthModel {
+  /// The ray-cast depth plus Gaussian noise (SimOptions::noise and its correlated share).
+  kGaussian,
+  /// Semi-global block matching of a rendered, textured left/right pair (sim/stereo_depth.h).
+  kStereo,
+};
+
 /// What to simulate. Defaults are those of `rigfit simulate`.
 struct SimOptions {
   int cameras = 4;
@@ -49,7 +57,21 @@ struct SimOptions {
   /// depth's disparity f B / z is rounded to a multiple of disparity_quant_px pixels (e.g.
   /// 1/8 for sub-pixel block matching); 0 keeps depth continuous.
   double disparity_quant_px = 0.0;
+  /// The stereo baseline of disparity_quant_px, of the miscalibration below and of the
+  /// stereo depth model.
   double stereo_baseline_m = 0.12;  ///< ZED-like
+  /// kStereo: depth by block matching (noise, its correlated share and dropout are not used;
+  /// disparity_quant_px must be 0, the matcher quantises by itself).
+  DepthModel depth_model = DepthModel::kGaussian;
+  /// kStereo: the pair rendered and matched at this many times the resolution, the disparity
+  /// averaged down (ZED HD modes); 1 to 4.
+  int stereo_upsample = 1;
+  /// Miscalibrated cameras (either depth model): their disparity f B / z gains
+  /// disparity_offset_px, then their depth is multiplied by depth_scale.
+  double disparity_offset_px = 0.0;
+  double depth_scale = 1.0;
+  /// Indices of the miscalibrated cameras; empty: every camera but the reference (index 0).
+  std::vector<int> miscalibrated_cameras;
 };
 
 /// Limits of the simulators' options (`rigfit simulate`, `rigfit simulate-sequence`,
@@ -67,8 +89,11 @@ void CheckSimImageSize(const std::string& command, int width, int height, Option
 /// cameras in [1, kMaxSimCameras], the image size (CheckSimImageSize), noise, noise_corr_px,
 /// disparity_quant_px and perturb_xz_m finite and >= 0, dropout in [0, 1), perturb_yaw_deg in
 /// [0, 180], perturb_tilt_deg in [0, 90], noise_corr_share in [0, 1] and > 0 only with
-/// noise_corr_px > 0. Throws InputError "<command>: <option> must be ..." on the first
-/// problem. (SimulateRig's own check is a programmer's guard with looser bounds.)
+/// noise_corr_px > 0; stereo_baseline_m finite and > 0, stereo_upsample in [1, 4],
+/// disparity_offset_px finite, depth_scale in [0.5, 2], miscalibrated_cameras indices of
+/// cameras; with the stereo model, disparity_quant_px and noise_corr_share 0. Throws InputError
+/// "<command>: <option> must be ..." on the first problem. (SimulateRig's own check is a
+/// programmer's guard with looser bounds.)
 void CheckSimOptions(const SimOptions& options, const std::string& command,
                      OptionSpelling spelling);
 

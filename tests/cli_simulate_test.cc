@@ -66,5 +66,45 @@ TEST(CliSimulate, CrlbWithCorrelatedNoisePrintsItsOwnBoundToo) {
   EXPECT_THAT(r.err, ::testing::HasSubstr("computing the bound under the correlated noise"));
 }
 
+TEST(CliSimulate, StereoDepthModelAndMiscalibrationFlags) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("rigfit_cli_simulate_stereo_" + std::to_string(getpid()));
+  std::filesystem::create_directories(dir);
+  const std::vector<std::string> rig = {"simulate", "--out", dir.string(), "--cameras", "2",
+                                        "--width",  "160",   "--height",   "90"};
+  const auto run = [&](std::vector<std::string> flags) {
+    flags.insert(flags.begin(), rig.begin(), rig.end());
+    return cli_test::RunRigfit(flags, dir);
+  };
+  const cli_test::RunResult ok = run(
+      {"--depth-model", "stereo", "--disparity-offset-px", "0.1", "--miscalibrated-cameras", "1"});
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  const nlohmann::json meta =
+      nlohmann::json::parse(cli_test::ReadText(dir / "gt.json"))["_meta"]["simulated"];
+  EXPECT_EQ(meta["depth_model"], "stereo");
+  EXPECT_EQ(meta["stereo_baseline_m"], 0.12);
+  EXPECT_EQ(meta["disparity_offset_px"], 0.1);
+  EXPECT_EQ(meta["miscalibrated_cameras"], nlohmann::json::array({"31001117"}));
+  const std::vector<std::pair<std::vector<std::string>, std::string>> bad = {
+      {{"--depth-model", "lidar"}, "--depth-model"},
+      {{"--stereo-upsample", "0"}, "--stereo-upsample must be in [1, 4], got 0"},
+      {{"--depth-scale", "0"}, "--depth-scale must be in [0.5, 2]"},
+      {{"--stereo-baseline-m", "-1"}, "--stereo-baseline-m must be a finite number > 0"},
+      {{"--miscalibrated-cameras", "0,2"},
+       "--miscalibrated-cameras must be camera indices in [0, "
+       "1], got 2"},
+      {{"--depth-model", "stereo", "--disparity-quant-px", "0.125"},
+       "--disparity-quant-px must be 0 with --depth-model stereo"},
+  };
+  for (const auto& [flags, message] : bad) {
+    std::vector<std::string> args = flags;
+    args.push_back("--force");
+    const cli_test::RunResult r = run(args);
+    EXPECT_NE(r.exit_code, 0) << flags[0];
+    EXPECT_THAT(r.err, ::testing::HasSubstr(message)) << flags[0];
+  }
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace rigfit

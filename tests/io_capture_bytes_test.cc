@@ -25,6 +25,7 @@ RigCapture SmallCapture() {
   depth.depth_m = {1.5f, std::nanf(""), 2.25f, 3.0f, 0.75f, 4.5f};
   depth.confidence = {0.0f, 1.0f, 2.0f, 3.0f, 4.0f, 5.0f};
   for (int i = 0; i < 18; ++i) depth.color.push_back(static_cast<std::uint8_t>(13 * i));
+  depth.baseline_m = 0.12;
   CameraCapture points;
   points.serial = "scan";
   points.points = {Vec3(0.1, -1.0 / 3.0, 2.0), Vec3(-4.0, 0.5, 1e-9)};

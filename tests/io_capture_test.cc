@@ -94,6 +94,33 @@ TEST_F(CaptureTest, Float32RoundTripOfEveryDatasetSortedBySerial) {
   EXPECT_THAT(Listing(), ElementsAre("capture.h5"));
 }
 
+TEST_F(CaptureTest, StereoBaselineRoundTripsAndIsOnlyWrittenWhenKnown) {
+  std::mt19937 rng(4);
+  RigCapture capture;
+  CameraCapture stereo = DepthCamera("zed", 8, 6, rng);
+  stereo.baseline_m = 0.12;
+  capture.cameras = {stereo, DepthCamera("kinect", 5, 4, rng)};
+  const std::string path = Path("capture.h5");
+  WriteCapture(path, capture);
+  const RigCapture back = ReadCapture(path);
+  ASSERT_THAT(back.cameras, SizeIs(2));
+  EXPECT_EQ(back.cameras[0].serial, "kinect");
+  EXPECT_EQ(back.cameras[0].baseline_m, 0.0);   // not recorded
+  EXPECT_EQ(back.cameras[1].baseline_m, 0.12);  // float64: exact
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  EXPECT_GT(H5Lexists(file, "/cameras/zed/baseline_m", H5P_DEFAULT), 0);
+  EXPECT_EQ(H5Lexists(file, "/cameras/kinect/baseline_m", H5P_DEFAULT), 0);
+  H5Fclose(file);
+  // From memory and through the guarded reader's bytes too.
+  const std::string bytes = io_test::ReadText(path);
+  EXPECT_EQ(ReadCaptureFromMemory(bytes.data(), bytes.size(), "mem.h5").cameras[1].baseline_m,
+            0.12);
+
+  capture.cameras[0].baseline_m = -0.12;
+  EXPECT_THAT(io_test::InputErrorMessage([&] { WriteCapture(path, capture); }),
+              HasSubstr("camera zed: baseline_m: must be > 0 and finite"));
+}
+
 TEST_F(CaptureTest, Uint16RoundTripWithinHalfAUnit) {
   std::mt19937 rng(5);
   RigCapture capture;
@@ -557,6 +584,20 @@ std::vector<MalformedCase> MalformedCases() {
        },
        "capture.h5: camera 31002234: color: expected shape [3, 4, 3] (the depth image), got "
        "[3, 4]"},
+      {"baseline not positive",
+       [cam](H5Builder& h5) {
+         h5.Root();
+         h5.DepthCamera("31002234");
+         h5.Dataset(cam + "/baseline_m", H5T_IEEE_F64LE, {1}, std::vector<double>{-0.12});
+       },
+       "capture.h5: camera 31002234: baseline_m: must be finite and > 0, got -0.12"},
+      {"baseline not a scalar",
+       [cam](H5Builder& h5) {
+         h5.Root();
+         h5.DepthCamera("31002234");
+         h5.Dataset(cam + "/baseline_m", H5T_IEEE_F64LE, {2}, std::vector<double>{0.1, 0.2});
+       },
+       "capture.h5: camera 31002234: baseline_m: expected a scalar, got shape [2]"},
   };
 }
 

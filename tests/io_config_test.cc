@@ -43,6 +43,8 @@ RefineOptions NonDefaultOptions() {
   o.region.pixel_stride = 3;
   o.region.min_depth_m = 0.3;
   o.region.max_depth_m = 6.5;
+  o.region.edge_margin_px = 2;
+  o.region.edge_jump = 0.08;
   o.icp.mode = RefineMode::kPairwise;
   o.icp.method = RegistrationMethod::kGicp;
   o.icp.voxel_size = 0.1 + 0.2;  // 0.30000000000000004: needs 17 digits

@@ -108,6 +108,7 @@ inline void ExpectSameCamera(const CameraCapture& a, const CameraCapture& e) {
   EXPECT_EQ(a.intrinsics.fy, e.intrinsics.fy);
   EXPECT_EQ(a.intrinsics.cx, e.intrinsics.cx);
   EXPECT_EQ(a.intrinsics.cy, e.intrinsics.cy);
+  EXPECT_EQ(a.baseline_m, e.baseline_m);
   EXPECT_EQ(a.confidence, e.confidence);
   EXPECT_EQ(a.color, e.color);
   EXPECT_EQ(a.points, e.points);

@@ -10,6 +10,9 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "core/geometry.h"
+#include "rig/refine.h"
+
 namespace rigfit {
 namespace {
 
@@ -301,6 +304,49 @@ TEST(BuildPyramid, LevelsShrinkWithVoxelSizeAndStayUsableAfterAMove) {
   }
   EXPECT_TRUE(
       BuildPyramid(PointCloud(), voxel_sizes, 20, Vec3::Zero(), 1.4).levels[0].points.empty());
+}
+
+TEST(RegistrationPoints, EdgeMarginDropsJumpsAndHoleRimsButNotIsolatedDropouts) {
+  // 40 x 20 pixels: depth 2 m left of column 20, 3 m from it on (a jump), a 4 x 4 hole at
+  // columns 4..7, rows 8..11, and one dropped pixel at (30, 10).
+  CameraCapture camera;
+  camera.serial = "cam";
+  camera.width = 40;
+  camera.height = 20;
+  camera.intrinsics = {30.0, 30.0, 19.5, 9.5};
+  camera.depth_m.assign(800, 2.0f);
+  for (int v = 0; v < 20; ++v) {
+    for (int u = 20; u < 40; ++u) camera.depth_m[v * 40 + u] = 3.0f;
+  }
+  for (int v = 8; v < 12; ++v) {
+    for (int u = 4; u < 8; ++u) camera.depth_m[v * 40 + u] = NAN;
+  }
+  camera.depth_m[10 * 40 + 30] = NAN;
+  RegionOptions region;
+  region.pixel_stride = 1;
+  const auto kept_pixels = [&](int margin) {
+    region.edge_margin_px = margin;
+    std::set<std::pair<int, int>> pixels;
+    for (const Vec3& p : RegistrationPoints(camera, region)) {
+      const Eigen::Vector2i px = PixelOf(camera.intrinsics, p);
+      pixels.insert({px.x(), px.y()});
+    }
+    return pixels;
+  };
+  EXPECT_EQ(kept_pixels(0).size(), 800u - 17u);
+  const std::set<std::pair<int, int>> kept = kept_pixels(2);
+  // The near side of the jump (column 19) is marked: columns 17..21 go; 16 and 22 stay.
+  for (const int u : {17, 18, 19, 20, 21}) EXPECT_EQ(kept.count({u, 0}), 0u) << u;
+  EXPECT_EQ(kept.count({16, 0}), 1u);
+  EXPECT_EQ(kept.count({22, 0}), 1u);
+  // The hole's rim (columns 3 and 8, rows 7 and 12) and 2 px around it go.
+  EXPECT_EQ(kept.count({1, 10}), 0u);
+  EXPECT_EQ(kept.count({0, 10}), 1u);
+  EXPECT_EQ(kept.count({10, 10}), 0u);
+  EXPECT_EQ(kept.count({11, 10}), 1u);
+  // An isolated dropout leaves its neighbours.
+  EXPECT_EQ(kept.count({29, 10}), 1u);
+  EXPECT_EQ(kept.count({31, 10}), 1u);
 }
 
 }  // namespace
