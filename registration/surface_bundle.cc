@@ -30,34 +30,37 @@ namespace {
 
 using PoseBlock = std::array<double, kPoseAmbientSize>;
 
-/// Model error of the segmentation per round, in voxels: the joint start is about a
-/// centimetre off; each solve sharpens the surfaces, so the next round may be stricter (on a
-/// noise-free rig the last round's 1 mm keeps the pixels of neighbouring faces out: 0.05 mm
-/// against 0.18 mm with 3 mm).
+/// Model error of the segmentation per round, in voxels: the joint start is
+/// about a centimetre off; each solve sharpens the surfaces, so the next round
+/// may be stricter (on a noise-free rig the last round's 1 mm keeps the pixels
+/// of neighbouring faces out: 0.05 mm against 0.18 mm with 3 mm).
 constexpr std::array<double, 3> kRoundModelVoxels = {0.5, 0.15, 0.05};
-/// A camera needs this many planes, whose normals spread over all three directions (the
-/// smallest eigenvalue of sum n n^T at least this share of the largest), for its six pose
-/// directions to be fixed by planes; otherwise it keeps its start pose.
+/// A camera needs this many planes, whose normals spread over all three
+/// directions (the smallest eigenvalue of sum n n^T at least this share of the
+/// largest), for its six pose directions to be fixed by planes; otherwise it
+/// keeps its start pose.
 constexpr int kMinPlanesPerCamera = 3;
 constexpr double kMinNormalSpread = 0.02;
 /// Levenberg-Marquardt iterations per round.
 constexpr int kIterationsPerRound = 25;
 
-/// The inverse depth sigma of a pixel at depth z: the sensor's k, and the metric noise floor
-/// seen in inverse depth (min_noise / z^2).
+/// The inverse depth sigma of a pixel at depth z: the sensor's k, and the
+/// metric noise floor seen in inverse depth (min_noise / z^2).
 double InverseDepthSigma(double k, double z, double min_noise_m) {
   const double floor = min_noise_m / (z * z);
   return std::sqrt(k * k + floor * floor);
 }
 
-/// The measured inverse depth of a pixel: with noise Gaussian in z, E[1/z_m] = 1/z + k^2 z to
-/// second order, so 1/z_m - k^2 z_m is unbiased to that order; disparity noise needs none.
+/// The measured inverse depth of a pixel: with noise Gaussian in z, E[1/z_m] =
+/// 1/z + k^2 z to second order, so 1/z_m - k^2 z_m is unbiased to that order;
+/// disparity noise needs none.
 double InverseDepth(double z, double k, DepthNoiseModel model) {
   return model == DepthNoiseModel::kGaussianDepth ? 1.0 / z - k * k * z : 1.0 / z;
 }
 
-/// A prior on a pose: r = W [2 vec(q q0^-1); t - t0] (the PoseManifold tangent: world
-/// rotation vector to first order, world translation), W^T W the information.
+/// A prior on a pose: r = W [2 vec(q q0^-1); t - t0] (the PoseManifold tangent:
+/// world rotation vector to first order, world translation), W^T W the
+/// information.
 struct PosePriorFunctor {
   Eigen::Quaterniond q0;
   Vec3 t0;
@@ -77,15 +80,17 @@ struct PosePriorFunctor {
   }
 };
 
-/// The start's prior along the directions where the planes know the pose less well than the
-/// start does: with the start's covariance S = C C^T and the planes' Q, the eigenvectors u_k
-/// of C^-1 Q C^-T with eigenvalues lambda_k above 1 give the rows
-/// sqrt(1 - 1 / lambda_k) u_k^T C^-1 of W (zero rows elsewhere); an empty matrix when there
-/// are none. The prior adds what the start knows beyond the planes (1 - 1 / lambda_k of its
-/// information), so that the planes and the prior together know the direction as well as the
-/// start, not better: the two come from the same pixels, and adding the start's whole
-/// information counted them twice (seeds 0..9 x 3 at ee4335c: 3.76 mm against 3.40, held out
-/// 6.40 against 6.36, the covariance optimistic by 1.30 against 1.03).
+/// The start's prior along the directions where the planes know the pose less
+/// well than the start does: with the start's covariance S = C C^T and the
+/// planes' Q, the eigenvectors u_k of C^-1 Q C^-T with eigenvalues lambda_k
+/// above 1 give the rows sqrt(1 - 1 / lambda_k) u_k^T C^-1 of W (zero rows
+/// elsewhere); an empty matrix when there are none. The prior adds what the
+/// start knows beyond the planes (1 - 1 / lambda_k of its information), so that
+/// the planes and the prior together know the direction as well as the start,
+/// not better: the two come from the same pixels, and adding the start's whole
+/// information counted them twice (seeds 0..9 x 3 at ee4335c: 3.76 mm
+/// against 3.40, held out 6.40 against 6.36, the covariance optimistic by 1.30
+/// against 1.03).
 Mat6 WeakDirectionPrior(const Mat6& start, const Mat6& planes, int* directions) {
   *directions = 0;
   const Eigen::SelfAdjointEigenSolver<Mat6> start_eigen(start);
@@ -119,7 +124,8 @@ struct ClusterTerm {
   std::vector<int> pixels;  ///< indices into the camera's points
 };
 
-/// The segmentation's input at the given poses, and which camera point each entry is.
+/// The segmentation's input at the given poses, and which camera point each
+/// entry is.
 struct MergedCloud {
   std::vector<SegmentPoint> points;
   std::vector<std::pair<int, int>> source;  ///< (camera, point index)
@@ -151,8 +157,8 @@ MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   return cloud;
 }
 
-/// Sums each term's pixels into its cluster, each pixel's variance times its camera's
-/// noise correlation.
+/// Sums each term's pixels into its cluster, each pixel's variance times its
+/// camera's noise correlation.
 void FillClusters(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
                   const std::vector<double>& correlation, std::vector<ClusterTerm>* terms) {
   for (ClusterTerm& t : *terms) {
@@ -172,15 +178,17 @@ void FillClusters(const std::vector<SurfaceCamera>& cameras, const IcpOptions& o
   }
 }
 
-/// The side of the image tiles over which the noise's correlation is measured, pixels.
+/// The side of the image tiles over which the noise's correlation is measured,
+/// pixels.
 constexpr double kCorrelationTilePx = 32.0;
 
-/// Per camera, the noise correlation (SurfaceBundleResult::noise_correlation) at the blocks:
-/// the pixels of each term are grouped by image tile, and the squared sums of their whitened
-/// residuals over the groups are divided by the number of pixels: the variance of a tile's
-/// sum against what the noise model predicts for independent pixels (correlated pixels add
-/// their covariances). Against the model, not against the residuals' own scale: noise-free
-/// data, whose tiny residuals are all structure, stay at 1. At least 1; 1 for cameras
+/// Per camera, the noise correlation (SurfaceBundleResult::noise_correlation)
+/// at the blocks: the pixels of each term are grouped by image tile, and the
+/// squared sums of their whitened residuals over the groups are divided by the
+/// number of pixels: the variance of a tile's sum against what the noise model
+/// predicts for independent pixels (correlated pixels add their covariances).
+/// Against the model, not against the residuals' own scale: noise-free data,
+/// whose tiny residuals are all structure, stay at 1. At least 1; 1 for cameras
 /// without a pixel angle.
 std::vector<double> NoiseCorrelation(const std::vector<ClusterTerm>& terms,
                                      const std::vector<SurfaceCamera>& cameras,
@@ -239,9 +247,10 @@ std::vector<ClusterTerm> Clusters(const std::vector<SurfaceCamera>& cameras,
   return terms;
 }
 
-/// Keeps the pixels of each non-floor term whose predicted point lies within kWindowSigmas of
-/// the band's top (inside the points' own, wider, top: SurfaceCamera::points_top) and of the
-/// segmentation's floor margin; a term left with too few pixels goes.
+/// Keeps the pixels of each non-floor term whose predicted point lies within
+/// kWindowSigmas of the band's top (inside the points' own, wider, top:
+/// SurfaceCamera::points_top) and of the segmentation's floor margin; a term
+/// left with too few pixels goes.
 void PredictedHeightWindow(const std::vector<SurfaceCamera>& cameras,
                            const std::vector<Pose>& poses, const std::vector<PlaneBlock>& planes,
                            const PlaneSegmentationOptions& segmentation,
@@ -288,7 +297,8 @@ std::vector<PlanarFace> PlaneList(const std::vector<PlaneBlock>& planes) {
   return list;
 }
 
-/// The terms' pixels assigned anew by their rays (registration/ray_membership.h).
+/// The terms' pixels assigned anew by their rays
+/// (registration/ray_membership.h).
 void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
                   const std::vector<PlaneBlock>& planes,
                   const PlaneSegmentationOptions& segmentation, int num_threads,
@@ -302,14 +312,15 @@ void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   }
 }
 
-/// LevelOnFloor's Gauss-Newton: at most this many iterations, until a step is below
-/// kLevelStepRad (the start is a few hundredths of a degree off).
+/// LevelOnFloor's Gauss-Newton: at most this many iterations, until a step is
+/// below kLevelStepRad (the start is a few hundredths of a degree off).
 constexpr int kLevelIterations = 20;
 constexpr double kLevelStepRad = 1e-12;
 
-/// `block` turned about world X and Z through its centre, its yaw and centre held, so that its
-/// pixels of `cluster` lie best on the plane `floor` (held): Gauss-Newton on the plane-cluster
-/// residual over the two tilt angles of the pose's tangent (core/pose.h).
+/// `block` turned about world X and Z through its centre, its yaw and centre
+/// held, so that its pixels of `cluster` lie best on the plane `floor` (held):
+/// Gauss-Newton on the plane-cluster residual over the two tilt angles of the
+/// pose's tangent (core/pose.h).
 void LevelOnFloor(const PlaneCluster& cluster, bool ray_model, const Vec4& floor,
                   PoseBlock* block) {
   const std::unique_ptr<ceres::CostFunction> cost(PlaneClusterCost::Create(cluster, ray_model));
@@ -323,7 +334,8 @@ void LevelOnFloor(const PlaneCluster& cluster, bool ray_model, const Vec4& floor
     SharedPoseManifold()->PlusJacobian(block->data(), plus.data());
     const Eigen::Matrix<double, 4, 6> J_tangent = J * plus;
     Eigen::Matrix<double, 4, 2> J_tilt;
-    J_tilt << J_tangent.col(0), J_tangent.col(2);  // rotations about world X and Z
+    J_tilt << J_tangent.col(0),
+        J_tangent.col(2);  // rotations about world X and Z
     const Eigen::Vector2d step =
         -(J_tilt.transpose() * J_tilt).ldlt().solve(J_tilt.transpose() * r);
     if (!step.allFinite()) return;
@@ -336,12 +348,13 @@ void LevelOnFloor(const PlaneCluster& cluster, bool ray_model, const Vec4& floor
   }
 }
 
-/// The reference leveled again on the bundle's floor: the cameras that are not free and see
-/// the leveled floor (the reference: a camera the joint solve could not link holds no pixels)
-/// are turned by LevelOnFloor on their floor pixels. Leveling fitted each camera's floor alone,
-/// with the feet of walls and boxes in it; the bundle's floor leaves them out and is shared by
-/// every camera. Marks them in `leveled`; returns the world correction C applied to the
-/// reference (T <- C T; the identity when none).
+/// The reference leveled again on the bundle's floor: the cameras that are not
+/// free and see the leveled floor (the reference: a camera the joint solve
+/// could not link holds no pixels) are turned by LevelOnFloor on their floor
+/// pixels. Leveling fitted each camera's floor alone, with the feet of walls
+/// and boxes in it; the bundle's floor leaves them out and is shared by every
+/// camera. Marks them in `leveled`; returns the world correction C applied to
+/// the reference (T <- C T; the identity when none).
 Pose LevelReference(const std::vector<SurfaceCamera>& cameras,
                     const std::vector<ClusterTerm>& terms, const std::vector<PlaneBlock>& planes,
                     std::vector<PoseBlock>* blocks, std::vector<bool>* leveled) {
@@ -417,232 +430,297 @@ void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterT
   for (const ClusterTerm& t : terms) result->terms.push_back({t.camera, t.plane, t.pixels});
 }
 
-SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
-                          int num_threads, const Log& log);
+/// The surface bundle's solve: rounds of segmentation and a joint Ceres solve
+/// of poses and planes, then the statistics (noise scale, thickness,
+/// covariance) and, where the start knows a camera's pose better than the
+/// planes do, a last solve with the start as a prior.
+class BundleSolver {
+ public:
+  BundleSolver(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+               int num_threads, const Log& log);
+  SurfaceBundleResult Run();
+
+ private:
+  /// Solves poses and planes over the terms; false when Ceres fails (summary_
+  /// says why).
+  bool SolveOnce(const std::vector<Mat6>& priors);
+  void AddPoseAndPlaneBlocks(ceres::ParameterBlockOrdering* ordering);
+  void AddPriors(const std::vector<Mat6>& priors);
+  /// What a round tells the rounds: go on, stop (no plane: the last round's
+  /// result stands) or return at once (the solve failed: the previous round's
+  /// poses stand, as they are).
+  enum class Next { kContinue, kStop, kReturn };
+  /// One round: segmentation at the current poses, the terms, the solve.
+  Next Round(int round, int rounds);
+  void LogRound(int round, int pixels) const;
+  /// The noise scale, the thickness and the poses' covariance (planes
+  /// marginalised).
+  void Statistics();
+  /// The start as a prior along the directions it knows better than the planes;
+  /// false when no camera has such a direction.
+  bool StartPriors(std::vector<Mat6>* priors) const;
+  bool Free(size_t c) const { return cameras_[c].free && !result_.fallback[c]; }
+
+  const std::vector<SurfaceCamera>& cameras_;
+  const IcpOptions& options_;
+  const int num_threads_;
+  const Log& log_;
+  const size_t n_;
+  SurfaceBundleResult result_;
+  std::vector<Pose> poses_;
+  std::vector<PoseBlock> blocks_;
+  ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold_;
+  ceres::SubsetManifold floor_manifold_{4, {0, 1, 2}};  // the floor's normal stays +Y
+  std::unique_ptr<ceres::Problem> problem_;
+  std::vector<ClusterTerm> terms_;
+  std::vector<PlaneBlock> planes_;
+  // The noise correlation the current terms are weighted with, and the one
+  // measured at the last solve (for the next round's terms).
+  std::vector<double> correlation_;
+  std::vector<double> measured_;
+  ceres::Solver::Summary summary_;
+  std::vector<bool> fixed_;
+  // The correction of the world that LevelReference applied to the reference:
+  // the start's poses, which the joint solve found against the reference's
+  // leveled pose, move with it where the start holds a direction (a camera that
+  // keeps its joint pose stays where it is: moving it too changed nothing on
+  // the held-out seed that has one).
+  Pose gauge_ = Pose::Identity();
+};
+
+BundleSolver::BundleSolver(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
+                           int num_threads, const Log& log)
+    : cameras_(cameras),
+      options_(options),
+      num_threads_(num_threads),
+      log_(log),
+      n_(cameras.size()),
+      poses_(cameras.size()),
+      blocks_(cameras.size()),
+      correlation_(cameras.size(), 1.0),
+      measured_(cameras.size(), 1.0) {
+  result_.fallback.assign(n_, false);
+  result_.leveled.assign(n_, false);
+  result_.covariance.assign(n_, Mat6::Zero());
+  result_.thickness_before.assign(n_, 0.0);
+  result_.thickness_after.assign(n_, 0.0);
+  for (size_t c = 0; c < n_; ++c) {
+    poses_[c] = cameras[c].T_world_camera;
+    PoseToParameters(poses_[c], blocks_[c].data());
+  }
+  result_.poses = poses_;
+}
+
+void BundleSolver::AddPoseAndPlaneBlocks(ceres::ParameterBlockOrdering* ordering) {
+  for (size_t c = 0; c < n_; ++c) {
+    problem_->AddParameterBlock(blocks_[c].data(), kPoseAmbientSize, SharedPoseManifold());
+    ordering->AddElementToGroup(blocks_[c].data(), 1);
+    result_.fallback[c] = cameras_[c].free && !fixed_[c];
+    if (!Free(c)) problem_->SetParameterBlockConstant(blocks_[c].data());
+  }
+  for (PlaneBlock& plane : planes_) {
+    problem_->AddParameterBlock(
+        plane.x.data(), 4,
+        plane.floor ? static_cast<ceres::Manifold*>(&floor_manifold_) : &plane_manifold_);
+    ordering->AddElementToGroup(plane.x.data(), 0);
+  }
+}
+
+void BundleSolver::AddPriors(const std::vector<Mat6>& priors) {
+  if (options_.gravity_weight > 0.0) {
+    for (size_t c = 0; c < n_; ++c) {
+      if (!Free(c)) continue;
+      problem_->AddResidualBlock(
+          GravityPriorCost::Create(cameras_[c].T_world_leveled.linear(), options_.gravity_weight),
+          nullptr, blocks_[c].data());
+    }
+  }
+  for (size_t c = 0; c < n_; ++c) {
+    if (priors.empty() || priors[c].isZero() || !Free(c)) continue;
+    const Pose T0 = gauge_ * cameras_[c].T_world_camera;
+    problem_->AddResidualBlock(
+        new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
+            new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
+        nullptr, blocks_[c].data());
+  }
+}
+
+bool BundleSolver::SolveOnce(const std::vector<Mat6>& priors) {
+  problem_ = NewProblem();
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  AddPoseAndPlaneBlocks(ordering.get());
+  for (const ClusterTerm& t : terms_) {
+    problem_->AddResidualBlock(PlaneClusterCost::Create(t.cluster, cameras_[t.camera].ray_model),
+                               nullptr, blocks_[t.camera].data(), planes_[t.plane].x.data());
+  }
+  AddPriors(priors);
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = ceres::DENSE_SCHUR;
+  solver_options.linear_solver_ordering = ordering;
+  solver_options.max_num_iterations = kIterationsPerRound;
+  // One thread: Ceres' Schur eliminator adds the chunks of a multi-threaded
+  // elimination in whatever order the threads finish, so the last digits of the
+  // poses changed from run to run; the reduced problem (a few hundred
+  // 4-dimensional blocks) is small.
+  solver_options.num_threads = 1;
+  solver_options.logging_type = ceres::SILENT;
+  summary_ = ceres::Solver::Summary{};
+  ceres::Solve(solver_options, problem_.get(), &summary_);
+  return summary_.IsSolutionUsable();
+}
+
+BundleSolver::Next BundleSolver::Round(int round, int rounds) {
+  const MergedCloud cloud = Merge(cameras_, poses_);
+  PlaneSegmentationOptions segmentation;
+  segmentation.voxel_size = options_.voxel_size;
+  segmentation.min_noise_m = options_.min_noise_m;
+  segmentation.leveled_floor =
+      std::any_of(cameras_.begin(), cameras_.end(),
+                  [](const SurfaceCamera& camera) { return camera.floor_leveled; });
+  segmentation.model_sigma_voxels =
+      kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
+  const std::vector<SegmentedPlane> segmented =
+      SegmentPlanes(cloud.points, static_cast<int>(n_), segmentation);
+  if (segmented.empty()) {
+    result_.message = "surface bundle: no plane is seen by two cameras";
+    return Next::kStop;
+  }
+  planes_.clear();
+  for (const SegmentedPlane& s : segmented) {
+    planes_.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
+  }
+  terms_ = Clusters(cameras_, cloud, segmented);
+  PredictedHeightWindow(cameras_, poses_, planes_, segmentation, &terms_);
+  // The last round's pixels by their rays, from the segmentation at the poses
+  // of the previous rounds' solves.
+  if (round == rounds - 1) {
+    AssignByRays(cameras_, poses_, planes_, segmentation, num_threads_, &terms_);
+  }
+  correlation_ = measured_;
+  FillClusters(cameras_, options_, correlation_, &terms_);
+  if (round == 0) {
+    result_.thickness_before = Thickness(terms_, TermCosts(terms_, cameras_, blocks_, planes_), n_);
+  }
+  fixed_ = PlanesFixPose(terms_, planes_, n_);
+  if (!SolveOnce({})) {
+    // The previous round's poses stand (the start's in the first round).
+    result_.message = "surface bundle: " + summary_.message;
+    result_.poses = poses_;
+    return Next::kReturn;
+  }
+  gauge_ = LevelReference(cameras_, terms_, planes_, &blocks_, &result_.leveled) * gauge_;
+  for (size_t c = 0; c < n_; ++c) poses_[c] = PoseFromParameters(blocks_[c].data());
+  measured_ = NoiseCorrelation(terms_, cameras_, blocks_, planes_, options_);
+  int pixels = 0;
+  for (const ClusterTerm& t : terms_) pixels += t.cluster.Count();
+  result_.planes = static_cast<int>(planes_.size());
+  result_.pixels = pixels;
+  result_.rounds = round + 1;
+  result_.usable = true;
+  if (options_.keep_surface_diagnostics) RecordUse(planes_, terms_, &result_);
+  LogRound(round, pixels);
+  return Next::kContinue;
+}
+
+void BundleSolver::LogRound(int round, int pixels) const {
+  log_.Debug("surface bundle: round " + std::to_string(round) + ": " +
+             std::to_string(planes_.size()) + " planes, " + std::to_string(pixels) +
+             " pixels, cost " + Fixed(2.0 * summary_.final_cost / std::max(pixels, 1), 4) +
+             " per pixel, " + std::to_string(summary_.iterations.size()) + " iterations");
+  std::string measured_text;
+  for (const double m : measured_) measured_text += " " + Fixed(m, 1);
+  log_.Debug("surface bundle: noise correlation per camera" + measured_text);
+}
+
+void BundleSolver::Statistics() {
+  // Each pixel's own squared whitened residual, without the correlation's
+  // weight.
+  std::vector<double> costs = TermCosts(terms_, cameras_, blocks_, planes_);
+  for (size_t k = 0; k < terms_.size(); ++k) costs[k] *= correlation_[terms_[k].camera];
+  result_.thickness_after = Thickness(terms_, costs, n_);
+  int parameters = 0;
+  for (size_t c = 0; c < n_; ++c) {
+    if (Free(c)) parameters += 6;
+  }
+  for (const PlaneBlock& plane : planes_) parameters += plane.floor ? 1 : 3;
+  double total = 0.0;
+  for (const double cost : costs) total += cost;
+  const int dof = result_.pixels - parameters;
+  result_.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
+  std::vector<double*> free_poses, plane_blocks;
+  std::vector<size_t> free_cameras;
+  for (size_t c = 0; c < n_; ++c) {
+    if (!Free(c)) continue;
+    free_poses.push_back(blocks_[c].data());
+    free_cameras.push_back(c);
+  }
+  for (PlaneBlock& plane : planes_) plane_blocks.push_back(plane.x.data());
+  // The noise model's covariance, scaled by the residuals' spread, raised where
+  // the planes' residuals scatter more than it says (the cluster-robust
+  // covariance: each plane's model error and wrong pixels, which the noise
+  // model does not know).
+  Eigen::MatrixXd robust;
+  Eigen::MatrixXd covariance =
+      MarginalPoseCovariance(problem_.get(), free_poses, plane_blocks, &robust);
+  result_.covariance_ok = covariance.size() > 0;
+  if (!result_.covariance_ok) return;
+  covariance *= result_.noise_scale * result_.noise_scale;
+  if (robust.size() > 0 && result_.noise_scale > 0.0) {
+    covariance = CovarianceAtLeast(covariance, robust);
+  }
+  for (size_t k = 0; k < free_cameras.size(); ++k) {
+    result_.covariance[free_cameras[k]] = covariance.block<6, 6>(6 * k, 6 * k);
+  }
+}
+
+bool BundleSolver::StartPriors(std::vector<Mat6>* priors) const {
+  priors->assign(n_, Mat6::Zero());
+  int held = 0;
+  for (size_t c = 0; c < n_; ++c) {
+    if (!Free(c) || cameras_[c].start_covariance.isZero()) continue;
+    int directions = 0;
+    (*priors)[c] =
+        WeakDirectionPrior(cameras_[c].start_covariance, result_.covariance[c], &directions);
+    held += directions;
+  }
+  if (held > 0) {
+    log_.Debug("surface bundle: the start holds " + std::to_string(held) + " weak directions");
+  }
+  return held > 0;
+}
+
+SurfaceBundleResult BundleSolver::Run() {
+  const int rounds = std::max(1, options_.surface_rounds);
+  for (int round = 0; round < rounds; ++round) {
+    const Next next = Round(round, rounds);
+    if (next == Next::kReturn) return result_;
+    if (next == Next::kStop) break;
+  }
+  if (!result_.usable) return result_;
+  result_.poses = poses_;
+  result_.noise_correlation = correlation_;
+  Statistics();
+  // Planes do not see their own boundaries, which the joint point-to-plane
+  // solve (the start) does: along the directions where the planes know a
+  // camera's pose less well than the start does, the start enters as a prior
+  // with its covariance, and the last round is solved again.
+  std::vector<Mat6> priors;
+  if (!result_.covariance_ok || !StartPriors(&priors)) return result_;
+  if (!SolveOnce(priors)) {
+    result_.message = "surface bundle: " + summary_.message;
+    return result_;
+  }
+  for (size_t c = 0; c < n_; ++c) result_.poses[c] = PoseFromParameters(blocks_[c].data());
+  Statistics();
+  return result_;
+}
 
 }  // namespace
 
 SurfaceBundleResult RegisterSurfaceBundle(const std::vector<SurfaceCamera>& cameras,
                                           const IcpOptions& options, int num_threads,
                                           const Log& log) {
-  return Solve(cameras, options, num_threads, log);
+  return BundleSolver(cameras, options, num_threads, log).Run();
 }
 
-namespace {
-
-SurfaceBundleResult Solve(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
-                          int num_threads, const Log& log) {
-  const size_t n = cameras.size();
-  SurfaceBundleResult result;
-  result.fallback.assign(n, false);
-  result.leveled.assign(n, false);
-  result.covariance.assign(n, Mat6::Zero());
-  result.thickness_before.assign(n, 0.0);
-  result.thickness_after.assign(n, 0.0);
-  std::vector<Pose> poses(n);
-  std::vector<PoseBlock> blocks(n);
-  for (size_t c = 0; c < n; ++c) {
-    poses[c] = cameras[c].T_world_camera;
-    PoseToParameters(poses[c], blocks[c].data());
-  }
-  result.poses = poses;
-
-  ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>> plane_manifold;
-  ceres::SubsetManifold floor_manifold(4, {0, 1, 2});  // the floor's normal stays +Y
-  std::unique_ptr<ceres::Problem> problem;
-  std::vector<ClusterTerm> terms;
-  std::vector<PlaneBlock> planes;
-  const int rounds = std::max(1, options.surface_rounds);
-  // The noise correlation the current terms are weighted with, and the one measured at the
-  // last solve (for the next round's terms).
-  std::vector<double> correlation(n, 1.0);
-  std::vector<double> measured(n, 1.0);
-
-  // Solves poses and planes over the terms; false when Ceres fails (summary says why).
-  ceres::Solver::Summary summary;
-  std::vector<bool> fixed;
-  // The correction of the world that LevelReference applied to the reference: the start's
-  // poses, which the joint solve found against the reference's leveled pose, move with it
-  // where the start holds a direction (a camera that keeps its joint pose stays where it is:
-  // moving it too changed nothing on the held-out seed that has one).
-  Pose gauge = Pose::Identity();
-  const auto solve = [&](const std::vector<Mat6>& priors) {
-    problem = NewProblem();
-    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-    for (size_t c = 0; c < n; ++c) {
-      problem->AddParameterBlock(blocks[c].data(), kPoseAmbientSize, SharedPoseManifold());
-      ordering->AddElementToGroup(blocks[c].data(), 1);
-      result.fallback[c] = cameras[c].free && !fixed[c];
-      if (!cameras[c].free || result.fallback[c]) {
-        problem->SetParameterBlockConstant(blocks[c].data());
-      }
-    }
-    for (PlaneBlock& plane : planes) {
-      problem->AddParameterBlock(
-          plane.x.data(), 4,
-          plane.floor ? static_cast<ceres::Manifold*>(&floor_manifold) : &plane_manifold);
-      ordering->AddElementToGroup(plane.x.data(), 0);
-    }
-    for (const ClusterTerm& t : terms) {
-      problem->AddResidualBlock(PlaneClusterCost::Create(t.cluster, cameras[t.camera].ray_model),
-                                nullptr, blocks[t.camera].data(), planes[t.plane].x.data());
-    }
-    if (options.gravity_weight > 0.0) {
-      for (size_t c = 0; c < n; ++c) {
-        if (!cameras[c].free || result.fallback[c]) continue;
-        problem->AddResidualBlock(
-            GravityPriorCost::Create(cameras[c].T_world_leveled.linear(), options.gravity_weight),
-            nullptr, blocks[c].data());
-      }
-    }
-    for (size_t c = 0; c < n; ++c) {
-      if (priors.empty() || priors[c].isZero() || !cameras[c].free || result.fallback[c]) continue;
-      const Pose T0 = gauge * cameras[c].T_world_camera;
-      problem->AddResidualBlock(
-          new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
-              new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
-          nullptr, blocks[c].data());
-    }
-    ceres::Solver::Options solver_options;
-    solver_options.linear_solver_type = ceres::DENSE_SCHUR;
-    solver_options.linear_solver_ordering = ordering;
-    solver_options.max_num_iterations = kIterationsPerRound;
-    // One thread: Ceres' Schur eliminator adds the chunks of a multi-threaded elimination
-    // in whatever order the threads finish, so the last digits of the poses changed from
-    // run to run; the reduced problem (a few hundred 4-dimensional blocks) is small.
-    solver_options.num_threads = 1;
-    solver_options.logging_type = ceres::SILENT;
-    summary = ceres::Solver::Summary{};
-    ceres::Solve(solver_options, problem.get(), &summary);
-    return summary.IsSolutionUsable();
-  };
-
-  for (int round = 0; round < rounds; ++round) {
-    const MergedCloud cloud = Merge(cameras, poses);
-    PlaneSegmentationOptions segmentation;
-    segmentation.voxel_size = options.voxel_size;
-    segmentation.min_noise_m = options.min_noise_m;
-    segmentation.leveled_floor =
-        std::any_of(cameras.begin(), cameras.end(),
-                    [](const SurfaceCamera& camera) { return camera.floor_leveled; });
-    segmentation.model_sigma_voxels =
-        kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
-    const std::vector<SegmentedPlane> segmented =
-        SegmentPlanes(cloud.points, static_cast<int>(n), segmentation);
-    if (segmented.empty()) {
-      result.message = "surface bundle: no plane is seen by two cameras";
-      break;
-    }
-    planes.clear();
-    for (const SegmentedPlane& s : segmented) {
-      planes.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
-    }
-    terms = Clusters(cameras, cloud, segmented);
-    PredictedHeightWindow(cameras, poses, planes, segmentation, &terms);
-    // The last round's pixels by their rays, from the segmentation at the poses of the
-    // previous rounds' solves.
-    if (round == rounds - 1) {
-      AssignByRays(cameras, poses, planes, segmentation, num_threads, &terms);
-    }
-    correlation = measured;
-    FillClusters(cameras, options, correlation, &terms);
-    if (round == 0) {
-      result.thickness_before = Thickness(terms, TermCosts(terms, cameras, blocks, planes), n);
-    }
-    fixed = PlanesFixPose(terms, planes, n);
-    const bool ok = solve({});
-    if (!ok) {
-      // The previous round's poses stand (the start's in the first round).
-      result.message = "surface bundle: " + summary.message;
-      result.poses = poses;
-      return result;
-    }
-    gauge = LevelReference(cameras, terms, planes, &blocks, &result.leveled) * gauge;
-    for (size_t c = 0; c < n; ++c) poses[c] = PoseFromParameters(blocks[c].data());
-    measured = NoiseCorrelation(terms, cameras, blocks, planes, options);
-    int pixels = 0;
-    for (const ClusterTerm& t : terms) pixels += t.cluster.Count();
-    result.planes = static_cast<int>(planes.size());
-    result.pixels = pixels;
-    result.rounds = round + 1;
-    result.usable = true;
-    if (options.keep_surface_diagnostics) RecordUse(planes, terms, &result);
-    log.Debug("surface bundle: round " + std::to_string(round) + ": " +
-              std::to_string(planes.size()) + " planes, " + std::to_string(pixels) +
-              " pixels, cost " + Fixed(2.0 * summary.final_cost / std::max(pixels, 1), 4) +
-              " per pixel, " + std::to_string(summary.iterations.size()) + " iterations");
-    std::string measured_text;
-    for (const double m : measured) measured_text += " " + Fixed(m, 1);
-    log.Debug("surface bundle: noise correlation per camera" + measured_text);
-  }
-  if (!result.usable) return result;
-  result.poses = poses;
-  result.noise_correlation = correlation;
-
-  // The noise scale, the thickness and the poses' covariance (planes marginalised) at the
-  // blocks.
-  const auto statistics = [&] {
-    // Each pixel's own squared whitened residual, without the correlation's weight.
-    std::vector<double> costs = TermCosts(terms, cameras, blocks, planes);
-    for (size_t k = 0; k < terms.size(); ++k) costs[k] *= correlation[terms[k].camera];
-    result.thickness_after = Thickness(terms, costs, n);
-    int parameters = 0;
-    for (size_t c = 0; c < n; ++c) {
-      if (cameras[c].free && !result.fallback[c]) parameters += 6;
-    }
-    for (const PlaneBlock& plane : planes) parameters += plane.floor ? 1 : 3;
-    double total = 0.0;
-    for (const double cost : costs) total += cost;
-    const int dof = result.pixels - parameters;
-    result.noise_scale = dof > 0 ? std::sqrt(total / dof) : 0.0;
-    std::vector<double*> free_poses, plane_blocks;
-    std::vector<size_t> free_cameras;
-    for (size_t c = 0; c < n; ++c) {
-      if (!cameras[c].free || result.fallback[c]) continue;
-      free_poses.push_back(blocks[c].data());
-      free_cameras.push_back(c);
-    }
-    for (PlaneBlock& plane : planes) plane_blocks.push_back(plane.x.data());
-    // The noise model's covariance, scaled by the residuals' spread, raised where the planes'
-    // residuals scatter more than it says (the cluster-robust covariance: each plane's model
-    // error and wrong pixels, which the noise model does not know).
-    Eigen::MatrixXd robust;
-    Eigen::MatrixXd covariance =
-        MarginalPoseCovariance(problem.get(), free_poses, plane_blocks, &robust);
-    result.covariance_ok = covariance.size() > 0;
-    if (!result.covariance_ok) return;
-    covariance *= result.noise_scale * result.noise_scale;
-    if (robust.size() > 0 && result.noise_scale > 0.0) {
-      covariance = CovarianceAtLeast(covariance, robust);
-    }
-    for (size_t k = 0; k < free_cameras.size(); ++k) {
-      result.covariance[free_cameras[k]] = covariance.block<6, 6>(6 * k, 6 * k);
-    }
-  };
-  statistics();
-
-  // Planes do not see their own boundaries, which the joint point-to-plane solve (the start)
-  // does: along the directions where the planes know a camera's pose less well than the start
-  // does, the start enters as a prior with its covariance, and the last round is solved again.
-  if (!result.covariance_ok) return result;
-  std::vector<Mat6> priors(n, Mat6::Zero());
-  int held = 0;
-  for (size_t c = 0; c < n; ++c) {
-    if (!cameras[c].free || result.fallback[c] || cameras[c].start_covariance.isZero()) continue;
-    int directions = 0;
-    priors[c] = WeakDirectionPrior(cameras[c].start_covariance, result.covariance[c], &directions);
-    held += directions;
-  }
-  if (held == 0) return result;
-  log.Debug("surface bundle: the start holds " + std::to_string(held) + " weak directions");
-  if (!solve(priors)) {
-    result.message = "surface bundle: " + summary.message;
-    return result;
-  }
-  for (size_t c = 0; c < n; ++c) result.poses[c] = PoseFromParameters(blocks[c].data());
-  statistics();
-  return result;
-}
-
-}  // namespace
 }  // namespace rigfit

@@ -67,7 +67,7 @@ struct SurfaceBundleReport {
   /// (camera, plane) the indices into that camera's `points` of the pixels it used
   /// (SurfaceBundleResult::plane_list, terms), and per camera (capture order) the band pixels
   /// the bundle was given (camera frame; none for a camera the joint solve did not link).
-  std::vector<SurfacePlane> plane_list;
+  std::vector<PlanarFace> plane_list;
   std::vector<SurfaceTerm> terms;
   std::vector<PointCloud> points;
 };
