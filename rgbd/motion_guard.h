@@ -18,8 +18,8 @@
 #include <utility>
 #include <vector>
 
-#include "core/pose.h"
 #include "core/log.h"
+#include "core/pose.h"
 #include "rgbd/projective_icp.h"
 
 namespace rigfit {

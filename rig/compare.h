@@ -71,9 +71,9 @@ struct CompareResult {
 /// and icp.method, which each run sets: pairwise and joint with the configured method, or
 /// point_to_plane when it is surface_bundle, then joint with surface_bundle. `gt` (may be
 /// null) adds the gauge-free errors; it must hold every camera of the capture. Progress goes
-/// to `log`, each run's prefixed with its name; options.threads threads. Throws InputError on inputs that do not match
-/// (CheckCompareInput, then Refine's CheckRefineInput), never on bad geometry: a run that was
-/// not applied says so.
+/// to `log`, each run's prefixed with its name; options.threads threads. Throws InputError on
+/// inputs that do not match (CheckCompareInput, then Refine's CheckRefineInput), never on bad
+/// geometry: a run that was not applied says so.
 CompareResult Compare(const RigCapture& capture, const PoseMap& initial,
                       const RefineOptions& options, const PoseMap* gt, const Log& log = Log{});
 
