@@ -112,6 +112,12 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
   View3dScene scene = RigView3dScene(capture, rig, {{"before", &result.leveled}, {"after", &after}},
                                      options.icp, num_threads);
   scene.title = "rigfit refine report";
+  // The surface bundle's planes (kept with icp.keep_surface_diagnostics), where its pixels lie
+  // at the refined poses.
+  std::vector<Pose> refined;
+  for (const CameraCapture& camera : capture.cameras)
+    refined.push_back(result.refined.at(camera.serial));
+  scene.planes = SurfacePlanes(result.surface, refined);
   report.AddView3d(scene);
   return report.Finish(scene.title, summary);
 }
