@@ -23,6 +23,7 @@
 #include "report/map_view.h"
 #include "report/refine_report.h"
 #include "report/view3d_scenes.h"
+#include "rig/compare.h"
 #include "rig/refine.h"
 #include "sim/simulate_rig.h"
 
@@ -299,6 +300,31 @@ TEST_F(SurfacePlanesView, PageWithPlanesLoadsWithoutErrorsAndDrawsThem) {
   const int different = DifferentPixels(without, with);
   RecordProperty("different_pixels", different);
   EXPECT_GT(different, 3400);
+}
+
+// compare's view has the surface_bundle run's planes, at that run's poses (and the page the
+// switch: loaded without errors by the refine report's test, the same page).
+TEST(CompareView3d, HasTheSurfaceBundleRunsPlanes) {
+  const SimulatedRig rig = SimulateRig(SimOptions{});
+  RefineOptions options;
+  options.icp.keep_surface_diagnostics = true;
+  options.threads = 2;
+  const CompareResult result = Compare(rig.capture, rig.init, options, &rig.gt, Log{});
+  const CompareRun& bundle = result.runs.back();
+  ASSERT_EQ(bundle.name, "surface_bundle");
+  ASSERT_TRUE(bundle.success && bundle.surface.ran);
+  const TempDir dir("rigfit_view3d_compare_test");
+  WriteCompareReport((dir.path() / "report").string(), rig.capture, result, options, 2,
+                     "summary\n");
+  std::string data = testing::ReadText(dir.path() / "report" / kView3dDataFile);
+  data = data.substr(data.find('{'), data.rfind('}') - data.find('{') + 1);
+  std::vector<Pose> poses;
+  for (const CameraCapture& camera : rig.capture.cameras)
+    poses.push_back(bundle.output.at(camera.serial));
+  // Measured: 14 planes, as in the refine report's.
+  EXPECT_EQ(nlohmann::json::parse(data).at("planes").size(),
+            SurfacePlanes(bundle.surface, poses).size());
+  EXPECT_GE(nlohmann::json::parse(data).at("planes").size(), 3u);
 }
 
 /// A map of 3 x 10^6 coloured points on the faces of a 6 x 3 x 5 m room, more than the view
