@@ -47,6 +47,9 @@ int RunCompare(const CompareArgs& a) {
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "compare: --report");
   RefineOptions options = a.config_path.empty() ? RefineOptions{} : LoadConfig(a.config_path);
   options.threads = a.threads;
+  // The report's 3-D view draws the surface_bundle run's planes (its poses are the same either
+  // way; the other runs do not run the bundle).
+  options.icp.keep_surface_diagnostics = !a.report_dir.empty();
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
   CheckRefineInput(capture, initial.poses, options,

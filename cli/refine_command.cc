@@ -265,7 +265,11 @@ int RunRefine(const RefineArgs& a) {
   CheckFlags(a);
   CheckOutputPath(a);
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "refine: --report");
-  const RefineOptions options = EffectiveOptions(a);
+  RefineOptions options = EffectiveOptions(a);
+  // The report's 3-D view draws the surface bundle's planes: the solver copies them out (the
+  // poses are the same either way).
+  options.icp.keep_surface_diagnostics =
+      !a.report_dir.empty() && options.icp.method == RegistrationMethod::kSurfaceBundle;
   log.Info("loading " + a.capture_path + " and " + a.extrinsics_path);
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);

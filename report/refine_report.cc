@@ -32,6 +32,13 @@ std::vector<TopDownCamera> TopDownCameras(const DiagnosticRig& rig, const PoseMa
   return cameras;
 }
 
+/// The poses of the capture's cameras, in capture order.
+std::vector<Pose> CapturePoses(const RigCapture& capture, const PoseMap& poses) {
+  std::vector<Pose> out;
+  for (const CameraCapture& camera : capture.cameras) out.push_back(poses.at(camera.serial));
+  return out;
+}
+
 /// Every residual of every pair, in millimetres, with a legend text.
 HistogramSeries Residuals(const std::vector<PairDiagnostics>& pairs, const std::string& label,
                           const Rgb& color) {
@@ -112,6 +119,9 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
   View3dScene scene = RigView3dScene(capture, rig, {{"before", &result.leveled}, {"after", &after}},
                                      options.icp, num_threads);
   scene.title = "rigfit refine report";
+  // The surface bundle's planes (kept with icp.keep_surface_diagnostics), where its pixels lie
+  // at the refined poses.
+  scene.planes = SurfacePlanes(result.surface, CapturePoses(capture, result.refined));
   report.AddView3d(scene);
   return report.Finish(scene.title, summary);
 }
@@ -131,6 +141,11 @@ std::vector<std::string> WriteCompareReport(const std::string& dir, const RigCap
   for (const CompareRun& run : result.runs) pose_sets.push_back({run.name, &run.output});
   View3dScene scene = RigView3dScene(capture, rig, pose_sets, options.icp, num_threads);
   scene.title = "rigfit compare report";
+  for (const CompareRun& run : result.runs) {  // the surface_bundle run's planes, when kept
+    if (run.success && run.surface.ran) {
+      scene.planes = SurfacePlanes(run.surface, CapturePoses(capture, run.output));
+    }
+  }
   ReportDirectory report(dir);
   report.AddView3d(scene);
   return report.Finish(scene.title, summary);

@@ -117,7 +117,8 @@ nlohmann::json SceneJson(const View3dScene& scene) {
       {"cameras", nlohmann::json::array()},
       {"pose_sets", nlohmann::json::array()},
       {"clouds", nlohmann::json::array()},
-      {"paths", nlohmann::json::array()}};
+      {"paths", nlohmann::json::array()},
+      {"planes", nlohmann::json::array()}};
   for (const ViewCamera& c : scene.cameras) {
     const PinholeIntrinsics& K = c.intrinsics;
     json["cameras"].push_back({{"serial", c.serial},
@@ -147,6 +148,13 @@ nlohmann::json SceneJson(const View3dScene& scene) {
       xyz.insert(xyz.end(), {float(p.x()), float(p.y()), float(p.z())});
     json["paths"].push_back(
         {{"label", path.label}, {"color", ColorJson(path.color)}, {"positions", Base64(xyz)}});
+  }
+  for (const ViewPlane& plane : scene.planes) {
+    std::vector<float> xyz;
+    for (const Vec3& p : plane.corners)
+      xyz.insert(xyz.end(), {float(p.x()), float(p.y()), float(p.z())});
+    json["planes"].push_back(
+        {{"color", ColorJson(plane.color)}, {"floor", plane.floor}, {"corners", Base64(xyz)}});
   }
   return json;
 }

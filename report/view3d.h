@@ -5,6 +5,7 @@
 // int16 steps of at most a millimetre around a centre, colours and residuals as uint8. The
 // rig's whole views, the bulk of the data and off when the page opens, are a script of their
 // own, view3d_whole.js, which the page loads when they are switched on, so that it opens fast.
+// Planes (the surface bundle's) are a few corners each, drawn as translucent patches.
 #pragma once
 
 #include <cstdint>
@@ -29,9 +30,10 @@ inline constexpr const char* kOrbitControlsFile = "OrbitControls.js";
 const char* ThreeJsDirectory();
 
 /// The switches a cloud is shown under in the page.
-inline constexpr const char* kBandLayer = "band";    ///< a rig's near-floor band
-inline constexpr const char* kWholeLayer = "whole";  ///< every point a camera saw
-inline constexpr const char* kMapLayer = "map";      ///< a fused map
+inline constexpr const char* kBandLayer = "band";     ///< a rig's near-floor band
+inline constexpr const char* kWholeLayer = "whole";   ///< every point a camera saw
+inline constexpr const char* kMapLayer = "map";       ///< a fused map
+inline constexpr const char* kPlaneLayer = "planes";  ///< the surface bundle's planes
 
 /// A point cloud of the view: in the frame of one of the scene's cameras (moved by the pose
 /// set shown) or in the world.
@@ -68,6 +70,14 @@ struct ViewPath {
   std::vector<Vec3> positions;
 };
 
+/// A plane drawn as a translucent patch: a convex polygon in the world (its corners in order
+/// around it), e.g. the surface bundle's plane over the pixels on it.
+struct ViewPlane {
+  Rgb color;
+  bool floor = false;
+  std::vector<Vec3> corners;
+};
+
 /// Everything the page shows.
 struct View3dScene {
   std::string title;
@@ -77,6 +87,7 @@ struct View3dScene {
   std::vector<ViewPoseSet> pose_sets;  ///< the page opens on the last one
   std::vector<ViewCloud> clouds;
   std::vector<ViewPath> paths;
+  std::vector<ViewPlane> planes;  ///< shown under kPlaneLayer
   /// Residual colour scale: from 0 to this (metres), larger residuals at its top colour.
   double residual_range_m = 0.01;
 };

@@ -1,9 +1,11 @@
 // The 3-D view of a rigfit report (report/view3d.h): reads the scene RIGFIT_VIEW that
 // view3d_data.js sets and draws it with three.js (global THREE and THREE.OrbitControls, both
 // copied beside the page). Works from file://: nothing is fetched. The URL hash picks the
-// start: #poses=0 (index of the pose set), color=camera|residual|rgb|height, layers=band,whole,
-// size=2 (pixels). When drawn with every layer switched on, the body gets data-status="ready"
-// and data-ready-ms (time since navigation); errors go to data-errors.
+// start: #poses=0 (index of the pose set), color=camera|residual|rgb|height,
+// layers=band,whole,planes (planes: the surface bundle's, off by default), size=2 (pixels).
+// When drawn with every layer switched on, the body gets data-status="ready" and
+// data-ready-ms (time since navigation), data-planes the number of planes shown; errors go to
+// data-errors.
 (function () {
   'use strict';
   const V = window.RIGFIT_VIEW;
@@ -111,6 +113,27 @@
     world.add(line);
     return line;
   });
+  // The surface bundle's planes: translucent convex patches in the world (a triangle fan each)
+  // with their outline, under the layer 'planes'.
+  const planes = (V.planes || []).map(p => {
+    const xyz = Decode(p.corners, Float32Array);
+    const n = xyz.length / 3;
+    const index = [];
+    for (let i = 1; i + 1 < n; ++i) index.push(0, i, i + 1);
+    const geometry = new THREE.BufferGeometry();
+    geometry.setAttribute('position', new THREE.BufferAttribute(xyz, 3));
+    geometry.setIndex(index);
+    const color = new THREE.Color(p.color[0] / 255, p.color[1] / 255, p.color[2] / 255);
+    const patch = new THREE.Group();
+    patch.add(new THREE.Mesh(geometry, new THREE.MeshBasicMaterial({
+      color: color, transparent: true, opacity: p.floor ? 0.2 : 0.35, side: THREE.DoubleSide,
+      depthWrite: false})));
+    const outline = new THREE.BufferGeometry();  // the corners in order, not the fan's triangles
+    outline.setAttribute('position', geometry.getAttribute('position'));
+    patch.add(new THREE.LineLoop(outline, new THREE.LineBasicMaterial({color: color})));
+    world.add(patch);
+    return patch;
+  });
   function SetPoses() {
     if (V.pose_sets.length === 0) return;
     V.pose_sets[state.pose].poses.forEach((m, i) => {
@@ -214,6 +237,7 @@
   function Recolor() {
     for (const layer of state.layers) LoadDeferred(layer);
     for (const c of clouds) c.points.visible = state.layers.has(c.data.layer);
+    for (const p of planes) p.visible = state.layers.has('planes');
     const range = state.color === 'height' ? HeightRange() : null;
     for (const c of clouds) if (c.points.visible) Fill(c, range);
     for (const c of clouds) c.points.material.size = state.size * (c.data.layer === 'whole' ? 0.6 : 1);
@@ -261,6 +285,15 @@
       box.checked = state.layers.has(layer);
       box.onchange = () => { box.checked ? state.layers.add(layer) : state.layers.delete(layer); Update(); };
       l.append({band: ' near-floor band', whole: ' whole view', map: ' map'}[layer]);
+    }
+    if (planes.length > 0) {
+      // The surface bundle's planes, where its pixels lie at the refined poses.
+      const l = Element('label', panel, '', 'display:block');
+      const box = Element('input', l);
+      box.type = 'checkbox';
+      box.checked = state.layers.has('planes');
+      box.onchange = () => { box.checked ? state.layers.add('planes') : state.layers.delete('planes'); Update(); };
+      l.append(' surface bundle planes (' + planes.length + ', at the refined poses)');
     }
     const select = Element('select', Element('label', panel, 'colour ', 'display:block'));
     const modes = [['camera', 'per camera'], ['residual', 'by residual'], ['rgb', 'capture colour'],
@@ -364,6 +397,7 @@
     Render();
     body.setAttribute('data-pose', V.pose_sets.length ? V.pose_sets[state.pose].name : '');
     body.setAttribute('data-color', state.color);
+    body.setAttribute('data-planes', String(planes.filter(p => p.visible).length));
     body.setAttribute('data-points',
                       String(clouds.reduce((n, c) => n + (c.points.visible ? c.data.count : 0), 0)));
     if (pending === 0) {

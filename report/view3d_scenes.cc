@@ -102,7 +102,93 @@ double FloorHeight(const std::vector<Vec3f>& points, const Vec3& up) {
   return *nth;
 }
 
+/// The colour of the plane at `index`: hues a golden angle apart, so that neighbours differ.
+Rgb PlaneColor(int index) {
+  const double hue = std::fmod(0.08 + 0.618033988749895 * index, 1.0) * 6.0;
+  const double f = hue - std::floor(hue);
+  const double v = 0.85, s = 0.65;
+  const double p = v * (1 - s), q = v * (1 - s * f), t = v * (1 - s * (1 - f));
+  const double rgb[6][3] = {{v, t, p}, {q, v, p}, {p, v, t}, {p, q, v}, {t, p, v}, {v, p, q}};
+  const double* c = rgb[static_cast<int>(hue) % 6];
+  const auto byte = [](double x) { return static_cast<std::uint8_t>(std::lround(255 * x)); };
+  return {byte(c[0]), byte(c[1]), byte(c[2])};
+}
+
+/// z of (b - a) x (c - a) in 2-D.
+double Cross(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& c) {
+  return (b.x() - a.x()) * (c.y() - a.y()) - (b.y() - a.y()) * (c.x() - a.x());
+}
+
+/// The convex hull of the points, counter-clockwise (gift wrapping from the point farthest
+/// from their mean, a corner however rounding orders nearly equal coordinates); a turn
+/// smaller than `tolerance` (in the cross product's units) counts as straight, the farther
+/// point taken. Empty when the hull's area is not above the tolerance.
+std::vector<Eigen::Vector2d> ConvexHull(const std::vector<Eigen::Vector2d>& points,
+                                        double tolerance) {
+  if (points.size() < 3) return {};
+  Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector2d& p : points) mean += p / static_cast<double>(points.size());
+  const auto nearer = [&](const auto& a, const auto& b) {
+    return (a - mean).squaredNorm() < (b - mean).squaredNorm();
+  };
+  const size_t start = std::max_element(points.begin(), points.end(), nearer) - points.begin();
+  std::vector<Eigen::Vector2d> hull;
+  size_t current = start;
+  do {
+    hull.push_back(points[current]);
+    size_t next = current == 0 ? 1 : 0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const double turn = Cross(points[current], points[next], points[i]);
+      const bool farther = (points[i] - points[current]).squaredNorm() >
+                           (points[next] - points[current]).squaredNorm();
+      if (turn < -tolerance || (turn <= tolerance && farther)) next = i;
+    }
+    current = next;
+  } while (current != start && hull.size() <= points.size());
+  double area = 0.0;
+  for (size_t k = 0; k < hull.size(); ++k) {
+    area += Cross(Eigen::Vector2d::Zero(), hull[k], hull[(k + 1) % hull.size()]);
+  }
+  return hull.size() >= 3 && area > tolerance ? hull : std::vector<Eigen::Vector2d>{};
+}
+
 }  // namespace
+
+std::vector<Vec3> PlanePatch(const PlanarFace& plane, const std::vector<Vec3>& points) {
+  const Vec3 n = plane.normal.normalized();
+  // u, v: an orthonormal basis of the plane with u x v = n.
+  const Vec3 u = n.unitOrthogonal();
+  const Vec3 v = n.cross(u);
+  const Vec3 origin = -plane.offset / plane.normal.norm() * n;
+  std::vector<Eigen::Vector2d> in_plane;
+  in_plane.reserve(points.size());
+  double extent = 0.0;
+  for (const Vec3& p : points) {
+    in_plane.emplace_back(u.dot(p - origin), v.dot(p - origin));
+    extent = std::max(extent, in_plane.back().cwiseAbs().maxCoeff());
+  }
+  std::vector<Vec3> corners;
+  for (const Eigen::Vector2d& c : ConvexHull(in_plane, 1e-12 * extent * extent))
+    corners.push_back(origin + c.x() * u + c.y() * v);
+  return corners;
+}
+
+std::vector<ViewPlane> SurfacePlanes(const SurfaceBundleReport& surface,
+                                     const std::vector<Pose>& T_world_camera) {
+  std::vector<std::vector<Vec3>> members(surface.plane_list.size());
+  for (const SurfaceTerm& term : surface.terms) {
+    const Pose& T = T_world_camera.at(term.camera);
+    const PointCloud& points = surface.points.at(term.camera);
+    for (const int i : term.pixels) members.at(term.plane).push_back(T * points.at(i));
+  }
+  std::vector<ViewPlane> planes;
+  for (size_t j = 0; j < members.size(); ++j) {
+    ViewPlane plane{PlaneColor(static_cast<int>(j)), surface.plane_list[j].floor,
+                    PlanePatch(surface.plane_list[j], members[j])};
+    if (!plane.corners.empty()) planes.push_back(std::move(plane));
+  }
+  return planes;
+}
 
 View3dScene RigView3dScene(const RigCapture& capture, const DiagnosticRig& rig,
                            const std::vector<NamedPoses>& pose_sets, const IcpOptions& icp,

@@ -10,6 +10,7 @@
 #include "report/map_view.h"
 #include "report/view3d.h"
 #include "rig/diagnostics.h"
+#include "rig/refine.h"
 
 namespace rigfit {
 
@@ -27,6 +28,18 @@ struct NamedPoses {
 View3dScene RigView3dScene(const RigCapture& capture, const DiagnosticRig& rig,
                            const std::vector<NamedPoses>& pose_sets, const IcpOptions& icp,
                            int num_threads);
+
+/// The convex hull of the points projected onto the plane (normal unit): its corners on the
+/// plane in order, counter-clockwise seen from the side the normal points to, points on an
+/// edge between two corners dropped. Empty when the points span no area.
+std::vector<Vec3> PlanePatch(const PlanarFace& plane, const std::vector<Vec3>& points);
+
+/// The surface bundle's planes (RefineResult::surface, kept with icp.keep_surface_diagnostics)
+/// as patches over their pixels (PlanePatch of every camera's pixels on the plane, moved to the
+/// world by T_world_camera, one per camera in capture order), one colour per plane. Empty when
+/// the report holds no planes.
+std::vector<ViewPlane> SurfacePlanes(const SurfaceBundleReport& surface,
+                                     const std::vector<Pose>& T_world_camera);
 
 /// A map holds at most this many points in the view; a larger one is voxel-averaged.
 inline constexpr size_t kMaxViewMapPoints = 2000000;

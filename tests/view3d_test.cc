@@ -1,8 +1,9 @@
 // The reports' 3-D view (report/view3d.h): the folder of a 4-camera 640x360 rig's refine
 // report and of a map larger than the view's cap stay within their size targets, and in
 // headless Chromium (WebGL by SwiftShader) the page loads without errors, draws, and its
-// before/after switch changes the picture. The browser tests are skipped when chromium is not
-// installed, failed in CI (CI=true).
+// before/after switch changes the picture; a surface bundle refine report holds its planes
+// as patches (PlanePatch: a convex hull), which the page draws when switched on. The browser
+// tests are skipped when chromium is not installed, failed in CI (CI=true).
 #include "report/view3d.h"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <string>
 #include <vector>
@@ -21,6 +23,7 @@
 #include "report/map_view.h"
 #include "report/refine_report.h"
 #include "report/view3d_scenes.h"
+#include "rig/compare.h"
 #include "rig/refine.h"
 #include "sim/simulate_rig.h"
 
@@ -193,6 +196,135 @@ TEST_F(RigView, ResidualAndWholeViewColoursLoadWithoutErrors) {
   // The capture's colour, of the whole views loaded after the page, is offered and chosen.
   const std::string dom = Open("--dump-dom", "#color=rgb&layers=band,whole").out;
   EXPECT_NE(dom.find("data-color=\"rgb\""), std::string::npos);
+}
+
+// The points of a 2 x 1 m rectangle (a grid with its edges, each point up to 1 mm off the
+// plane) in a plane tilted 30 degrees: the patch is the rectangle, its 4 corners on the plane,
+// counter-clockwise seen from the normal's side.
+TEST(PlanePatch, HullOfARectangleInATiltedPlaneIsItsCorners) {
+  const Vec3 n = Eigen::AngleAxisd(0.5236, Vec3(1, 0, 1).normalized()) * Vec3::UnitY();
+  const PlanarFace plane{n, -1.7, false};
+  const Vec3 e1 = n.unitOrthogonal(), e2 = n.cross(e1);
+  const Vec3 origin = -plane.offset * n + 0.3 * e1 - 0.8 * e2;
+  std::vector<Vec3> points;
+  for (int i = 0; i <= 20; ++i) {
+    for (int j = 0; j <= 10; ++j) {
+      points.push_back(origin + 0.1 * i * e1 + 0.1 * j * e2 + 1e-3 * ((i * 7 + j) % 3 - 1) * n);
+    }
+  }
+  const std::vector<Vec3> corners = PlanePatch(plane, points);
+  ASSERT_EQ(corners.size(), 4u);
+  for (const Vec3& expected :
+       std::vector<Vec3>{origin, origin + 2 * e1, origin + e2, origin + 2 * e1 + e2}) {
+    const auto near = std::find_if(corners.begin(), corners.end(),
+                                   [&](const Vec3& c) { return (c - expected).norm() < 1e-9; });
+    EXPECT_NE(near, corners.end()) << expected.transpose();
+  }
+  for (size_t k = 0; k < 4; ++k) {
+    EXPECT_NEAR(plane.SignedDistance(corners[k]), 0.0, 1e-9);
+    const Vec3 turn =
+        (corners[(k + 1) % 4] - corners[k]).cross(corners[(k + 2) % 4] - corners[(k + 1) % 4]);
+    EXPECT_GT(turn.dot(n), 0.0);
+  }
+  // Points on a line span no area.
+  EXPECT_TRUE(PlanePatch(plane, {origin, origin + e1, origin + 2 * e1}).empty());
+}
+
+/// The refine report of a simulated rig refined by the surface bundle, its planes kept.
+class SurfacePlanesView : public RigView {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new TempDir("rigfit_view3d_planes_test");
+    const SimulatedRig rig = SimulateRig(SimOptions{});
+    RefineOptions options;
+    options.icp.method = RegistrationMethod::kSurfaceBundle;
+    options.icp.keep_surface_diagnostics = true;
+    options.threads = 2;
+    result_ = new RefineResult(Refine(rig.capture, rig.init, options));
+    WriteRefineReport((dir_->path() / "report").string(), rig.capture, *result_, result_->refined,
+                      options, 2, "summary\n");
+  }
+  static void TearDownTestSuite() {
+    RigView::TearDownTestSuite();
+    delete result_;
+    result_ = nullptr;
+  }
+  /// The planes of the page's data (view3d_data.js).
+  nlohmann::json Planes() const {
+    std::string data = testing::ReadText(Report() / kView3dDataFile);
+    data = data.substr(data.find('{'), data.rfind('}') - data.find('{') + 1);
+    return nlohmann::json::parse(data).at("planes");
+  }
+  static RefineResult* result_;
+};
+RefineResult* SurfacePlanesView::result_ = nullptr;
+
+TEST_F(SurfacePlanesView, DataHoldsEveryPlaneAsAFewCorners) {
+  ASSERT_TRUE(result_->surface.ran);
+  const nlohmann::json planes = Planes();
+  // Every plane of the bundle's last round with pixels spans an area (the simulated room's
+  // last round has 15 planes, 14 with pixels).
+  std::vector<size_t> pixels(result_->surface.plane_list.size());
+  for (const SurfaceTerm& t : result_->surface.terms) pixels.at(t.plane) += t.pixels.size();
+  EXPECT_EQ(planes.size(), pixels.size() - std::count(pixels.begin(), pixels.end(), 0u));
+  EXPECT_GE(planes.size(), 3u);
+  int floors = 0;
+  size_t bytes = 0;
+  for (const nlohmann::json& p : planes) {
+    floors += p.at("floor").get<bool>();
+    bytes += p.at("corners").get<std::string>().size();
+  }
+  EXPECT_EQ(floors, 1);
+  // Compact: measured 253 bytes of corners per plane (base64 of float32 x, y, z; about 20
+  // corners), 3.5 kB for the 14 planes.
+  RecordProperty("corner_bytes_per_plane",
+                 std::to_string(bytes / std::max<size_t>(1, planes.size())));
+  EXPECT_LE(bytes / planes.size(), 2000u);
+}
+
+TEST_F(SurfacePlanesView, PageWithPlanesLoadsWithoutErrorsAndDrawsThem) {
+  if (!NeedChromium()) return;
+  const std::string dom = Open("--dump-dom", "#layers=band,planes").out;
+  EXPECT_NE(dom.find("data-status=\"ready\""), std::string::npos) << dom.substr(0, 2000);
+  EXPECT_EQ(dom.find("data-errors=\""), std::string::npos)
+      << std::regex_replace(dom.substr(0, 4000), std::regex("\n"), " ");
+  const std::string shown = std::to_string(Planes().size());
+  EXPECT_NE(dom.find("data-planes=\"" + shown + "\""), std::string::npos) << shown;
+  EXPECT_NE(dom.find("surface bundle planes"), std::string::npos);
+  // Off by default.
+  EXPECT_NE(Open("--dump-dom", "").out.find("data-planes=\"0\""), std::string::npos);
+  const Image without = Screenshot("", "without_planes.png");
+  const Image with = Screenshot("#layers=band,planes", "with_planes.png");
+  // Measured: 6939 pixels differ (the planes under the band: the floor, the walls' strips);
+  // half of it must.
+  const int different = DifferentPixels(without, with);
+  RecordProperty("different_pixels", different);
+  EXPECT_GT(different, 3400);
+}
+
+// compare's view has the surface_bundle run's planes, at that run's poses (and the page the
+// switch: loaded without errors by the refine report's test, the same page).
+TEST(CompareView3d, HasTheSurfaceBundleRunsPlanes) {
+  const SimulatedRig rig = SimulateRig(SimOptions{});
+  RefineOptions options;
+  options.icp.keep_surface_diagnostics = true;
+  options.threads = 2;
+  const CompareResult result = Compare(rig.capture, rig.init, options, &rig.gt, Log{});
+  const CompareRun& bundle = result.runs.back();
+  ASSERT_EQ(bundle.name, "surface_bundle");
+  ASSERT_TRUE(bundle.success && bundle.surface.ran);
+  const TempDir dir("rigfit_view3d_compare_test");
+  WriteCompareReport((dir.path() / "report").string(), rig.capture, result, options, 2,
+                     "summary\n");
+  std::string data = testing::ReadText(dir.path() / "report" / kView3dDataFile);
+  data = data.substr(data.find('{'), data.rfind('}') - data.find('{') + 1);
+  std::vector<Pose> poses;
+  for (const CameraCapture& camera : rig.capture.cameras)
+    poses.push_back(bundle.output.at(camera.serial));
+  // Measured: 14 planes, as in the refine report's.
+  EXPECT_EQ(nlohmann::json::parse(data).at("planes").size(),
+            SurfacePlanes(bundle.surface, poses).size());
+  EXPECT_GE(nlohmann::json::parse(data).at("planes").size(), 3u);
 }
 
 /// A map of 3 x 10^6 coloured points on the faces of a 6 x 3 x 5 m room, more than the view
