@@ -58,6 +58,21 @@ struct GuardCounts {
 /// Adds a tracked frame's weak directions to counts->weak_names.
 void CountWeakDirections(const TrackResult& track, GuardCounts* counts);
 
+/// The counts of a run of RunOdometry or RunSlam (OdometryResult, SlamResult), the weak
+/// directions of its frames included.
+template <typename Result>
+GuardCounts GuardCountsOf(const Result& result) {
+  GuardCounts counts{static_cast<int>(result.frames.size()),
+                     result.failures,
+                     result.restarts,
+                     result.recovered,
+                     result.diverged,
+                     result.weak_frames,
+                     {}};
+  for (const auto& frame : result.frames) CountWeakDirections(frame.track, &counts);
+  return counts;
+}
+
 /// The guard's line of the summary: "degenerate views: ...; divergence: R recovered, D
 /// diverged"; also warns (log) when frames had weak directions, naming them.
 std::string GuardSummaryText(const GuardCounts& counts, const Log& log);

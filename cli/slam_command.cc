@@ -88,17 +88,10 @@ int RunSlamCommand(SlamArgs a) {
   const int frames = static_cast<int>(result.frames.size());
   int largest = 0;
   double matched = 0.0;
-  GuardCounts counts{frames,
-                     result.failures,
-                     result.restarts,
-                     result.recovered,
-                     result.diverged,
-                     result.weak_frames,
-                     {}};
+  const GuardCounts counts = GuardCountsOf(result);
   for (const SlamFrame& frame : result.frames) {
     largest = std::max(largest, frame.map_size);
     matched += frame.track.matched_ratio;
-    CountWeakDirections(frame.track, &counts);
   }
   WriteTumTrajectory(a.out_path, result.trajectory, GuardMetadata("slam", counts));
   if (!a.map_path.empty()) WritePly(a.map_path, SurfelMapToPly(result.map));

@@ -56,17 +56,10 @@ int RunTrack(TrackArgs a) {
   const int frames = static_cast<int>(result.frames.size());
   int keyframes = 0;
   double matched = 0.0;
-  GuardCounts counts{frames,
-                     result.failures,
-                     result.restarts,
-                     result.recovered,
-                     result.diverged,
-                     result.weak_frames,
-                     {}};
+  const GuardCounts counts = GuardCountsOf(result);
   for (const OdometryFrame& frame : result.frames) {
     keyframes += frame.keyframe ? 1 : 0;
     matched += frame.track.matched_ratio;
-    CountWeakDirections(frame.track, &counts);
   }
   WriteTumTrajectory(a.out_path, result.trajectory, GuardMetadata("track", counts));
   const double tracked_s = result.preprocess_s + result.track_s;

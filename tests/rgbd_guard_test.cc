@@ -56,22 +56,22 @@ StretchErrors MeasureStretch(const SimulatedSequence& sequence, const Trajectory
   return e;
 }
 
-StretchErrors TrackStretch(const SimulatedSequence& sequence) {
-  const OdometryResult result = RunOdometry(sequence, OdometryOptions{});
+/// The stretch's errors of a run of RunOdometry or RunSlam.
+template <typename Result>
+StretchErrors StretchOf(const SimulatedSequence& sequence, const Result& result) {
   std::vector<int> weak;
-  for (const OdometryFrame& f : result.frames) weak.push_back(f.track.weak_directions);
+  for (const auto& f : result.frames) weak.push_back(f.track.weak_directions);
   StretchErrors e = MeasureStretch(sequence, result.trajectory, weak);
   e.diverged = result.diverged;
   return e;
 }
 
+StretchErrors TrackStretch(const SimulatedSequence& sequence) {
+  return StretchOf(sequence, RunOdometry(sequence, OdometryOptions{}));
+}
+
 StretchErrors SlamStretch(const SimulatedSequence& sequence) {
-  const SlamResult result = RunSlam(sequence, SlamOptions{});
-  std::vector<int> weak;
-  for (const SlamFrame& f : result.frames) weak.push_back(f.track.weak_directions);
-  StretchErrors e = MeasureStretch(sequence, result.trajectory, weak);
-  e.diverged = result.diverged;
-  return e;
+  return StretchOf(sequence, RunSlam(sequence, SlamOptions{}));
 }
 
 // The stretches below are issue 34's target MISSED (docs/benchmarks.md, "Degenerate views and
