@@ -153,142 +153,110 @@ FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int wid
   return level;
 }
 
-SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, const Log& log,
-                   const std::function<void(int, int, const SlamFrame&)>& progress) {
-  if (options.stride < 1) throw InputError("slam: stride must be at least 1");
-  if (options.halvings < 0) throw InputError("slam: halvings must be >= 0");
-  if (options.max_frames < 0) throw InputError("slam: max frames must be >= 0 (0: all)");
-  if (options.restart_after_failures < 1) {
-    throw InputError("slam: restart after failures must be at least 1");
-  }
-  if (options.first_frame < 0 || options.first_frame >= sequence.size()) {
-    throw InputError("slam: first frame " + std::to_string(options.first_frame) +
-                     " is not in the sequence (" + std::to_string(sequence.size()) + " frames)");
-  }
-  std::vector<int> indices;
-  for (int i = options.first_frame; i < sequence.size(); i += options.stride) {
-    if (options.max_frames > 0 && static_cast<int>(indices.size()) >= options.max_frames) break;
-    indices.push_back(i);
-  }
+namespace {
 
-  SlamResult result;
-  Pose T_world_previous = Pose::Identity();
-  Pose velocity = Pose::Identity();        // T_previous_current of the last step, weak parts damped
-  Pose T_world_target = Pose::Identity();  // where the model was rendered for the last track
-  double previous_timestamp = 0.0;
-  int failures_in_a_row = 0;
-  MotionGuard guard(options.guard);
-  bool use_color = false;
-  FramePyramid model;  // the rendered model and its z-buffer, reused every frame
-  ZBuffer zbuffer;
-  MapView view;  // the map points near the rendered view, for the fusion that follows
-  for (std::size_t k = 0; k < indices.size(); ++k) {
-    auto start = std::chrono::steady_clock::now();
-    RgbdFrame frame = sequence.Frame(indices[k]);
-    for (int h = 0; h < options.halvings; ++h) {
-      frame = HalveFrame(frame, options.frame.max_depth_jump_ratio);
+/// Tracks each frame against the map rendered at the frame's start pose, then fuses it.
+class ModelTarget : public TrackingTarget {
+ public:
+  ModelTarget(const SlamOptions& options, const Log& log, SlamResult* result)
+      : options_(options), log_(log), result_(result) {}
+
+  /// The frame halved as asked; the first one decides whether the map is coloured.
+  RgbdFrame Load(const RgbdSequence& sequence, int index) override {
+    RgbdFrame frame = sequence.Frame(index);
+    for (int h = 0; h < options_.halvings; ++h) {
+      frame = HalveFrame(frame, options_.frame.max_depth_jump_ratio);
     }
-    result.load_s += SecondsSince(start);
-    start = std::chrono::steady_clock::now();
-    const FramePyramid pyramid = BuildFramePyramid(frame, options.frame, options.threads);
-    result.preprocess_s += SecondsSince(start);
-    if (k == 0) use_color = options.color && !frame.color.empty();
+    if (result_->frames.empty()) use_color_ = options_.color && !frame.color.empty();
     const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
-    if (use_color && !frame.color.empty() && frame.color.size() != 3 * pixels) {
+    if (use_color_ && !frame.color.empty() && frame.color.size() != 3 * pixels) {
       throw InputError("slam: " + frame.source + ": a colour image not of the depth's size");
     }
-    const std::vector<std::uint8_t> no_color;
-    const std::vector<std::uint8_t>& color = use_color ? frame.color : no_color;
-
-    SlamFrame tracked;
-    tracked.index = indices[k];
-    Pose T_world_current;
-    bool fuse = true;
-    if (k == 0) {
-      T_world_current = frame.T_world_camera_gt.value_or(Pose::Identity());
-      tracked.track.success = true;
-    } else {
-      const Pose predicted = options.prior == MotionPrior::kConstantVelocity
-                                 ? T_world_previous * velocity
-                                 : T_world_previous;
-      start = std::chrono::steady_clock::now();
-      const FrameLevel& base = pyramid.levels[0];
-      // The model rendered at the start pose: the frame starts at the identity in it.
-      const TrackFrom track_from = [&](const Pose& T_world_start) {
-        const auto render_start = std::chrono::steady_clock::now();
-        model.levels.resize(1);
-        RenderModel(result.map, T_world_start, base.width, base.height, base.intrinsics,
-                    options.render, indices[k], options.threads, &zbuffer, &model.levels[0], &view);
-        BuildCoarserLevels(&model, options.frame.levels, options.frame.max_depth_jump_ratio,
-                           options.threads);
-        tracked.model_pixels = static_cast<int>(model.levels[0].valid_pixels.size());
-        result.render_s += SecondsSince(render_start);
-        TrackResult track =
-            TrackProjective(pyramid, model, Pose::Identity(), options.icp, options.threads);
-        return std::make_pair(track, Reorthonormalized(T_world_start * track.T_target_source));
-      };
-      const GuardedTrack guarded =
-          guard.Track(track_from, predicted, T_world_previous, frame.timestamp - previous_timestamp,
-                      "frame " + std::to_string(indices[k]) + " (" + frame.source + ")", log);
-      result.track_s += SecondsSince(start);
-      tracked.track = guarded.track;
-      tracked.recovered = guarded.recovered;
-      tracked.diverged = guarded.diverged;
-      result.recovered += guarded.recovered ? 1 : 0;
-      result.diverged += guarded.diverged ? 1 : 0;
-      T_world_target = guarded.recovered ? T_world_previous : predicted;
-      if (tracked.track.success) {
-        T_world_current = guarded.T_world_camera;
-        failures_in_a_row = 0;
-        result.weak_frames += tracked.track.weak_directions > 0 ? 1 : 0;
-      } else {
-        T_world_current = guarded.diverged ? guarded.T_world_camera : Reorthonormalized(predicted);
-        fuse = false;
-        ++result.failures;
-        ++failures_in_a_row;
-        if (!guarded.diverged) {
-          log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
-                      "): tracking failed: " + tracked.track.message +
-                      "; kept the prediction, not fused");
-        }
-        if (failures_in_a_row >= options.restart_after_failures && !base.valid_pixels.empty()) {
-          log.Warning("lost track for " + std::to_string(failures_in_a_row) +
-                      " frames: restarted the map from frame " + std::to_string(indices[k]) +
-                      " at its predicted pose");
-          result.map = SurfelMap();
-          ++result.restarts;
-          failures_in_a_row = 0;
-          fuse = true;
-        }
-      }
-    }
-    if (fuse && use_color && frame.color.empty()) {
-      // A coloured map takes no colourless points (TUM: a depth image without a colour
-      // image within the association's time window): tracked, not fused.
-      fuse = false;
-      ++result.without_color;
-      log.Warning("frame " + std::to_string(indices[k]) + " (" + frame.source +
-                  "): no colour image while the map is coloured; tracked, not fused");
-    }
-    if (fuse) {
-      start = std::chrono::steady_clock::now();
-      tracked.fusion = result.map.FuseFrame(pyramid.levels[0], T_world_current, indices[k],
-                                            options.fusion, color, options.threads, &view);
-      result.fuse_s += SecondsSince(start);
-    }
-    tracked.map_size = result.map.size();
-    velocity = k == 0 ? Pose::Identity()
-                      : NextVelocity(T_world_previous, T_world_current, T_world_target,
-                                     tracked.track, tracked.diverged, options.guard);
-    T_world_previous = T_world_current;
-    previous_timestamp = frame.timestamp;
-    result.trajectory.timestamps.push_back(frame.timestamp);
-    result.trajectory.poses.push_back(T_world_current);
-    result.frames.push_back(tracked);
-    if (progress) {
-      progress(static_cast<int>(k) + 1, static_cast<int>(indices.size()), result.frames.back());
-    }
+    return frame;
   }
+
+  /// The model rendered at the start pose: the frame starts at the identity in it.
+  std::pair<TrackResult, Pose> Track(const FramePyramid& pyramid, int index,
+                                     const Pose& T_world_start) override {
+    const auto start = std::chrono::steady_clock::now();
+    const FrameLevel& base = pyramid.levels[0];
+    model_.levels.resize(1);
+    RenderModel(result_->map, T_world_start, base.width, base.height, base.intrinsics,
+                options_.render, index, options_.threads, &zbuffer_, &model_.levels[0], &view_);
+    BuildCoarserLevels(&model_, options_.frame.levels, options_.frame.max_depth_jump_ratio,
+                       options_.threads);
+    model_pixels_ = static_cast<int>(model_.levels[0].valid_pixels.size());
+    T_world_model_ = T_world_start;
+    result_->render_s += SecondsSince(start);
+    TrackResult track =
+        TrackProjective(pyramid, model_, Pose::Identity(), options_.icp, options_.threads);
+    return {track, Reorthonormalized(T_world_start * track.T_target_source)};
+  }
+
+  Pose MotionOrigin() const override { return T_world_model_; }
+
+  /// Fuses the frame unless its track failed (a restart drops the map and fuses it anew) or it
+  /// lacks the colour the map has.
+  void Accept(const TrackedStep& step, const RgbdFrame& frame, FramePyramid pyramid) override {
+    SlamFrame tracked;
+    tracked.index = step.index;
+    tracked.track = step.track;
+    tracked.model_pixels = model_pixels_;
+    tracked.recovered = step.recovered;
+    tracked.diverged = step.diverged;
+    if (step.restart) result_->map = SurfelMap();
+    if (Fuses(step, frame)) {
+      const auto start = std::chrono::steady_clock::now();
+      const std::vector<std::uint8_t> no_color;
+      tracked.fusion = result_->map.FuseFrame(pyramid.levels[0], step.T_world_camera, step.index,
+                                              options_.fusion, use_color_ ? frame.color : no_color,
+                                              options_.threads, &view_);
+      result_->fuse_s += SecondsSince(start);
+    }
+    tracked.map_size = result_->map.size();
+    result_->frames.push_back(tracked);
+  }
+
+  std::string FailureNote() const override { return "kept the prediction, not fused"; }
+  std::string RestartNote() const override { return "restarted the map"; }
+
+ private:
+  bool Fuses(const TrackedStep& step, const RgbdFrame& frame) {
+    if (!step.track.success && !step.restart) return false;
+    if (!use_color_ || !frame.color.empty()) return true;
+    // A coloured map takes no colourless points (TUM: a depth image without a colour image
+    // within the association's time window): tracked, not fused.
+    ++result_->without_color;
+    log_.Warning("frame " + std::to_string(step.index) + " (" + frame.source +
+                 "): no colour image while the map is coloured; tracked, not fused");
+    return false;
+  }
+
+  const SlamOptions& options_;
+  const Log& log_;
+  SlamResult* result_;
+  bool use_color_ = false;
+  FramePyramid model_;  // the rendered model and its z-buffer, reused every frame
+  ZBuffer zbuffer_;
+  MapView view_;  // the map points near the rendered view, for the fusion that follows
+  int model_pixels_ = 0;
+  Pose T_world_model_ = Pose::Identity();
+};
+
+}  // namespace
+
+SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, const Log& log,
+                   const std::function<void(int, int, const SlamFrame&)>& progress) {
+  if (options.halvings < 0) throw InputError("slam: halvings must be >= 0");
+  SlamResult result;
+  ModelTarget target(options, log, &result);
+  const auto frame_done = [&](int done, int total) {
+    if (progress) progress(done, total, result.frames.back());
+  };
+  static_cast<TrackingRun&>(result) =
+      RunTracking(sequence, options, "slam", &target, log, frame_done);
+  // Rendering is timed inside tracking; the result keeps the two apart.
+  result.track_s -= result.render_s;
   return result;
 }
 

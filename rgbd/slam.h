@@ -16,6 +16,7 @@
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
 #include "rgbd/surfel_map.h"
+#include "rgbd/tracking_loop.h"
 #include "rgbd/zbuffer.h"
 
 namespace rigfit {
@@ -55,32 +56,20 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
                  const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
                  int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view = nullptr);
 
-struct SlamOptions {
-  FrameOptions frame;
-  ProjectiveIcpOptions icp;
+/// SLAM's settings: the shared loop's (rgbd/tracking_loop.h; a restart drops the map and starts
+/// a new one from the current frame), fusion, rendering, colour and resolution.
+struct SlamOptions : TrackingLoopOptions {
   FusionOptions fusion;
   RenderOptions render;
-  MotionPrior prior = MotionPrior::kConstantVelocity;
-  /// Weak directions held, divergence detected and recovered (rgbd/motion_guard.h).
-  GuardOptions guard;
-  /// After this many failed frames in a row the map is dropped and restarted from the
-  /// current frame at its predicted pose (counted in SlamResult::restarts).
-  int restart_after_failures = 5;
   /// Fuse the sequence's registered colour when its first frame has one (a later frame
   /// without colour is then tracked but not fused: SlamResult::without_color).
   bool color = true;
-  /// Frames [first_frame, first_frame + max_frames) with the given stride; max_frames 0 = all.
-  int first_frame = 0;
-  int max_frames = 0;
-  int stride = 1;
   /// Halve every frame's resolution this many times before anything else (HalveFrame,
   /// rgbd/frame.h): 1 runs a 640x480 sequence at 320x240. Timed with the loading (load_s):
   /// a sensor of that size would not do it.
   int halvings = 0;
-  int threads = 2;
 };
 
-/// One frame of the run.
 struct SlamFrame {
   int index = 0;           ///< frame index in the sequence
   TrackResult track;       ///< against the rendered model (T_target_source: predicted <- frame)
@@ -91,33 +80,16 @@ struct SlamFrame {
   bool diverged = false;   ///< so was the re-track: kept the last good pose, not fused
 };
 
-struct SlamResult {
-  Trajectory trajectory;  ///< T_world_camera of every frame
+struct SlamResult : TrackingRun {
   std::vector<SlamFrame> frames;
-  SurfelMap map;     ///< the final map (since the last restart)
-  int failures = 0;  ///< frames whose tracking failed (their pose is the prediction)
-  int restarts = 0;
-  int recovered = 0;    ///< frames suspected of divergence and recovered (MotionGuard)
-  int diverged = 0;     ///< frames declared diverged (counted in failures too)
-  int weak_frames = 0;  ///< frames tracked with weak directions held
+  SurfelMap map;  ///< the final map (since the last restart)
   /// Frames tracked but not fused because they had no colour image while the map (from a
   /// first frame with colour) is coloured.
   int without_color = 0;
-  double load_s = 0.0;
-  double preprocess_s = 0.0;
-  double render_s = 0.0;  ///< rendering the model and its pyramid
-  double track_s = 0.0;
+  double render_s = 0.0;  ///< rendering the model and its pyramid (not in track_s)
   double fuse_s = 0.0;
 };
 
-/// Runs frame-to-model SLAM over the sequence. The first frame's pose is its ground truth
-/// when it has one (the identity otherwise) and it is fused as it is. Every next frame is
-/// tracked against the map rendered at the motion prior's prediction, then fused at the
-/// tracked pose; the MotionGuard (rgbd/motion_guard.h) re-tracks a suspect frame against the
-/// map rendered at the previous pose, and a diverged frame keeps that pose and is not fused. A
-/// frame whose tracking fails keeps the prediction, is counted, warned about and not fused; after
-/// restart_after_failures failures in a row the map restarts from the current frame.
-/// `progress(done, total, frame)` is called after every frame.
 SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, const Log& log = {},
                    const std::function<void(int, int, const SlamFrame&)>& progress = {});
 

@@ -1,0 +1,95 @@
+// The loop that tracks a sequence frame by frame, shared by the keyframe odometry
+// (rgbd/odometry.h) and frame-to-model SLAM (rgbd/slam.h): which frames, the motion prior, the
+// motion guard (rgbd/motion_guard.h), failures and restarts, timings. What a frame is tracked
+// against, and what follows once its pose is known, is the caller's TrackingTarget: a keyframe
+// for the odometry; the model rendered at the start pose, then fusion, for SLAM.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <utility>
+
+#include "core/log.h"
+#include "core/pose.h"
+#include "core/rgbd.h"
+#include "core/trajectory.h"
+#include "rgbd/frame.h"
+#include "rgbd/motion_guard.h"
+#include "rgbd/projective_icp.h"
+
+namespace rigfit {
+
+enum class MotionPrior {
+  kIdentity,          ///< each frame starts at the previous frame's pose
+  kConstantVelocity,  ///< each frame starts where the last motion would put it
+};
+
+/// The settings odometry and SLAM share (OdometryOptions and SlamOptions extend them).
+struct TrackingLoopOptions {
+  FrameOptions frame;
+  ProjectiveIcpOptions icp;
+  MotionPrior prior = MotionPrior::kConstantVelocity;
+  /// Weak directions held, divergence detected and recovered (rgbd/motion_guard.h).
+  GuardOptions guard;
+  /// After this many failed frames in a row the track is lost and restarts from the current
+  /// frame at its predicted pose (the odometry's next reference; SLAM's new map), counted in
+  /// restarts.
+  int restart_after_failures = 5;
+  /// Frames [first_frame, first_frame + max_frames) with the given stride; max_frames 0 = all.
+  int first_frame = 0;
+  int max_frames = 0;
+  int stride = 1;
+  int threads = 2;
+};
+
+/// What a run's frames went through (OdometryResult and SlamResult extend it).
+struct TrackingRun {
+  Trajectory trajectory;  ///< T_world_camera of every tracked frame
+  int failures = 0;       ///< frames whose tracking failed (their pose is the prediction)
+  int restarts = 0;       ///< times the track was lost and restarted (restart_after_failures)
+  int recovered = 0;      ///< frames suspected of divergence and recovered (MotionGuard)
+  int diverged = 0;       ///< frames declared diverged (counted in failures too)
+  int weak_frames = 0;    ///< frames tracked with weak directions held
+  double load_s = 0.0;
+  double preprocess_s = 0.0;
+  double track_s = 0.0;  ///< tracking (SLAM: rendering the model apart, SlamResult::render_s)
+};
+
+/// One frame as the loop leaves it to the target.
+struct TrackedStep {
+  int index = 0;       ///< frame index in the sequence
+  bool first = false;  ///< the run's first frame: at its ground-truth pose or the identity
+  TrackResult track;   ///< against the target (success for the first frame)
+  Pose T_world_camera = Pose::Identity();
+  bool recovered = false;  ///< suspected of divergence, re-tracked from the last good pose
+  bool diverged = false;   ///< so was the re-track: kept the last good pose (a failure)
+  bool restart = false;    ///< the track was lost: the target restarts from this frame
+};
+
+/// What a frame is tracked against, and what happens once its pose is known.
+class TrackingTarget {
+ public:
+  virtual ~TrackingTarget() = default;
+  /// The frame as it is tracked (timed as loading): SLAM halves it and checks its colour.
+  virtual RgbdFrame Load(const RgbdSequence& sequence, int index) { return sequence.Frame(index); }
+  /// Tracks `pyramid` (frame `index`) started at T_world_start: the track and the frame's pose.
+  virtual std::pair<TrackResult, Pose> Track(const FramePyramid& pyramid, int index,
+                                             const Pose& T_world_start) = 0;
+  /// The pose of the camera the last Track measured the frame against (the keyframe's; the
+  /// rendered model's start pose), whose axes the track's weak directions are given in.
+  virtual Pose MotionOrigin() const = 0;
+  /// The frame, its pose known (called for every frame, failed ones included).
+  virtual void Accept(const TrackedStep& step, const RgbdFrame& frame, FramePyramid pyramid) = 0;
+  /// The warnings' words: what a failed frame is left with, what a restart restarts.
+  virtual std::string FailureNote() const { return "kept the prediction"; }
+  virtual std::string RestartNote() const { return "restarted"; }
+};
+
+/// Tracks the frames of `sequence` that `options` select against `target`; `name` starts the
+/// messages of bad options ("odometry: stride must be at least 1", InputError).
+/// progress(done, total) after each frame.
+TrackingRun RunTracking(const RgbdSequence& sequence, const TrackingLoopOptions& options,
+                        const std::string& name, TrackingTarget* target, const Log& log,
+                        const std::function<void(int, int)>& progress);
+
+}  // namespace rigfit
