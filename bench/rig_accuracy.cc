@@ -469,7 +469,12 @@ int main(int argc, char** argv) {
   app.add_flag("--verbose", verbose, "solver progress to stderr");
   CLI11_PARSE(app, argc, argv);
   sim.depth_model = depth_model == "stereo" ? DepthModel::kStereo : DepthModel::kGaussian;
-  CheckSimOptions(sim, "rig_accuracy", OptionSpelling::kFlag);
+  try {
+    CheckSimOptions(sim);
+  } catch (const SettingError& e) {
+    std::cerr << "rig_accuracy: " << e.Spelled(SettingError::Flag) << "\n";
+    return 2;
+  }
   if (!config.empty()) options = LoadConfig(config);
   options.icp.mode = mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
   if (edge_margin_px > 0) options.region.edge_margin_px = edge_margin_px;

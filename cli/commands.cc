@@ -5,6 +5,8 @@
 #include <sstream>
 #include <string>
 
+#include "core/setting_error.h"
+
 namespace rigfit::cli {
 namespace {
 
@@ -45,7 +47,12 @@ void RegisterCommands(CLI::App& app) {
 
 int RunSelected(const CLI::App& app) {
   for (const Command& c : Registry()) {
-    if (c.app->parsed()) return c.run();
+    if (!c.app->parsed()) continue;
+    try {
+      return c.run();
+    } catch (const SettingError& e) {
+      throw InputError(c.app->get_name() + ": " + e.Spelled(SettingError::Flag));
+    }
   }
   return kExitBadInput;
 }

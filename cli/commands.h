@@ -47,7 +47,8 @@ Command AddSlamCommand(CLI::App& app);
 
 /// Adds every subcommand to app.
 void RegisterCommands(CLI::App& app);
-/// Runs the subcommand that was parsed; returns its exit code.
+/// Runs the subcommand that was parsed; returns its exit code. A SettingError of its checks
+/// becomes an InputError "<subcommand>: <message>", the settings spelled as flags.
 int RunSelected(const CLI::App& app);
 
 }  // namespace rigfit::cli

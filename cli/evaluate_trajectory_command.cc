@@ -26,8 +26,7 @@ struct EvaluateTrajectoryArgs {
 };
 
 int RunEvaluateTrajectory(const EvaluateTrajectoryArgs& a) {
-  CheckTrajectoryEvaluationSettings("evaluate-trajectory", OptionSpelling::kFlag, a.max_dt,
-                                    a.delta);
+  CheckTrajectoryEvaluationSettings(a.max_dt, a.delta);
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "evaluate-trajectory: --report");
   const Trajectory est = ReadTumTrajectory(a.estimate_path);
   const Trajectory gt = ReadTumTrajectory(a.ground_truth_path);

@@ -8,13 +8,6 @@
 
 namespace rigfit::cli {
 
-void ApplyTrackingFlags(const std::string& command, const std::string& prior,
-                        const std::vector<int>& iterations, int threads, int max_frames,
-                        MotionPrior* motion_prior, FrameOptions* frame, ProjectiveIcpOptions* icp) {
-  ApplyTrackingSettings(command, OptionSpelling::kFlag, prior, iterations, threads, max_frames,
-                        motion_prior, frame, icp);
-}
-
 std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
                                                  const SequenceOptions& options, const Log& log) {
   std::vector<std::string> warnings;
@@ -22,11 +15,6 @@ std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
   for (const std::string& warning : warnings) log.Warning(warning);
   log.Info(sequence->Describe());
   return sequence;
-}
-
-void ApplyIntrinsicsOption(const std::vector<double>& intrinsics, const std::string& command,
-                           SequenceOptions* options) {
-  SetSequenceIntrinsics(intrinsics, command, OptionSpelling::kFlag, options);
 }
 
 std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Trajectory& estimate,

@@ -19,17 +19,6 @@
 
 namespace rigfit::cli {
 
-/// rgbd/tracking_options.h's ApplyTrackingSettings with the flags' spelling ("--prior", ...):
-/// the checks rigfit.track shares.
-void ApplyTrackingFlags(const std::string& command, const std::string& prior,
-                        const std::vector<int>& iterations, int threads, int max_frames,
-                        MotionPrior* motion_prior, FrameOptions* frame, ProjectiveIcpOptions* icp);
-
-/// io/rgbd_sequence.h's SetSequenceIntrinsics for --intrinsics fx,fy,cx,cy (nothing when
-/// empty).
-void ApplyIntrinsicsOption(const std::vector<double>& intrinsics, const std::string& command,
-                           SequenceOptions* options);
-
 /// Opens the sequence (io/rgbd_sequence.h), its loader's warnings and its description to `log`.
 std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
                                                  const SequenceOptions& options, const Log& log);

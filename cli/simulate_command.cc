@@ -176,7 +176,7 @@ nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
 }
 
 int RunSimulate(const SimulateArgs& a) {
-  CheckSimOptions(a.sim, "simulate", OptionSpelling::kFlag);
+  CheckSimOptions(a.sim);
   if (!a.config_path.empty()) LoadConfig(a.config_path);  // bad config: exit 2 before writing
   PrepareOutputDir("simulate", a.out_dir, a.force,
                    std::vector<std::string>(std::begin(kOutputFiles), std::end(kOutputFiles)));

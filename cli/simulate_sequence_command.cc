@@ -46,7 +46,7 @@ void CheckArgs(const SimulateSequenceArgs& a) {
     fail("--frames must be in [1, " + std::to_string(kMaxFrames) + "], got " +
          std::to_string(o.frames));
   }
-  CheckSimImageSize("simulate-sequence", o.width, o.height, OptionSpelling::kFlag);
+  CheckSimImageSize(o.width, o.height);
   if (!(o.rate_hz > 0.0) || !std::isfinite(o.rate_hz)) fail("--rate must be a finite number > 0");
   if (!(o.speed_mps > 0.0 && o.speed_mps <= kMaxSpeedMps)) {
     fail("--speed must be in (0, " + std::to_string(static_cast<int>(kMaxSpeedMps)) + "] m/s");

@@ -68,11 +68,11 @@ int RunSlamCommand(SlamArgs a) {
     CheckOutputFile(a.map_path, {a.sequence_path, a.out_path}, a.force, "slam: --map");
   }
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "slam: --report");
-  ApplyTrackingFlags("slam", a.prior, a.iterations, a.slam.threads, a.slam.max_frames,
-                     &a.slam.prior, &a.slam.frame, &a.slam.icp);
-  CheckSlamSettings("slam", OptionSpelling::kFlag, a.slam);
-  ApplyWeakRatio("slam", OptionSpelling::kFlag, a.weak_ratio, &a.slam.icp);
-  ApplyIntrinsicsOption(a.intrinsics, "slam", &a.sequence);
+  ApplyTrackingSettings(a.prior, a.iterations, a.slam.threads, a.slam.max_frames, &a.slam.prior,
+                        &a.slam.frame, &a.slam.icp);
+  CheckSlamSettings(a.slam);
+  ApplyWeakRatio(a.weak_ratio, &a.slam.icp);
+  SetSequenceIntrinsics(a.intrinsics, &a.sequence);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
   const std::unique_ptr<RgbdSequence> sequence =

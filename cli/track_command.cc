@@ -34,12 +34,12 @@ struct TrackArgs {
 };
 
 int RunTrack(TrackArgs a) {
-  ApplyTrackingFlags("track", a.prior, a.iterations, a.odometry.threads, a.odometry.max_frames,
-                     &a.odometry.prior, &a.odometry.frame, &a.odometry.icp);
-  ApplyMinStep("track", OptionSpelling::kFlag, a.min_step_m, &a.odometry.icp);
-  ApplyWeakRatio("track", OptionSpelling::kFlag, a.weak_ratio, &a.odometry.icp);
+  ApplyTrackingSettings(a.prior, a.iterations, a.odometry.threads, a.odometry.max_frames,
+                        &a.odometry.prior, &a.odometry.frame, &a.odometry.icp);
+  ApplyMinStep(a.min_step_m, &a.odometry.icp);
+  ApplyWeakRatio(a.weak_ratio, &a.odometry.icp);
 
-  ApplyIntrinsicsOption(a.intrinsics, "track", &a.sequence);
+  SetSequenceIntrinsics(a.intrinsics, &a.sequence);
 
   const Log log = StderrLog("track: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
   const std::unique_ptr<RgbdSequence> sequence =

@@ -63,12 +63,9 @@ Pose AlignRigid(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
   return S;
 }
 
-void CheckTrajectoryEvaluationSettings(const std::string& command, OptionSpelling spelling,
-                                       double max_dt, int delta) {
-  if (!(max_dt > 0.0)) {
-    throw InputError(command + ": " + OptionName("max_dt", spelling) + " must be > 0");
-  }
-  if (delta < 1) throw InputError(command + ": " + OptionName("delta", spelling) + " must be >= 1");
+void CheckTrajectoryEvaluationSettings(double max_dt, int delta) {
+  if (!(max_dt > 0.0)) throw SettingError("max_dt", "must be > 0");
+  if (delta < 1) throw SettingError("delta", "must be >= 1");
 }
 
 TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt, double max_dt,

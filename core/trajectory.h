@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "core/option_name.h"
 #include "core/pose.h"
+#include "core/setting_error.h"
 
 namespace rigfit {
 
@@ -51,10 +51,9 @@ TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt,
                                     int delta);
 
 /// The checks of `rigfit evaluate-trajectory`'s --max-dt and --delta (rigfit's
-/// evaluate_trajectory(max_dt=, delta=)): max_dt > 0, delta >= 1. Throws InputError
-/// "<command>: <option> must be ..." with the options spelled as `spelling` asks.
-void CheckTrajectoryEvaluationSettings(const std::string& command, OptionSpelling spelling,
-                                       double max_dt, int delta);
+/// evaluate_trajectory(max_dt=, delta=)): max_dt > 0, delta >= 1. Throws SettingError
+/// (core/setting_error.h) on a bad value.
+void CheckTrajectoryEvaluationSettings(double max_dt, int delta);
 
 /// How far a trajectory that starts at the truth has wandered off at its end: over the pairs
 /// of AssociateByTimestamp(max_dt), the distance between the last pair's positions (no

@@ -460,12 +460,9 @@ PngSequenceLayout ReadSevenScenesFolder(fs::path folder, const SequenceOptions& 
 
 }  // namespace
 
-void SetSequenceIntrinsics(const std::vector<double>& values, const std::string& command,
-                           OptionSpelling spelling, SequenceOptions* options) {
+void SetSequenceIntrinsics(const std::vector<double>& values, SequenceOptions* options) {
   if (values.empty()) return;
-  if (values.size() != 4) {
-    throw InputError(command + ": " + OptionName("intrinsics", spelling) + " takes fx,fy,cx,cy");
-  }
+  if (values.size() != 4) throw SettingError("intrinsics", "takes fx,fy,cx,cy");
   options->intrinsics = PinholeIntrinsics{values[0], values[1], values[2], values[3]};
 }
 

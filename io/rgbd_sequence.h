@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "core/option_name.h"
 #include "core/rgbd.h"
+#include "core/setting_error.h"
 
 namespace rigfit {
 
@@ -36,11 +36,9 @@ struct SequenceOptions {
 };
 
 /// Sets options->intrinsics from [fx, fy, cx, cy] (`--intrinsics fx,fy,cx,cy`, rigfit's
-/// open_sequence(intrinsics=...)); nothing when `values` is empty. Throws InputError
-/// "<command>: <option> takes fx,fy,cx,cy" on another count (OpenRgbdSequence checks the
-/// values).
-void SetSequenceIntrinsics(const std::vector<double>& values, const std::string& command,
-                           OptionSpelling spelling, SequenceOptions* options);
+/// open_sequence(intrinsics=...)); nothing when `values` is empty. Throws SettingError
+/// "{intrinsics} takes fx,fy,cx,cy" on another count (OpenRgbdSequence checks the values).
+void SetSequenceIntrinsics(const std::vector<double>& values, SequenceOptions* options);
 
 /// Frames per second of sequences that have no clock (7-Scenes, ICL-NUIM, rig-capture
 /// bursts): frame k is at k / kUnstampedFrameRateHz seconds (7-Scenes at its file's number).

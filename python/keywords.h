@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/errors.h"
+#include "core/setting_error.h"
 
 namespace rigfit::python {
 
@@ -110,5 +111,16 @@ class KeywordTable {
   std::string command_;
   std::vector<Entry> entries_;
 };
+
+/// Runs `check`, the library's checks of `command`'s settings: a SettingError becomes an
+/// InputError (ValueError) "<command>: <message>", the settings spelled as keywords.
+template <typename Check>
+void CheckKeywords(const std::string& command, const Check& check) {
+  try {
+    check();
+  } catch (const SettingError& e) {
+    throw InputError(command + ": " + e.Spelled(SettingError::Key));
+  }
+}
 
 }  // namespace rigfit::python

@@ -219,7 +219,7 @@ const KeywordTable<SequenceKeywords>& SequenceTable() {
 FileSequence OpenSequence(const std::string& path, const py::dict& keywords,
                           const py::object& logger) {
   SequenceKeywords k = SequenceTable().Apply(keywords);
-  SetSequenceIntrinsics(k.intrinsics, "open_sequence", OptionSpelling::kKeyword, &k.sequence);
+  CheckKeywords("open_sequence", [&] { SetSequenceIntrinsics(k.intrinsics, &k.sequence); });
   std::vector<std::string> warnings;
   std::unique_ptr<RgbdSequence> sequence;
   {
@@ -343,10 +343,12 @@ const KeywordTable<TrackKeywords>& TrackTable() {
 OdometryOptions TrackOptionsOf(const py::dict& keywords) {
   TrackKeywords k = TrackTable().Apply(keywords);
   OdometryOptions& o = k.odometry;
-  ApplyTrackingSettings("track", OptionSpelling::kKeyword, k.prior, k.iterations, o.threads,
-                        o.max_frames, &o.prior, &o.frame, &o.icp);
-  ApplyMinStep("track", OptionSpelling::kKeyword, k.min_step, &o.icp);
-  ApplyWeakRatio("track", OptionSpelling::kKeyword, k.weak_ratio, &o.icp);
+  CheckKeywords("track", [&] {
+    ApplyTrackingSettings(k.prior, k.iterations, o.threads, o.max_frames, &o.prior, &o.frame,
+                          &o.icp);
+    ApplyMinStep(k.min_step, &o.icp);
+    ApplyWeakRatio(k.weak_ratio, &o.icp);
+  });
   return o;
 }
 
@@ -427,10 +429,12 @@ const KeywordTable<SlamKeywords>& SlamTable() {
 SlamOptions SlamOptionsOf(const py::dict& keywords) {
   SlamKeywords k = SlamTable().Apply(keywords);
   SlamOptions& o = k.slam;
-  ApplyTrackingSettings("slam", OptionSpelling::kKeyword, k.prior, k.iterations, o.threads,
-                        o.max_frames, &o.prior, &o.frame, &o.icp);
-  CheckSlamSettings("slam", OptionSpelling::kKeyword, o);
-  ApplyWeakRatio("slam", OptionSpelling::kKeyword, k.weak_ratio, &o.icp);
+  CheckKeywords("slam", [&] {
+    ApplyTrackingSettings(k.prior, k.iterations, o.threads, o.max_frames, &o.prior, &o.frame,
+                          &o.icp);
+    CheckSlamSettings(o);
+    ApplyWeakRatio(k.weak_ratio, &o.icp);
+  });
   return o;
 }
 
@@ -528,7 +532,7 @@ py::dict EvaluateTrajectoryErrors(const py::handle& est_timestamps, const py::ha
                                   const py::handle& gt_timestamps, const py::handle& gt_poses,
                                   const py::dict& keywords) {
   const auto [max_dt, delta] = EvaluateTrajectoryTable().Apply(keywords);
-  CheckTrajectoryEvaluationSettings("evaluate_trajectory", OptionSpelling::kKeyword, max_dt, delta);
+  CheckKeywords("evaluate_trajectory", [&] { CheckTrajectoryEvaluationSettings(max_dt, delta); });
   const Trajectory est = TrajectoryOf(est_timestamps, est_poses, "estimated");
   const Trajectory gt = TrajectoryOf(gt_timestamps, gt_poses, "ground_truth");
   TrajectoryErrors e;

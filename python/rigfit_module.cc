@@ -456,7 +456,7 @@ const KeywordTable<SimOptions>& SimulateTable() {
 /// (CheckSimOptions).
 py::dict Simulate(const py::dict& keywords) {
   const SimOptions options = SimulateTable().Apply(keywords);
-  CheckSimOptions(options, "simulate", OptionSpelling::kKeyword);
+  CheckKeywords("simulate", [&] { CheckSimOptions(options); });
   SimulatedRig rig;
   {
     py::gil_scoped_release release;

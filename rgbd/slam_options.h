@@ -6,16 +6,15 @@
 
 #include <string>
 
-#include "core/option_name.h"
+#include "core/setting_error.h"
 #include "rgbd/slam.h"
 
 namespace rigfit {
 
 /// Checks, after ApplyTrackingSettings: fuse_distance > 0 and fuse_angle in (0, 180]
 /// (options.fusion's gates), cover_radius >= 0, dormant_frames >= 0, model_weight >= 1,
-/// model_recent >= 0 (options.render) and halve >= 0 (options.halvings). Throws InputError
-/// "<command>: <option> ..." on a bad value, the options spelled as `spelling` asks.
-void CheckSlamSettings(const std::string& command, OptionSpelling spelling,
-                       const SlamOptions& options);
+/// model_recent >= 0 (options.render) and halve >= 0 (options.halvings). Throws SettingError
+/// (core/setting_error.h) on a bad value.
+void CheckSlamSettings(const SlamOptions& options);
 
 }  // namespace rigfit

@@ -1,6 +1,6 @@
 #include "rgbd/tracking_options.h"
 
-#include "core/errors.h"
+#include "core/setting_error.h"
 
 namespace rigfit {
 
@@ -8,60 +8,52 @@ const char* MotionPriorName(MotionPrior prior) {
   return prior == MotionPrior::kConstantVelocity ? "constant-velocity" : "identity";
 }
 
-void ApplyTrackingSettings(const std::string& command, OptionSpelling spelling,
-                           const std::string& prior, const std::vector<int>& iterations,
+void ApplyTrackingSettings(const std::string& prior, const std::vector<int>& iterations,
                            int threads, int max_frames, MotionPrior* motion_prior,
                            FrameOptions* frame, ProjectiveIcpOptions* icp) {
-  const std::string c = command + ": ";
-  const auto name = [spelling](const char* key) { return OptionName(key, spelling); };
   if (prior == MotionPriorName(MotionPrior::kConstantVelocity)) {
     *motion_prior = MotionPrior::kConstantVelocity;
   } else if (prior == MotionPriorName(MotionPrior::kIdentity)) {
     *motion_prior = MotionPrior::kIdentity;
   } else {
-    throw InputError(c + name("prior") + " must be constant-velocity or identity, got " + prior);
+    throw SettingError("prior", "must be constant-velocity or identity, got " + prior);
   }
   if (iterations.empty() || iterations.size() > 6) {
-    throw InputError(c + name("iterations") + " takes 1 to 6 counts, finest level first");
+    throw SettingError("iterations", "takes 1 to 6 counts, finest level first");
   }
   for (const int n : iterations) {
-    if (n < 0 || n > 100) throw InputError(c + name("iterations") + ": each count in [0, 100]");
+    if (n < 0 || n > 100) {
+      throw SettingError::Worded("iterations", "{iterations}: each count in [0, 100]");
+    }
   }
   icp->iterations = iterations;
   frame->levels = static_cast<int>(iterations.size());
   if (!(frame->min_depth_m >= 0.0 && frame->max_depth_m > frame->min_depth_m)) {
-    throw InputError(c + "need 0 <= " + name("min_depth") + " < " + name("max_depth"));
+    throw SettingError::Worded("min_depth", "need 0 <= {min_depth} < {max_depth}");
   }
   const AssociationOptions& association = icp->association;
   if (!(association.max_distance_m > 0.0) ||
       !(association.max_normal_angle_deg > 0.0 && association.max_normal_angle_deg <= 180.0)) {
-    throw InputError(c + name("max_distance") + " must be > 0 and " + name("max_angle") +
-                     " in (0, 180]");
+    throw SettingError("max_distance", "must be > 0 and {max_angle} in (0, 180]");
   }
   if (!(icp->weighting.huber_delta_m >= 0.0)) {
-    throw InputError(c + name("huber") + " must be >= 0");
+    throw SettingError("huber", "must be >= 0");
   }
   if (threads < 1 || threads > kMaxTrackingThreads) {
-    throw InputError(c + name("threads") + " must be in [1, " +
-                     std::to_string(kMaxTrackingThreads) + "]");
+    throw SettingError("threads", "must be in [1, " + std::to_string(kMaxTrackingThreads) + "]");
   }
-  if (max_frames < 0) throw InputError(c + name("max_frames") + " must be >= 0 (0: all)");
+  if (max_frames < 0) throw SettingError("max_frames", "must be >= 0 (0: all)");
 }
 
-void ApplyMinStep(const std::string& command, OptionSpelling spelling, double min_step_m,
-                  ProjectiveIcpOptions* icp) {
-  if (!(min_step_m > 0.0)) {
-    throw InputError(command + ": " + OptionName("min_step", spelling) + " must be > 0");
-  }
+void ApplyMinStep(double min_step_m, ProjectiveIcpOptions* icp) {
+  if (!(min_step_m > 0.0)) throw SettingError("min_step", "must be > 0");
   icp->converged_translation_m = min_step_m;
   icp->converged_rotation_rad = min_step_m;
 }
 
-void ApplyWeakRatio(const std::string& command, OptionSpelling spelling, double weak_ratio,
-                    ProjectiveIcpOptions* icp) {
-  if (!(weak_ratio > 0.0 && weak_ratio < 1.0)) {
-    throw InputError(command + ": " + OptionName("weak_ratio", spelling) + " must be in (0, 1)");
-  }
+void ApplyWeakRatio(double weak_ratio, ProjectiveIcpOptions* icp) {
+  if (!(weak_ratio > 0.0 && weak_ratio < 1.0))
+    throw SettingError("weak_ratio", "must be in (0, 1)");
   icp->weak_direction_ratio = weak_ratio;
 }
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "core/option_name.h"
+#include "core/setting_error.h"
 #include "rgbd/frame.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
@@ -24,23 +24,20 @@ const char* MotionPriorName(MotionPrior prior);
 /// "identity"), iterations (1 to 6 counts in [0, 100], finest level first; their count is the
 /// number of pyramid levels), min_depth < max_depth (frame), max_distance > 0 and max_angle in
 /// (0, 180] (icp->association), huber >= 0 (already in icp), threads in [1,
-/// kMaxTrackingThreads], max_frames >= 0. Throws InputError "<command>: <option> ..." on a bad
-/// value, the options spelled as `spelling` asks.
-void ApplyTrackingSettings(const std::string& command, OptionSpelling spelling,
-                           const std::string& prior, const std::vector<int>& iterations,
+/// kMaxTrackingThreads], max_frames >= 0. Throws SettingError (core/setting_error.h) on a
+/// bad value.
+void ApplyTrackingSettings(const std::string& prior, const std::vector<int>& iterations,
                            int threads, int max_frames, MotionPrior* motion_prior,
                            FrameOptions* frame, ProjectiveIcpOptions* icp);
 
 /// Sets the convergence test of `rigfit track --min-step` (rigfit.track's min_step): a
 /// pyramid level ends when a step moves the camera less than min_step_m metres and turns it
-/// less than min_step_m radians. Throws InputError "<command>: <option> must be > 0".
-void ApplyMinStep(const std::string& command, OptionSpelling spelling, double min_step_m,
-                  ProjectiveIcpOptions* icp);
+/// less than min_step_m radians. Throws SettingError "{min_step} must be > 0".
+void ApplyMinStep(double min_step_m, ProjectiveIcpOptions* icp);
 
 /// Sets the weak-direction ratio of `--weak-ratio` (rigfit.track's and rigfit.slam's
-/// weak_ratio; docs/rgbd.md section 4a). Throws InputError "<command>: <option> must be in
+/// weak_ratio; docs/rgbd.md section 4a). Throws SettingError "{weak_ratio} must be in
 /// (0, 1)".
-void ApplyWeakRatio(const std::string& command, OptionSpelling spelling, double weak_ratio,
-                    ProjectiveIcpOptions* icp);
+void ApplyWeakRatio(double weak_ratio, ProjectiveIcpOptions* icp);
 
 }  // namespace rigfit

@@ -456,12 +456,12 @@ PinholeIntrinsics SimIntrinsics(int width, int height) {
   return K;
 }
 
-void CheckSimImageSize(const std::string& command, int width, int height, OptionSpelling spelling) {
+void CheckSimImageSize(int width, int height) {
   for (const auto& [key, value] : {std::pair{"width", width}, std::pair{"height", height}}) {
     if (value < kMinSimImageSize || value > kMaxSimImageSize) {
-      throw InputError(command + ": " + OptionName(key, spelling) + " must be in [" +
-                       std::to_string(kMinSimImageSize) + ", " + std::to_string(kMaxSimImageSize) +
-                       "] pixels, got " + std::to_string(value));
+      throw SettingError(key, "must be in [" + std::to_string(kMinSimImageSize) + ", " +
+                                  std::to_string(kMaxSimImageSize) + "] pixels, got " +
+                                  std::to_string(value));
     }
   }
 }
@@ -470,7 +470,7 @@ namespace {
 
 /// CheckSimOptions' checks of the stereo model's and the miscalibration's options.
 template <typename Fail>
-void CheckStereoOptions(const SimOptions& o, const Fail& fail, OptionSpelling spelling) {
+void CheckStereoOptions(const SimOptions& o, const Fail& fail) {
   if (!(o.stereo_baseline_m > 0.0) || !std::isfinite(o.stereo_baseline_m)) {
     fail("stereo_baseline_m", "must be a finite number > 0");
   }
@@ -488,27 +488,25 @@ void CheckStereoOptions(const SimOptions& o, const Fail& fail, OptionSpelling sp
   }
   if (o.depth_model != DepthModel::kStereo) return;
   if (o.disparity_quant_px > 0.0) {
-    fail("disparity_quant_px", "must be 0 with " + OptionName("depth_model", spelling) +
-                                   " stereo (the block matcher quantises by itself)");
+    fail("disparity_quant_px",
+         "must be 0 with {depth_model} stereo (the block matcher quantises by itself)");
   }
   if (o.noise_corr_share > 0.0) {
-    fail("noise_corr_share", "must be 0 with " + OptionName("depth_model", spelling) +
-                                 " stereo (its noise comes from the matching)");
+    fail("noise_corr_share",
+         "must be 0 with {depth_model} stereo (its noise comes from the matching)");
   }
 }
 
 }  // namespace
 
-void CheckSimOptions(const SimOptions& o, const std::string& command, OptionSpelling spelling) {
-  const auto fail = [&](const char* key, const std::string& what) {
-    throw InputError(command + ": " + OptionName(key, spelling) + " " + what);
-  };
+void CheckSimOptions(const SimOptions& o) {
+  const auto fail = [](const char* key, const std::string& what) { throw SettingError(key, what); };
   const auto finite_non_negative = [](double x) { return std::isfinite(x) && x >= 0.0; };
   if (o.cameras < 1 || o.cameras > kMaxSimCameras) {
     fail("cameras", "must be in [1, " + std::to_string(kMaxSimCameras) + "], got " +
                         std::to_string(o.cameras));
   }
-  CheckSimImageSize(command, o.width, o.height, spelling);
+  CheckSimImageSize(o.width, o.height);
   if (!finite_non_negative(o.noise)) fail("noise", "must be a finite number >= 0");
   if (!(o.dropout >= 0.0 && o.dropout < 1.0)) fail("dropout", "must be in [0, 1)");
   if (!finite_non_negative(o.perturb_yaw_deg) || o.perturb_yaw_deg > 180.0) {
@@ -525,12 +523,12 @@ void CheckSimOptions(const SimOptions& o, const std::string& command, OptionSpel
     fail("noise_corr_share", "must be in [0, 1]");
   }
   if (o.noise_corr_share > 0.0 && o.noise_corr_px <= 0.0) {
-    fail("noise_corr_share", "> 0 needs " + OptionName("noise_corr_px", spelling) + " > 0");
+    fail("noise_corr_share", "> 0 needs {noise_corr_px} > 0");
   }
   if (!finite_non_negative(o.disparity_quant_px)) {
     fail("disparity_quant_px", "must be a finite number >= 0");
   }
-  CheckStereoOptions(o, fail, spelling);
+  CheckStereoOptions(o, fail);
 }
 
 SimulatedRig SimulateRig(const SimOptions& options) {

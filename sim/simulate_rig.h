@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "core/option_name.h"
+#include "core/setting_error.h"
 #include "core/types.h"
 #include "sim/random.h"
 #include "sim/scene.h"
@@ -80,10 +80,9 @@ inline constexpr int kMaxSimCameras = 64;
 inline constexpr int kMinSimImageSize = 16;
 inline constexpr int kMaxSimImageSize = 8192;
 
-/// Throws InputError ("<command>: --width must be in [16, 8192] pixels, got ...", the option
-/// spelled as `spelling` asks) unless both sides are within [kMinSimImageSize,
-/// kMaxSimImageSize].
-void CheckSimImageSize(const std::string& command, int width, int height, OptionSpelling spelling);
+/// Throws SettingError ("{width} must be in [16, 8192] pixels, got ...") unless both sides are
+/// within [kMinSimImageSize, kMaxSimImageSize].
+void CheckSimImageSize(int width, int height);
 
 /// The checks of the options `rigfit simulate` takes as flags and rigfit.simulate as keywords:
 /// cameras in [1, kMaxSimCameras], the image size (CheckSimImageSize), noise, noise_corr_px,
@@ -91,11 +90,10 @@ void CheckSimImageSize(const std::string& command, int width, int height, Option
 /// [0, 180], perturb_tilt_deg in [0, 90], noise_corr_share in [0, 1] and > 0 only with
 /// noise_corr_px > 0; stereo_baseline_m finite and > 0, stereo_upsample in [1, 4],
 /// disparity_offset_px finite, depth_scale in [0.5, 2], miscalibrated_cameras indices of
-/// cameras; with the stereo model, disparity_quant_px and noise_corr_share 0. Throws InputError
-/// "<command>: <option> must be ..." on the first problem. (SimulateRig's own check is a
-/// programmer's guard with looser bounds.)
-void CheckSimOptions(const SimOptions& options, const std::string& command,
-                     OptionSpelling spelling);
+/// cameras; with the stereo model, disparity_quant_px and noise_corr_share 0. Throws SettingError
+/// (core/setting_error.h) on the first problem. (SimulateRig's own check is a programmer's
+/// guard with looser bounds.)
+void CheckSimOptions(const SimOptions& options);
 
 /// A zero-mean Gaussian field of width x height pixels with unit variance at every pixel,
 /// correlated over about corr_px pixels: white N(0, 1) noise on a canvas padded by 3 corr_px,

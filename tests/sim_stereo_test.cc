@@ -20,6 +20,7 @@ namespace rigfit {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::StrEq;
 
 SimOptions SmallRig() {
   SimOptions o;
@@ -153,14 +154,14 @@ TEST(SimulateRig, ChecksTheStereoAndMiscalibrationOptions) {
     SimOptions o;
     change(o);
     try {
-      CheckSimOptions(o, "simulate", OptionSpelling::kFlag);
-    } catch (const InputError& e) {
-      return std::string(e.what());
+      CheckSimOptions(o);
+    } catch (const SettingError& e) {
+      return e.Spelled(SettingError::Flag);
     }
     return std::string("no error");
   };
   EXPECT_THAT(message([](SimOptions& o) { o.stereo_upsample = 0; }),
-              HasSubstr("simulate: --stereo-upsample must be in [1, 4], got 0"));
+              StrEq("--stereo-upsample must be in [1, 4], got 0"));
   EXPECT_THAT(message([](SimOptions& o) { o.stereo_baseline_m = 0.0; }),
               HasSubstr("--stereo-baseline-m must be a finite number > 0"));
   EXPECT_THAT(message([](SimOptions& o) { o.depth_scale = 0.0; }),

@@ -20,8 +20,8 @@
 // Options as a command line or a script names them: CheckSimOptions (sim/simulate_rig.h),
 // ApplyTrackingSettings (rgbd/tracking_options.h) and CheckTrajectoryEvaluationSettings
 // (core/trajectory.h) check the settings of `rigfit simulate`, `track` and
-// `evaluate-trajectory` with their messages, naming each option as a flag or a keyword
-// (core/option_name.h).
+// `evaluate-trajectory`; a bad value throws SettingError (core/setting_error.h), which names
+// the setting by its key and lets each front end spell it (a flag, a keyword).
 //
 // Errors (core/errors.h): I/O throws InputError naming the file and field; the solvers return
 // a result with `success` and `message` instead of throwing on bad geometry. Progress and
