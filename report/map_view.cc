@@ -122,14 +122,25 @@ MapViewAxes EstimateMapViewAxes(const std::vector<Vec3f>& positions,
                         std::move(source));
 }
 
-Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& overlays,
-                       const MapViewAxes& axes, const std::string& title,
-                       const std::string& subtitle) {
-  Canvas canvas(kMapViewWidth, kMapViewHeight, kWhite);
-  plot::DrawTitles(&canvas, title, subtitle);
-  const plot::Rect plot{kMapPlotLeft, kMapPlotTop, kMapPlotRight, kMapPlotBottom};
+namespace {
 
-  // The window: the points' robust extent and every overlay pose.
+/// Where the map lands in the plot: metres along axes.right / axes.forward to pixels.
+struct MapWindow {
+  plot::Rect plot;
+  MapViewAxes axes;
+  double px_per_m = 1.0;
+  double mid_x = 0.0, mid_y = 0.0;  ///< metres at the plot's centre
+  double Column(const Vec3& p) const {
+    return 0.5 * (plot.x0 + plot.x1 - 1) + (axes.right.dot(p) - mid_x) * px_per_m;
+  }
+  double Row(const Vec3& p) const {
+    return 0.5 * (plot.y0 + plot.y1 - 1) - (axes.forward.dot(p) - mid_y) * px_per_m;
+  }
+};
+
+/// The window: the points' robust extent and every overlay pose, with a margin.
+MapWindow WindowFor(const MapPoints& map, const std::vector<MapOverlay>& overlays,
+                    const MapViewAxes& axes, const plot::Rect& plot) {
   std::vector<double> xs, ys;
   for (const Vec3& p : Sampled(map.positions, kMaxWindowPoints)) {
     xs.push_back(axes.right.dot(p));
@@ -154,128 +165,175 @@ Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& over
   if (!(min_x <= max_x)) min_x = max_x = min_y = max_y = 0.0;
   const double span = std::max({max_x - min_x, max_y - min_y, 0.1});
   const double margin = kMarginFraction * span;
-  const double px_per_m = std::min((plot.x1 - plot.x0 - 1) / (max_x - min_x + 2.0 * margin),
-                                   (plot.y1 - plot.y0 - 1) / (max_y - min_y + 2.0 * margin));
-  const double mid_x = 0.5 * (min_x + max_x), mid_y = 0.5 * (min_y + max_y);
-  const double mid_column = 0.5 * (plot.x0 + plot.x1 - 1), mid_row = 0.5 * (plot.y0 + plot.y1 - 1);
-  const auto column = [&](const Vec3& p) {
-    return mid_column + (axes.right.dot(p) - mid_x) * px_per_m;
-  };
-  const auto row = [&](const Vec3& p) {
-    return mid_row - (axes.forward.dot(p) - mid_y) * px_per_m;
-  };
+  MapWindow window{plot, axes};
+  window.px_per_m = std::min((plot.x1 - plot.x0 - 1) / (max_x - min_x + 2.0 * margin),
+                             (plot.y1 - plot.y0 - 1) / (max_y - min_y + 2.0 * margin));
+  window.mid_x = 0.5 * (min_x + max_x);
+  window.mid_y = 0.5 * (min_y + max_y);
+  return window;
+}
 
-  // The highest point over each pixel of the plot.
+/// The highest point over each pixel of the plot (row-major over the plot's width x height):
+/// its height and index (-1: none).
+struct TopView {
+  std::vector<float> top;
+  std::vector<int> winner;
+};
+
+TopView HighestPoints(const MapPoints& map, const MapWindow& window) {
+  const plot::Rect& plot = window.plot;
   const int width = plot.x1 - plot.x0, height = plot.y1 - plot.y0;
-  std::vector<float> top(static_cast<size_t>(width) * height,
-                         -std::numeric_limits<float>::infinity());
-  std::vector<int> winner(top.size(), -1);
+  TopView view{std::vector<float>(static_cast<size_t>(width) * height,
+                                  -std::numeric_limits<float>::infinity()),
+               {}};
+  view.winner.assign(view.top.size(), -1);
   for (size_t i = 0; i < map.positions.size(); ++i) {
     const Vec3 p = map.positions[i].cast<double>();
-    const auto h = static_cast<float>(axes.up.dot(p));
+    const auto h = static_cast<float>(window.axes.up.dot(p));
     const double footprint =
         map.radii.empty()
             ? 0.0
-            : 2.0 * map.radii[i] * std::abs(axes.up.dot(map.normals[i].cast<double>()));
+            : 2.0 * map.radii[i] * std::abs(window.axes.up.dot(map.normals[i].cast<double>()));
     const int side =
-        std::clamp(static_cast<int>(std::lround(footprint * px_per_m)), 1, kMaxSplatPx);
+        std::clamp(static_cast<int>(std::lround(footprint * window.px_per_m)), 1, kMaxSplatPx);
     // The side x side pixels whose centres are nearest (side 1: the nearest pixel).
-    const int c0 = static_cast<int>(std::floor(column(p) + 1.0 - 0.5 * side)) - plot.x0;
-    const int r0 = static_cast<int>(std::floor(row(p) + 1.0 - 0.5 * side)) - plot.y0;
+    const int c0 = static_cast<int>(std::floor(window.Column(p) + 1.0 - 0.5 * side)) - plot.x0;
+    const int r0 = static_cast<int>(std::floor(window.Row(p) + 1.0 - 0.5 * side)) - plot.y0;
     for (int r = std::max(r0, 0); r < std::min(r0 + side, height); ++r) {
       for (int c = std::max(c0, 0); c < std::min(c0 + side, width); ++c) {
         const size_t k = static_cast<size_t>(r) * width + c;
-        if (h > top[k]) {
-          top[k] = h;
-          winner[k] = static_cast<int>(i);
+        if (h > view.top[k]) {
+          view.top[k] = h;
+          view.winner[k] = static_cast<int>(i);
         }
       }
     }
   }
-  std::vector<double> heights;
-  for (size_t k = 0; k < top.size(); ++k) {
-    if (winner[k] >= 0) heights.push_back(top[k]);
-  }
-  const bool by_height = map.colors.empty();
+  return view;
+}
+
+/// The heights the colours span: the 1% and 99% quantiles of the drawn points' (none: empty).
+struct HeightRange {
+  bool any = false;
   double low = 0.0, high = 1.0;
-  if (by_height && !heights.empty()) {
-    low = Quantile(&heights, 0.01);
-    high = std::max(Quantile(&heights, 0.99), low + 1e-3);
+};
+
+HeightRange HeightRangeOf(const TopView& view) {
+  std::vector<double> heights;
+  for (size_t k = 0; k < view.top.size(); ++k) {
+    if (view.winner[k] >= 0) heights.push_back(view.top[k]);
   }
-  Image image = canvas.ToImage();
+  HeightRange range;
+  if (heights.empty()) return range;
+  range.any = true;
+  range.low = Quantile(&heights, 0.01);
+  range.high = std::max(Quantile(&heights, 0.99), range.low + 1e-3);
+  return range;
+}
+
+/// Paints each pixel's highest point: in its colour, or by height when the map has none.
+void PaintPoints(const MapPoints& map, const TopView& view, const plot::Rect& plot,
+                 const HeightRange& range, Canvas* canvas) {
+  const int width = plot.x1 - plot.x0, height = plot.y1 - plot.y0;
+  const auto byte = [](float v) {
+    return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 255.0f)));
+  };
+  Image image = canvas->ToImage();
   for (int r = 0; r < height; ++r) {
     for (int c = 0; c < width; ++c) {
       const size_t k = static_cast<size_t>(r) * width + c;
-      if (winner[k] < 0) continue;
+      if (view.winner[k] < 0) continue;
       Rgb color;
-      if (by_height) {
-        color = Viridis((top[k] - low) / (high - low));
+      if (map.colors.empty()) {
+        color = Viridis((view.top[k] - range.low) / (range.high - range.low));
       } else {
-        const Vec3f& rgb = map.colors[winner[k]];
-        const auto byte = [](float v) {
-          return static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0f, 255.0f)));
-        };
+        const Vec3f& rgb = map.colors[view.winner[k]];
         color = {byte(rgb.x()), byte(rgb.y()), byte(rgb.z())};
       }
       image.Set(plot.x0 + c, plot.y0 + r, color);
     }
   }
-  canvas.SetImage(image);
+  canvas->SetImage(image);
+}
 
-  // The overlays: paths with a white rim and a disc at the start; cameras as in DrawTopDown.
+/// The overlays: paths with a white rim and a disc at the start; cameras as in DrawTopDown.
+void DrawOverlays(const std::vector<MapOverlay>& overlays, const MapWindow& window,
+                  Canvas* canvas) {
   for (const MapOverlay& overlay : overlays) {
     if (overlay.cameras) {
       constexpr double kHeadingPx = 40.0;
       for (const Pose& T : overlay.poses) {
-        const double cx = column(T.translation()), cy = row(T.translation());
+        const double cx = window.Column(T.translation()), cy = window.Row(T.translation());
         const Vec3 ahead = T.translation() + T.linear().col(2);
-        const double dx = column(ahead) - cx, dy = row(ahead) - cy;
+        const double dx = window.Column(ahead) - cx, dy = window.Row(ahead) - cy;
         const double norm = std::hypot(dx, dy);
         if (norm > 1e-9) {
-          canvas.Line(cx, cy, cx + kHeadingPx * dx / norm, cy + kHeadingPx * dy / norm, kBlack, 3);
+          canvas->Line(cx, cy, cx + kHeadingPx * dx / norm, cy + kHeadingPx * dy / norm, kBlack, 3);
         }
-        canvas.Disc(cx, cy, 10.0, kBlack);
-        canvas.Disc(cx, cy, 7.0, overlay.color);
+        canvas->Disc(cx, cy, 10.0, kBlack);
+        canvas->Disc(cx, cy, 7.0, overlay.color);
       }
       continue;
     }
     std::vector<std::pair<double, double>> path;
-    for (const Pose& T : overlay.poses)
-      path.emplace_back(column(T.translation()), row(T.translation()));
+    for (const Pose& T : overlay.poses) {
+      path.emplace_back(window.Column(T.translation()), window.Row(T.translation()));
+    }
     if (path.empty()) continue;
-    canvas.Polyline(path, kWhite, overlay.line_width + 4);
-    canvas.Polyline(path, overlay.color, overlay.line_width);
-    canvas.Disc(path.front().first, path.front().second, overlay.line_width + 4, kWhite);
-    canvas.Disc(path.front().first, path.front().second, overlay.line_width + 2, overlay.color);
+    canvas->Polyline(path, kWhite, overlay.line_width + 4);
+    canvas->Polyline(path, overlay.color, overlay.line_width);
+    canvas->Disc(path.front().first, path.front().second, overlay.line_width + 4, kWhite);
+    canvas->Disc(path.front().first, path.front().second, overlay.line_width + 2, overlay.color);
   }
-  plot::DrawFrame(&canvas, plot, plot::kAxis);
-  plot::DrawScaleBar(&canvas, plot, px_per_m, (plot.x1 - plot.x0) / px_per_m);
+}
 
-  // Legend: the overlays, then what the colours mean.
+/// Legend: the overlays, then what the colours mean.
+void DrawMapLegend(const std::vector<MapOverlay>& overlays, bool by_height,
+                   const HeightRange& range, const plot::Rect& plot, Canvas* canvas) {
   const int legend_x = kMapPlotRight + 20;
   int y = plot.y0;
   for (const MapOverlay& overlay : overlays) {
-    y = plot::LegendRow(&canvas, legend_x, y, overlay.color, overlay.label);
+    y = plot::LegendRow(canvas, legend_x, y, overlay.color, overlay.label);
   }
   y += 16;
   if (!by_height) {
-    canvas.Text(legend_x, y, "points in their colour", plot::kMuted, plot::kTextSize);
-  } else if (!heights.empty()) {
-    canvas.Text(legend_x, y, "height (m)", kBlack, plot::kTextSize);
-    y += plot::kTextHeight + 14;
-    constexpr int kBarWidth = 28, kBarHeight = 300;
-    for (int r = 0; r < kBarHeight; ++r) {
-      canvas.FillRect(legend_x, y + r, legend_x + kBarWidth, y + r + 1,
-                      Viridis(1.0 - r / (kBarHeight - 1.0)));
-    }
-    const double range = high - low;
-    const double step = plot::NiceStep(range, 5);
-    for (double v : plot::Ticks(0.0, range, step)) {
-      const double r = y + (kBarHeight - 1) * (1.0 - v / range);
-      canvas.Line(legend_x + kBarWidth, r, legend_x + kBarWidth + 6, r, kBlack);
-      plot::TextCentredOn(&canvas, legend_x + kBarWidth + 12, r, plot::TickLabel(v, step), kBlack);
-    }
+    canvas->Text(legend_x, y, "points in their colour", plot::kMuted, plot::kTextSize);
+    return;
   }
+  if (!range.any) return;
+  canvas->Text(legend_x, y, "height (m)", kBlack, plot::kTextSize);
+  y += plot::kTextHeight + 14;
+  constexpr int kBarWidth = 28, kBarHeight = 300;
+  for (int r = 0; r < kBarHeight; ++r) {
+    canvas->FillRect(legend_x, y + r, legend_x + kBarWidth, y + r + 1,
+                     Viridis(1.0 - r / (kBarHeight - 1.0)));
+  }
+  const double extent = range.high - range.low;
+  const double step = plot::NiceStep(extent, 5);
+  for (double v : plot::Ticks(0.0, extent, step)) {
+    const double r = y + (kBarHeight - 1) * (1.0 - v / extent);
+    canvas->Line(legend_x + kBarWidth, r, legend_x + kBarWidth + 6, r, kBlack);
+    plot::TextCentredOn(canvas, legend_x + kBarWidth + 12, r, plot::TickLabel(v, step), kBlack);
+  }
+}
+
+}  // namespace
+
+Image DrawMapFromAbove(const MapPoints& map, const std::vector<MapOverlay>& overlays,
+                       const MapViewAxes& axes, const std::string& title,
+                       const std::string& subtitle) {
+  Canvas canvas(kMapViewWidth, kMapViewHeight, kWhite);
+  plot::DrawTitles(&canvas, title, subtitle);
+  const plot::Rect plot{kMapPlotLeft, kMapPlotTop, kMapPlotRight, kMapPlotBottom};
+  const MapWindow window = WindowFor(map, overlays, axes, plot);
+  const TopView view = HighestPoints(map, window);
+  const bool by_height = map.colors.empty();
+  const HeightRange range = by_height ? HeightRangeOf(view) : HeightRange{};
+  PaintPoints(map, view, plot, range, &canvas);
+  DrawOverlays(overlays, window, &canvas);
+  plot::DrawFrame(&canvas, plot, plot::kAxis);
+  plot::DrawScaleBar(&canvas, plot, window.px_per_m, (plot.x1 - plot.x0) / window.px_per_m);
+  DrawMapLegend(overlays, by_height, range, plot, &canvas);
   return canvas.ToImage();
 }
 

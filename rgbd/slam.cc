@@ -21,11 +21,98 @@ struct CameraPoint {
   int v0 = 0;
 };
 
-}  // namespace
+/// The map as one camera sees it: which points are rendered and which pixels each covers.
+class MapProjector {
+ public:
+  MapProjector(const SurfelMap& map, const Pose& T_world_camera,
+               const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index)
+      : map_(map),
+        options_(options),
+        frame_index_(frame_index),
+        R_cw_(T_world_camera.linear().transpose().cast<float>()),
+        t_(T_world_camera.translation().cast<float>()),
+        fx_(static_cast<float>(intrinsics.fx)),
+        fy_(static_cast<float>(intrinsics.fy)),
+        cx_(static_cast<float>(intrinsics.cx)),
+        cy_(static_cast<float>(intrinsics.cy)),
+        focal_(0.5f * (fx_ + fy_)) {}
 
-void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
-                 const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
-                 int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view) {
+  /// Point i in the camera and its nearest pixel; false behind the camera.
+  bool Project(int i, CameraPoint* point) const {
+    point->p_c = R_cw_ * (map_.positions()[i] - t_);
+    if (!(point->p_c.z() > 0.0f)) return false;
+    point->u0 = NearestPixel(fx_ * point->p_c.x() / point->p_c.z() + cx_);
+    point->v0 = NearestPixel(fy_ * point->p_c.y() / point->p_c.z() + cy_);
+    return true;
+  }
+
+  /// Whether a projected point is rendered (not filtered, not seen from behind); sets n_c.
+  bool Rendered(int i, CameraPoint* point) const {
+    if (options_.min_weight > 1.0f && map_.weights()[i] < options_.min_weight &&
+        frame_index_ - map_.last_seen()[i] > options_.recent_frames) {
+      return false;
+    }
+    point->n_c = R_cw_ * map_.normals()[i];
+    return point->n_c.dot(point->p_c) < 0.0f;  // not seen from behind
+  }
+
+  /// Writes the projected point i into `keys` (a width x height z-buffer): its nearest pixel,
+  /// or with splats every pixel of its disc.
+  void Write(int i, CameraPoint* point, int width, int height, std::uint64_t* keys) const {
+    const int u0 = point->u0;
+    const int v0 = point->v0;
+    const int half = options_.splat
+                         ? std::min(options_.max_splat_px,
+                                    static_cast<int>(map_.radii()[i] * focal_ / point->p_c.z()))
+                         : 0;
+    if (u0 + half < 0 || v0 + half < 0 || u0 - half >= width || v0 - half >= height) return;
+    if (!Rendered(i, point)) return;
+    if (!options_.splat) {
+      ZBuffer::Write(keys, v0 * width + u0, ZBuffer::Key(point->p_c.z(), i));
+      return;
+    }
+    Vec3f q = Vec3f::Zero();
+    for (int v = std::max(0, v0 - half); v <= std::min(height - 1, v0 + half); ++v) {
+      for (int u = std::max(0, u0 - half); u <= std::min(width - 1, u0 + half); ++u) {
+        if (OnDisc(i, *point, u, v, &q))
+          ZBuffer::Write(keys, v * width + u, ZBuffer::Key(q.z(), i));
+      }
+    }
+  }
+
+  /// What pixel (u, v) of surfel i's disc sees: the ray's intersection with the surfel's plane
+  /// when it lies within the radius (the nearest pixel always: its ray passes within half a
+  /// pixel of the point); false when the ray misses the disc or grazes the plane.
+  bool OnDisc(int i, const CameraPoint& point, int u, int v, Vec3f* q) const {
+    const Vec3f ray((u - cx_) / fx_, (v - cy_) / fy_, 1.0f);
+    const float denominator = point.n_c.dot(ray);
+    if (!(denominator < -1e-3f)) return false;
+    *q = (point.n_c.dot(point.p_c) / denominator) * ray;
+    return (u == point.u0 && v == point.v0) ||
+           (*q - point.p_c).squaredNorm() <= map_.radii()[i] * map_.radii()[i];
+  }
+
+  /// Pixel j's vertex seen on point i (rendered there).
+  Vec3f Vertex(int i, int j, int width, CameraPoint* point) const {
+    Project(i, point);
+    point->n_c = R_cw_ * map_.normals()[i];  // it was rendered: what Rendered sets
+    Vec3f q = point->p_c;
+    if (options_.splat) OnDisc(i, *point, j % width, j / width, &q);
+    return q;
+  }
+
+ private:
+  const SurfelMap& map_;
+  const RenderOptions& options_;
+  int frame_index_;
+  Eigen::Matrix3f R_cw_;
+  Vec3f t_;
+  float fx_, fy_, cx_, cy_;
+  float focal_;
+};
+
+/// An empty level of the given size: no depth, no vertex, no normal.
+void ClearLevel(int width, int height, const PinholeIntrinsics& intrinsics, FrameLevel* level) {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
   level->width = width;
   level->height = height;
@@ -35,51 +122,18 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
   level->vertices.assign(pixels, Vec3f::Constant(kNaN));
   level->normals.assign(pixels, Vec3f::Constant(kNaN));
   level->valid_pixels.clear();
+}
 
-  const Eigen::Matrix3f R_cw = T_world_camera.linear().transpose().cast<float>();
-  const Vec3f t = T_world_camera.translation().cast<float>();
-  const float fx = static_cast<float>(intrinsics.fx);
-  const float fy = static_cast<float>(intrinsics.fy);
-  const float cx = static_cast<float>(intrinsics.cx);
-  const float cy = static_cast<float>(intrinsics.cy);
-  const float focal = 0.5f * (fx + fy);
-  const bool filtered = options.min_weight > 1.0f;
-  // Point i in the camera and its nearest pixel; false behind the camera.
-  const auto project = [&](int i, CameraPoint* point) {
-    point->p_c = R_cw * (map.positions()[i] - t);
-    if (!(point->p_c.z() > 0.0f)) return false;
-    point->u0 = NearestPixel(fx * point->p_c.x() / point->p_c.z() + cx);
-    point->v0 = NearestPixel(fy * point->p_c.y() / point->p_c.z() + cy);
-    return true;
-  };
-  // Whether a projected point is rendered (not filtered, not seen from behind); sets n_c.
-  const auto rendered = [&](int i, CameraPoint* point) {
-    if (filtered && map.weights()[i] < options.min_weight &&
-        frame_index - map.last_seen()[i] > options.recent_frames) {
-      return false;
-    }
-    point->n_c = R_cw * map.normals()[i];
-    return point->n_c.dot(point->p_c) < 0.0f;  // not seen from behind
-  };
-  const auto half_width = [&](int i, const CameraPoint& point) {
-    return options.splat ? std::min(options.max_splat_px,
-                                    static_cast<int>(map.radii()[i] * focal / point.p_c.z()))
-                         : 0;
-  };
-  // What pixel (u, v) of surfel i's disc sees: the ray's intersection with the surfel's plane
-  // when it lies within the radius (the nearest pixel always: its ray passes within half a
-  // pixel of the point); false when the ray misses the disc or grazes the plane.
-  const auto on_disc = [&](int i, const CameraPoint& point, int u, int v, Vec3f* q) {
-    const Vec3f ray((u - cx) / fx, (v - cy) / fy, 1.0f);
-    const float denominator = point.n_c.dot(ray);
-    if (!(denominator < -1e-3f)) return false;
-    *q = (point.n_c.dot(point.p_c) / denominator) * ray;
-    return (u == point.u0 && v == point.v0) ||
-           (*q - point.p_c).squaredNorm() <= map.radii()[i] * map.radii()[i];
-  };
+}  // namespace
 
+void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
+                 const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
+                 int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view) {
+  ClearLevel(width, height, intrinsics, level);
+  const MapProjector projector(map, T_world_camera, intrinsics, options, frame_index);
   // 1. Every thread projects its share of the points into its own z-buffer (and collects
   // the view's points).
+  const int pixels = width * height;
   threads = std::max(1, threads);
   zbuffer->Reset(pixels, threads);
   const int margin = view ? view->margin_px : 0;
@@ -89,30 +143,13 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
     std::vector<int>* part = view ? &view->parts[c] : nullptr;
     if (part) part->clear();
     CameraPoint point;
-    Vec3f q = Vec3f::Zero();
     for (int i = begin; i < end; ++i) {
-      if (!project(i, &point)) continue;
-      const int u0 = point.u0;
-      const int v0 = point.v0;
-      if (part && point.p_c.z() >= MapView::kMinDepthM && u0 >= -margin && v0 >= -margin &&
-          u0 < width + margin && v0 < height + margin) {
+      if (!projector.Project(i, &point)) continue;
+      if (part && point.p_c.z() >= MapView::kMinDepthM && point.u0 >= -margin &&
+          point.v0 >= -margin && point.u0 < width + margin && point.v0 < height + margin) {
         part->push_back(i);
       }
-      if (!options.splat) {
-        if (u0 >= 0 && v0 >= 0 && u0 < width && v0 < height && rendered(i, &point)) {
-          ZBuffer::Write(keys, v0 * width + u0, ZBuffer::Key(point.p_c.z(), i));
-        }
-        continue;
-      }
-      const int half = half_width(i, point);
-      if (u0 + half < 0 || v0 + half < 0 || u0 - half >= width || v0 - half >= height) continue;
-      if (!rendered(i, &point)) continue;
-      for (int v = std::max(0, v0 - half); v <= std::min(height - 1, v0 + half); ++v) {
-        for (int u = std::max(0, u0 - half); u <= std::min(width - 1, u0 + half); ++u) {
-          if (on_disc(i, point, u, v, &q))
-            ZBuffer::Write(keys, v * width + u, ZBuffer::Key(q.z(), i));
-        }
-      }
+      projector.Write(i, &point, width, height, keys);
     }
   });
   // 2. The nearest point of each pixel, then its vertex and normal in the level.
@@ -121,11 +158,7 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
     CameraPoint point;
     for (int j = begin; j < end; ++j) {
       if (keys[j] == ZBuffer::kEmpty) continue;
-      const int i = ZBuffer::Index(keys[j]);
-      project(i, &point);
-      point.n_c = R_cw * map.normals()[i];  // it was rendered: what `rendered` sets
-      Vec3f q = point.p_c;
-      if (options.splat) on_disc(i, point, j % width, j / width, &q);
+      const Vec3f q = projector.Vertex(ZBuffer::Index(keys[j]), j, width, &point);
       level->depth_m[j] = q.z();
       level->vertices[j] = q;
       level->normals[j] = point.n_c;

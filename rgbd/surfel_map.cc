@@ -16,6 +16,11 @@ constexpr double kPi = 3.14159265358979323846;
 /// The smallest |n_z| of the radius (cos 75 degrees).
 constexpr float kMinRadiusCosine = 0.26f;
 
+/// Pixel j's colour of an RGB image ([height, width, 3]).
+Vec3f PixelColor(const std::vector<std::uint8_t>& color, int j) {
+  return Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]);
+}
+
 }  // namespace
 
 float SurfelRadius(float z, float n_z, double focal_px) {
@@ -54,10 +59,72 @@ double SurfelMap::CompressionRatio() const {
   return positions_.empty() ? 0.0 : static_cast<double>(input_points_) / positions_.size();
 }
 
+/// A frame's camera as the fusion's gates see it (single precision).
+struct FusionCamera {
+  FusionCamera(const FrameLevel& frame_in, const Pose& T_world_camera_in,
+               const FusionOptions& options)
+      : frame(frame_in),
+        T_world_camera(T_world_camera_in),
+        R(T_world_camera.linear().cast<float>()),
+        R_cw(R.transpose()),
+        t(T_world_camera.translation().cast<float>()),
+        fx(static_cast<float>(frame.intrinsics.fx)),
+        fy(static_cast<float>(frame.intrinsics.fy)),
+        cx(static_cast<float>(frame.intrinsics.cx)),
+        cy(static_cast<float>(frame.intrinsics.cy)),
+        max_distance_sq(static_cast<float>(options.max_distance_m * options.max_distance_m)),
+        min_cosine(static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0))) {}
+
+  /// The pixel the map point (p_w, n_w) projects to, when `usable` (checked before the gates:
+  /// a pixel without a vertex has nothing to gate against) and within the pixel's distance
+  /// and normal gates; -1 otherwise. *p_c: the point in the camera frame.
+  template <typename Usable>
+  int GatedPixel(const Vec3f& p_w, const Vec3f& n_w, const Usable& usable, Vec3f* p_c) const {
+    *p_c = R_cw * (p_w - t);
+    if (!(p_c->z() > 0.0f)) return -1;
+    const int u = NearestPixel(fx * p_c->x() / p_c->z() + cx);
+    const int v = NearestPixel(fy * p_c->y() / p_c->z() + cy);
+    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) return -1;
+    const int j = v * frame.width + u;
+    if (!usable(j)) return -1;
+    if ((*p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) return -1;
+    if ((R_cw * n_w).dot(frame.normals[j]) <= min_cosine) return -1;
+    return j;
+  }
+
+  const FrameLevel& frame;
+  Pose T_world_camera;
+  Eigen::Matrix3f R;
+  Eigen::Matrix3f R_cw;
+  Vec3f t;
+  float fx, fy, cx, cy;
+  float max_distance_sq;
+  float min_cosine;
+};
+
 FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_camera,
                                  int frame_index, const FusionOptions& options,
                                  const std::vector<std::uint8_t>& color, int threads,
                                  const MapView* view) {
+  CheckFrame(frame, color);
+  ++frames_;
+  const FusionCamera camera(frame, T_world_camera, options);
+  FusionStats stats;
+  stats.projected = Associate(camera, options, threads, view);
+  const std::vector<std::uint64_t>& match = zbuffer_.Merge();
+  stats.input_points = static_cast<int>(frame.valid_pixels.size());
+  input_points_ += stats.input_points;
+  MergeMatched(camera, match, color, frame_index, threads);
+  if (options.fold_overlapping) stats.folded = FoldOverlapping(camera, match, threads);
+  AddUnmatched(camera, match, options, color, frame_index, &stats);
+  // Every valid pixel merged, was covered or was added.
+  stats.merged = stats.input_points - stats.covered - stats.added;
+  // 4. Remove dormant unstable points (and the folded ones).
+  if (options.dormant_frames > 0 || stats.folded > 0) RemoveDormant(frame_index, options, &stats);
+  return stats;
+}
+
+void SurfelMap::CheckFrame(const FrameLevel& frame, const std::vector<std::uint8_t>& color) {
   const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
   if (frame.width <= 0 || frame.height <= 0 || frame.vertices.size() != pixels ||
       frame.normals.size() != pixels) {
@@ -77,72 +144,48 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
                                     ? "SurfelMap::FuseFrame: the map has colours, the frame none"
                                     : "SurfelMap::FuseFrame: the map has no colours");
   }
-  ++frames_;
+}
 
-  // 1. Association through projection: per pixel the candidate closest to the camera (each
-  // thread projects its share of the points into its own z-buffer; rgbd/zbuffer.h).
-  const Eigen::Matrix3f R = T_world_camera.linear().cast<float>();
-  const Vec3f t = T_world_camera.translation().cast<float>();
-  const Eigen::Matrix3f R_cw = R.transpose();
-  const PinholeIntrinsics& K = frame.intrinsics;
-  const float fx = static_cast<float>(K.fx);
-  const float fy = static_cast<float>(K.fy);
-  const float cx = static_cast<float>(K.cx);
-  const float cy = static_cast<float>(K.cy);
-  const float max_distance_sq = static_cast<float>(options.max_distance_m * options.max_distance_m);
-  const float min_cosine = static_cast<float>(std::cos(options.max_normal_angle_deg * kPi / 180.0));
+/// 1. Association through projection: per pixel the candidate closest to the camera (each
+/// thread projects its share of the points into its own z-buffer; rgbd/zbuffer.h). Returns the
+/// number of map points projected.
+int SurfelMap::Associate(const FusionCamera& camera, const FusionOptions& options, int threads,
+                         const MapView* view) {
+  const FrameLevel& frame = camera.frame;
   const bool use_view =
-      view != nullptr && view->Covers(frame, T_world_camera, size(), options.max_distance_m);
+      view != nullptr && view->Covers(frame, camera.T_world_camera, size(), options.max_distance_m);
   // Through a view: one thread per part of it (the parts the rendering's threads collected).
   const int chunks = use_view ? static_cast<int>(view->parts.size()) : std::max(1, threads);
-  zbuffer_.Reset(static_cast<int>(pixels), chunks);
-  // The pixel map point i projects to, when `usable` (checked before the gates: a pixel
-  // without a vertex has nothing to gate against) and within the pixel's distance and normal
-  // gates; -1 otherwise. *p_c: the point in the camera frame.
-  const auto gated_pixel = [&](int i, const auto& usable, Vec3f* p_c) {
-    *p_c = R_cw * (positions_[i] - t);
-    if (!(p_c->z() > 0.0f)) return -1;
-    const int u = NearestPixel(fx * p_c->x() / p_c->z() + cx);
-    const int v = NearestPixel(fy * p_c->y() / p_c->z() + cy);
-    if (u < 0 || v < 0 || u >= frame.width || v >= frame.height) return -1;
-    const int j = v * frame.width + u;
-    if (!usable(j)) return -1;
-    if ((*p_c - frame.vertices[j]).squaredNorm() >= max_distance_sq) return -1;
-    if ((R_cw * normals_[i]).dot(frame.normals[j]) <= min_cosine) return -1;
-    return j;
-  };
+  zbuffer_.Reset(frame.width * frame.height, chunks);
   const auto valid = [&](int j) { return frame.Valid(j); };
   const auto associate = [&](std::uint64_t* keys, int i) {
     Vec3f p_c;
-    const int j = gated_pixel(i, valid, &p_c);
+    const int j = camera.GatedPixel(positions_[i], normals_[i], valid, &p_c);
     if (j >= 0) ZBuffer::Write(keys, j, ZBuffer::Key(p_c.z(), i));
   };
-  int projected = 0;
-  if (use_view) {
-    for (const std::vector<int>& part : view->parts) projected += static_cast<int>(part.size());
-    ParallelForChunks(chunks, chunks, [&](int c, int, int) {
-      std::uint64_t* keys = zbuffer_.Thread(c);
-      for (const int i : view->parts[c]) associate(keys, i);
-    });
-  } else {
-    projected = size();
+  if (!use_view) {
     ParallelForChunks(size(), chunks, [&](int c, int begin, int end) {
       std::uint64_t* keys = zbuffer_.Thread(c);
       for (int i = begin; i < end; ++i) associate(keys, i);
     });
+    return size();
   }
-  const std::vector<std::uint64_t>& match = zbuffer_.Merge();
-
-  // 2. Merge (in parallel: a map point is the candidate of one pixel at most), 3. add.
-  FusionStats stats;
-  stats.projected = projected;
-  stats.input_points = static_cast<int>(frame.valid_pixels.size());
-  input_points_ += stats.input_points;
-  const double focal_px = 0.5 * (K.fx + K.fy);
-  const auto color_of = [&](int j) {
-    return with_color ? Vec3f(color[3 * j], color[3 * j + 1], color[3 * j + 2]) : Vec3f::Zero();
-  };
-  ParallelForChunks(stats.input_points, threads, [&](int, int begin, int end) {
+  int projected = 0;
+  for (const std::vector<int>& part : view->parts) projected += static_cast<int>(part.size());
+  ParallelForChunks(chunks, chunks, [&](int c, int, int) {
+    std::uint64_t* keys = zbuffer_.Thread(c);
+    for (const int i : view->parts[c]) associate(keys, i);
+  });
+  return projected;
+}
+/// 2. Merge (in parallel: a map point is the candidate of one pixel at most).
+void SurfelMap::MergeMatched(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
+                             const std::vector<std::uint8_t>& color, int frame_index, int threads) {
+  const FrameLevel& frame = camera.frame;
+  const double focal_px = 0.5 * (frame.intrinsics.fx + frame.intrinsics.fy);
+  const bool with_color = !color.empty();
+  const int pixels = static_cast<int>(frame.valid_pixels.size());
+  ParallelForChunks(pixels, threads, [&](int, int begin, int end) {
     for (int k = begin; k < end; ++k) {
       const int j = frame.valid_pixels[k];
       if (match[j] == ZBuffer::kEmpty) continue;
@@ -150,52 +193,63 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
       const Vec3f& q = frame.vertices[j];
       const Vec3f& n_q = frame.normals[j];
       const float w = weights_[i];
-      positions_[i] = (w * positions_[i] + R * q + t) / (w + 1.0f);
-      normals_[i] = (w * normals_[i] + R * n_q).normalized();
-      if (with_color) colors_[i] = (w * colors_[i] + color_of(j)) / (w + 1.0f);
+      positions_[i] = (w * positions_[i] + camera.R * q + camera.t) / (w + 1.0f);
+      normals_[i] = (w * normals_[i] + camera.R * n_q).normalized();
+      if (with_color) colors_[i] = (w * colors_[i] + PixelColor(color, j)) / (w + 1.0f);
       weights_[i] = w + 1.0f;
       radii_[i] = std::min(radii_[i], SurfelRadius(q.z(), n_q.z(), focal_px));
       last_seen_[i] = frame_index;
     }
   });
+}
 
-  // 2b. Fold: a map point B that projects to a pixel which merged into another point A, and
-  // passes that pixel's gates, is folded into A when their discs overlap (|p_B - p_A| <
-  // r_A + r_B) and their normals agree: the same piece of surface twice (Keller et al.,
-  // section 4.3). Found in parallel, folded in index order (several B may fold into one A).
-  const int map_size = static_cast<int>(positions_.size());
-  if (options.fold_overlapping) {
-    fold_into_.assign(map_size, -1);
-    const auto merged_into = [&](int j) { return match[j] != ZBuffer::kEmpty; };
-    ParallelForChunks(map_size, threads, [&](int, int begin, int end) {
-      for (int i = begin; i < end; ++i) {
-        Vec3f p_c;
-        const int j = gated_pixel(i, merged_into, &p_c);
-        if (j < 0) continue;
-        const int a = ZBuffer::Index(match[j]);
-        if (a == i) continue;
-        const float overlap = radii_[a] + radii_[i];
-        if ((positions_[i] - positions_[a]).squaredNorm() >= overlap * overlap) continue;
-        if (normals_[i].dot(normals_[a]) <= min_cosine) continue;
-        fold_into_[i] = a;
-      }
-    });
-    for (int i = 0; i < map_size; ++i) {
-      const int a = fold_into_[i];
-      if (a < 0) continue;
-      const float w_a = weights_[a];
-      const float w_b = weights_[i];
-      positions_[a] = (w_a * positions_[a] + w_b * positions_[i]) / (w_a + w_b);
-      normals_[a] = (w_a * normals_[a] + w_b * normals_[i]).normalized();
-      if (has_color_) colors_[a] = (w_a * colors_[a] + w_b * colors_[i]) / (w_a + w_b);
-      weights_[a] = w_a + w_b;
-      radii_[a] = std::min(radii_[a], radii_[i]);
-      weights_[i] = 0.0f;  // removed below
-      ++stats.folded;
+/// 2b. Fold: a map point B that projects to a pixel which merged into another point A, and
+/// passes that pixel's gates, is folded into A when their discs overlap (|p_B - p_A| <
+/// r_A + r_B) and their normals agree: the same piece of surface twice (Keller et al.,
+/// section 4.3). Found in parallel, folded in index order (several B may fold into one A).
+/// Returns the number folded (their weight set to 0, removed by RemoveDormant).
+int SurfelMap::FoldOverlapping(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
+                               int threads) {
+  const int map_size = size();
+  fold_into_.assign(map_size, -1);
+  const auto merged_into = [&](int j) { return match[j] != ZBuffer::kEmpty; };
+  ParallelForChunks(map_size, threads, [&](int, int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      Vec3f p_c;
+      const int j = camera.GatedPixel(positions_[i], normals_[i], merged_into, &p_c);
+      if (j < 0) continue;
+      const int a = ZBuffer::Index(match[j]);
+      if (a == i) continue;
+      const float overlap = radii_[a] + radii_[i];
+      if ((positions_[i] - positions_[a]).squaredNorm() >= overlap * overlap) continue;
+      if (normals_[i].dot(normals_[a]) <= camera.min_cosine) continue;
+      fold_into_[i] = a;
     }
+  });
+  int folded = 0;
+  for (int i = 0; i < map_size; ++i) {
+    const int a = fold_into_[i];
+    if (a < 0) continue;
+    const float w_a = weights_[a];
+    const float w_b = weights_[i];
+    positions_[a] = (w_a * positions_[a] + w_b * positions_[i]) / (w_a + w_b);
+    normals_[a] = (w_a * normals_[a] + w_b * normals_[i]).normalized();
+    if (has_color_) colors_[a] = (w_a * colors_[a] + w_b * colors_[i]) / (w_a + w_b);
+    weights_[a] = w_a + w_b;
+    radii_[a] = std::min(radii_[a], radii_[i]);
+    weights_[i] = 0.0f;  // removed by RemoveDormant
+    ++folded;
   }
-  // A pixel is covered when a 4-neighbour merged into a point whose disc (radius scaled by
-  // cover_radius_scale) holds the pixel's vertex, with a normal within the angle gate.
+  return folded;
+}
+
+/// 3. Add each valid pixel that merged into no point, unless a 4-neighbour merged into a point
+/// whose disc (radius scaled by cover_radius_scale) holds the pixel's vertex, with a normal
+/// within the angle gate (covered).
+void SurfelMap::AddUnmatched(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
+                             const FusionOptions& options, const std::vector<std::uint8_t>& color,
+                             int frame_index, FusionStats* stats) {
+  const FrameLevel& frame = camera.frame;
   const float cover_scale_sq =
       static_cast<float>(options.cover_radius_scale * options.cover_radius_scale);
   const auto covered = [&](int j) {
@@ -208,36 +262,31 @@ FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_ca
       const std::uint64_t key = match[vn * frame.width + un];
       if (key == ZBuffer::kEmpty) continue;
       const int i = ZBuffer::Index(key);
-      const Vec3f p_c = R_cw * (positions_[i] - t);
+      const Vec3f p_c = camera.R_cw * (positions_[i] - camera.t);
       if ((p_c - frame.vertices[j]).squaredNorm() >= cover_scale_sq * radii_[i] * radii_[i]) {
         continue;
       }
-      if ((R_cw * normals_[i]).dot(frame.normals[j]) > min_cosine) return true;
+      if ((camera.R_cw * normals_[i]).dot(frame.normals[j]) > camera.min_cosine) return true;
     }
     return false;
   };
+  const double focal_px = 0.5 * (frame.intrinsics.fx + frame.intrinsics.fy);
   for (const int j : frame.valid_pixels) {
     if (match[j] != ZBuffer::kEmpty) continue;
     if (covered(j)) {
-      ++stats.covered;
+      ++stats->covered;
       continue;
     }
     const Vec3f& q = frame.vertices[j];
     const Vec3f& n_q = frame.normals[j];
-    positions_.push_back(R * q + t);
-    normals_.push_back(R * n_q);
-    if (with_color) colors_.push_back(color_of(j));
+    positions_.push_back(camera.R * q + camera.t);
+    normals_.push_back(camera.R * n_q);
+    if (!color.empty()) colors_.push_back(PixelColor(color, j));
     weights_.push_back(1.0f);
     radii_.push_back(SurfelRadius(q.z(), n_q.z(), focal_px));
     last_seen_.push_back(frame_index);
-    ++stats.added;
+    ++stats->added;
   }
-  // Every valid pixel merged, was covered or was added.
-  stats.merged = stats.input_points - stats.covered - stats.added;
-
-  // 4. Remove dormant unstable points (and the folded ones).
-  if (options.dormant_frames > 0 || stats.folded > 0) RemoveDormant(frame_index, options, &stats);
-  return stats;
 }
 
 void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {

@@ -97,6 +97,8 @@ struct MapView {
               double max_distance_m) const;
 };
 
+struct FusionCamera;  // a fused frame's camera (surfel_map.cc)
+
 /// The surfel map, stored as a structure of arrays (one array per property, index = point).
 class SurfelMap {
  public:
@@ -129,6 +131,17 @@ class SurfelMap {
   const std::vector<int>& last_seen() const { return last_seen_; }
 
  private:
+  // FuseFrame's steps (surfel_map.cc).
+  void CheckFrame(const FrameLevel& frame, const std::vector<std::uint8_t>& color);
+  int Associate(const FusionCamera& camera, const FusionOptions& options, int threads,
+                const MapView* view);
+  void MergeMatched(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
+                    const std::vector<std::uint8_t>& color, int frame_index, int threads);
+  int FoldOverlapping(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
+                      int threads);
+  void AddUnmatched(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
+                    const FusionOptions& options, const std::vector<std::uint8_t>& color,
+                    int frame_index, FusionStats* stats);
   void RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats);
 
   std::vector<Vec3f> positions_;
