@@ -157,7 +157,7 @@ nlohmann::json SimulationMeta(const SimOptions& o, const std::string& poses) {
     simulated["stereo_baseline_m"] = o.stereo_baseline_m;
   }
   if (o.depth_model == DepthModel::kStereo) {
-    simulated["depth_model"] = "stereo";
+    simulated["depth_model"] = DepthModelName(o.depth_model);
     simulated["stereo_upsample"] = o.stereo_upsample;
   }
   if (o.disparity_offset_px != 0.0 || o.depth_scale != 1.0) {
@@ -201,31 +201,34 @@ int RunSimulate(const SimulateArgs& a) {
   return kExitOk;
 }
 
-/// The depth model's and the miscalibration's flags (docs/usage.md, "simulate"). Their defaults
-/// are in the descriptions, not shown as CLI11 defaults: rigfit.simulate has no such keywords
-/// (python/tests/test_simulate.py holds the two to the same shown defaults).
+/// The depth model's and the miscalibration's flags (docs/commands/simulate.md), rigfit.simulate's
+/// keywords of the same names (python/tests/test_simulate.py holds the two to the same shown
+/// defaults).
 void AddStereoOptions(CLI::App* sub, SimOptions* o) {
   sub->add_option_function<std::string>(
          "--depth-model",
-         [o](const std::string& model) {
-           o->depth_model = model == "stereo" ? DepthModel::kStereo : DepthModel::kGaussian;
-         },
-         "gaussian (default): ray-cast depth plus --noise; stereo: block matching (OpenCV "
+         [o](const std::string& model) { o->depth_model = DepthModelNamed(model); },
+         "gaussian: ray-cast depth plus --noise; stereo: block matching (OpenCV "
          "StereoSGBM) of a rendered, textured left/right pair (--noise, --dropout and the "
          "correlated noise not used)")
-      ->check(CLI::IsMember({"gaussian", "stereo"}));
+      ->check(CLI::IsMember({"gaussian", "stereo"}))
+      ->default_str(DepthModelName(o->depth_model));
   sub->add_option("--stereo-baseline-m", o->stereo_baseline_m,
                   "Stereo baseline, metres: the stereo model's, --disparity-quant-px's and the "
-                  "miscalibration's (disparity = fx x baseline / z; default 0.12)");
+                  "miscalibration's (disparity = fx x baseline / z)")
+      ->capture_default_str();
   sub->add_option("--stereo-upsample", o->stereo_upsample,
                   "Stereo model: render and match at this many times the resolution, then "
-                  "average the disparity down (as ZED HD modes do), 1 to 4 (default 1)");
+                  "average the disparity down (as ZED HD modes do), 1 to 4")
+      ->capture_default_str();
   sub->add_option("--disparity-offset-px", o->disparity_offset_px,
                   "Miscalibration: add this to the disparity of the miscalibrated cameras, "
-                  "pixels, either depth model (default 0)");
+                  "pixels, either depth model")
+      ->capture_default_str();
   sub->add_option("--depth-scale", o->depth_scale,
                   "Miscalibration: multiply the depth of the miscalibrated cameras by this, "
-                  "in [0.5, 2] (default 1)");
+                  "in [0.5, 2]")
+      ->capture_default_str();
   sub->add_option("--miscalibrated-cameras", o->miscalibrated_cameras,
                   "Indices (0 = the reference) of the cameras --disparity-offset-px and "
                   "--depth-scale apply to, comma-separated; default every camera but 0")

@@ -432,31 +432,47 @@ std::string Evaluate(const py::dict& estimated, const py::dict& ground_truth) {
 }
 
 /// rigfit.simulate's keywords: `rigfit simulate`'s flags, read into SimOptions.
-const KeywordTable<SimOptions>& SimulateTable() {
-  using O = SimOptions;
-  static const KeywordTable<O> table =
-      KeywordTable<O>("simulate")
-          .Add("cameras", [](O& o) { return &o.cameras; })
-          .Add("seed", [](O& o) { return &o.seed; })
-          .Add("width", [](O& o) { return &o.width; })
-          .Add("height", [](O& o) { return &o.height; })
-          .Add("noise", [](O& o) { return &o.noise; })
-          .Add("noise_corr_px", [](O& o) { return &o.noise_corr_px; })
-          .Add("noise_corr_share", [](O& o) { return &o.noise_corr_share; })
-          .Add("disparity_quant_px", [](O& o) { return &o.disparity_quant_px; })
-          .Add("dropout", [](O& o) { return &o.dropout; })
-          .Add("perturb_yaw_deg", [](O& o) { return &o.perturb_yaw_deg; })
-          .Add("perturb_xz_m", [](O& o) { return &o.perturb_xz_m; })
-          .Add("perturb_tilt_deg", [](O& o) { return &o.perturb_tilt_deg; })
-          .Add("bare", [](O& o) { return &o.bare; });
+/// rigfit.simulate's keywords: the options, the depth model by its name.
+struct SimulateKeywords {
+  SimOptions sim;
+  std::string depth_model = DepthModelName(SimOptions{}.depth_model);
+};
+
+const KeywordTable<SimulateKeywords>& SimulateTable() {
+  using K = SimulateKeywords;
+  static const KeywordTable<K> table =
+      KeywordTable<K>("simulate")
+          .Add("cameras", [](K& k) { return &k.sim.cameras; })
+          .Add("seed", [](K& k) { return &k.sim.seed; })
+          .Add("width", [](K& k) { return &k.sim.width; })
+          .Add("height", [](K& k) { return &k.sim.height; })
+          .Add("noise", [](K& k) { return &k.sim.noise; })
+          .Add("noise_corr_px", [](K& k) { return &k.sim.noise_corr_px; })
+          .Add("noise_corr_share", [](K& k) { return &k.sim.noise_corr_share; })
+          .Add("disparity_quant_px", [](K& k) { return &k.sim.disparity_quant_px; })
+          .Add("dropout", [](K& k) { return &k.sim.dropout; })
+          .Add("perturb_yaw_deg", [](K& k) { return &k.sim.perturb_yaw_deg; })
+          .Add("perturb_xz_m", [](K& k) { return &k.sim.perturb_xz_m; })
+          .Add("perturb_tilt_deg", [](K& k) { return &k.sim.perturb_tilt_deg; })
+          .Add("bare", [](K& k) { return &k.sim.bare; })
+          .Add("depth_model", [](K& k) { return &k.depth_model; })
+          .Add("stereo_baseline_m", [](K& k) { return &k.sim.stereo_baseline_m; })
+          .Add("stereo_upsample", [](K& k) { return &k.sim.stereo_upsample; })
+          .Add("disparity_offset_px", [](K& k) { return &k.sim.disparity_offset_px; })
+          .Add("depth_scale", [](K& k) { return &k.sim.depth_scale; })
+          .Add("miscalibrated_cameras", [](K& k) { return &k.sim.miscalibrated_cameras; });
   return table;
 }
 
 /// {"cameras", "truth", "start"} of SimulateRig, after `rigfit simulate`'s checks
 /// (CheckSimOptions).
 py::dict Simulate(const py::dict& keywords) {
-  const SimOptions options = SimulateTable().Apply(keywords);
-  CheckKeywords("simulate", [&] { CheckSimOptions(options); });
+  SimulateKeywords k = SimulateTable().Apply(keywords);
+  CheckKeywords("simulate", [&] {
+    k.sim.depth_model = DepthModelNamed(k.depth_model);
+    CheckSimOptions(k.sim);
+  });
+  const SimOptions& options = k.sim;
   SimulatedRig rig;
   {
     py::gil_scoped_release release;

@@ -447,6 +447,17 @@ std::vector<double> GaussianNoiseField(int width, int height, double corr_px, Si
 
 std::string SimSerial(int index) { return std::to_string(31000000 + 1117 * index); }
 
+const char* DepthModelName(DepthModel model) {
+  return model == DepthModel::kStereo ? "stereo" : "gaussian";
+}
+
+DepthModel DepthModelNamed(const std::string& name) {
+  for (const DepthModel model : {DepthModel::kGaussian, DepthModel::kStereo}) {
+    if (name == DepthModelName(model)) return model;
+  }
+  throw SettingError("depth_model", "must be gaussian or stereo, got " + name);
+}
+
 PinholeIntrinsics SimIntrinsics(int width, int height) {
   PinholeIntrinsics K;
   K.fx = 0.5 * width / std::tan(0.5 * kSimHorizontalFovDeg * kDegToRad);

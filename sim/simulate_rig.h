@@ -25,6 +25,12 @@ enum class DepthModel {
   kStereo,
 };
 
+/// "gaussian" or "stereo" (`--depth-model`, rigfit.simulate's depth_model).
+const char* DepthModelName(DepthModel model);
+/// The model of that name; SettingError "{depth_model} must be gaussian or stereo, got ..."
+/// for another.
+DepthModel DepthModelNamed(const std::string& name);
+
 /// What to simulate. Defaults are those of `rigfit simulate`.
 struct SimOptions {
   int cameras = 4;

@@ -12,7 +12,12 @@
 #include <iterator>
 #include <string>
 
+#include "shell_test_util.h"
+
 namespace rigfit::testing {
+
+using rigfit::shell_test::ReadText;
+using rigfit::shell_test::ShellQuote;
 
 /// Why a test without chromium does not run.
 inline constexpr const char* kNoChromium =
@@ -38,18 +43,6 @@ inline std::string FindChromium() {
 inline bool RunningInCi() {
   const char* ci = std::getenv("CI");
   return ci != nullptr && std::string(ci) == "true";
-}
-
-inline std::string ReadText(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// Single-quoted for /bin/sh.
-inline std::string ShellQuote(const std::string& s) {
-  std::string quoted = "'";
-  for (char c : s) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
 }
 
 /// A run of headless chromium: its exit status, stdout and stderr.

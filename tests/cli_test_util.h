@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "shell_test_util.h"
+
 namespace rigfit::cli_test {
 
 namespace fs = std::filesystem;
@@ -27,17 +29,8 @@ struct RunResult {
   std::string err;  ///< stderr
 };
 
-inline std::string ReadText(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// Single-quoted for /bin/sh.
-inline std::string ShellQuote(const std::string& s) {
-  std::string quoted = "'";
-  for (char c : s) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return quoted + "'";
-}
+using rigfit::shell_test::ReadText;
+using rigfit::shell_test::ShellQuote;
 
 /// Runs the rigfit executable with args; stdout and stderr go through files in `scratch`.
 inline RunResult RunRigfit(const std::vector<std::string>& args, const fs::path& scratch) {

@@ -80,13 +80,35 @@ def test_simulate_is_deterministic_and_feeds_refine():
 
 
 @need_cli
+def test_simulate_stereo_equals_cli_files(tmp_path):
+    """The stereo depth model and a miscalibrated camera: the CLI's depth to the last bit."""
+    flags = ["--cameras", "2", "--width", "96", "--height", "64", "--seed", "3",
+             "--depth-model", "stereo", "--disparity-offset-px", "0.1"]
+    subprocess.run([CLI, "simulate", "--out", str(tmp_path), *flags], check=True,
+                   stdout=subprocess.DEVNULL)
+    rig = rigfit.simulate(cameras=2, width=96, height=64, seed=3, depth_model="stereo",
+                          disparity_offset_px=0.1)
+    files = rigfit.read_capture(tmp_path / "capture.h5")
+    for serial, cam in rig.cameras.items():
+        assert np.array_equal(cam["depth"], files[serial]["depth"], equal_nan=True), serial
+    with pytest.raises(ValueError, match="simulate: depth_model must be gaussian or stereo, "
+                                         "got sgbm"):
+        rigfit.simulate(depth_model="sgbm")
+
+
+@need_cli
 def test_simulate_defaults_and_names_are_the_clis():
     """Every keyword is a flag of `rigfit simulate`, with the default its --help shows."""
     shown = help_defaults("simulate")
     defaults = rigfit.defaults("simulate")
     assert set(inspect.signature(rigfit.simulate).parameters) == set(defaults)
-    assert set(defaults) - {"bare"} == set(shown)
+    # A flag, a choice and a list: no number shown.
+    assert set(defaults) - {"bare", "depth_model", "miscalibrated_cameras"} == set(shown)
     assert defaults["bare"] is False
+    assert defaults["miscalibrated_cameras"] == []
+    text = subprocess.run([CLI, "simulate", "--help"], capture_output=True, text=True,
+                          check=True).stdout
+    assert re.search(r"--depth-model TEXT:\{gaussian,stereo\}=" + defaults["depth_model"], text)
     for name, text in shown.items():
         assert float(text) == defaults[name], name
 
@@ -106,6 +128,11 @@ def test_simulate_defaults_and_names_are_the_clis():
     ({"noise_corr_share": 1.5}, ["--noise-corr-share", "1.5"]),
     ({"noise_corr_share": 0.5}, ["--noise-corr-share", "0.5"]),
     ({"disparity_quant_px": float("nan")}, ["--disparity-quant-px", "nan"]),
+    ({"depth_model": "stereo", "noise_corr_px": 4.0, "noise_corr_share": 0.8},
+     ["--depth-model", "stereo", "--noise-corr-px", "4", "--noise-corr-share", "0.8"]),
+    ({"stereo_upsample": 5}, ["--stereo-upsample", "5"]),
+    ({"depth_scale": 3.0}, ["--depth-scale", "3"]),
+    ({"miscalibrated_cameras": [4]}, ["--miscalibrated-cameras", "4"]),
 ])
 def test_simulate_checks_are_the_clis(tmp_path, kwargs, flags):
     """The CLI's check and message, with the keyword in place of the flag."""
