@@ -13,9 +13,9 @@ namespace {
 /// solvers' hot loop, were 8% slower at 5k points and equal (within 2%) at 20k-40k.
 constexpr int kLeafMaxSize = 10;
 
-/// The k smallest (squared distance, index) pairs strictly below a bound, kept sorted by
-/// insertion into caller-owned arrays. The bound shrinks to the k-th distance once
-/// k pairs are held, which is what prunes the tree search.
+/// nanoflann's RESULTSET concept for the k smallest (squared distance, index) pairs strictly
+/// below a bound, kept sorted by insertion into caller-owned arrays. The bound shrinks to the
+/// k-th distance once k pairs are held, which is what prunes the tree search.
 class BoundedKnnResult {
  public:
   BoundedKnnResult(int capacity, double max_squared_distance, int* indices, double* distances)
@@ -25,19 +25,23 @@ class BoundedKnnResult {
         distances_(distances) {}
 
   int count() const { return count_; }
-  double worst() const { return worst_; }
 
-  void Add(double squared_distance, int index) {
-    if (squared_distance >= worst_) return;
+  // nanoflann's RESULTSET concept.
+  size_t size() const { return static_cast<size_t>(count_); }
+  bool full() const { return true; }
+  double worstDist() const { return worst_; }
+  bool addPoint(double squared_distance, std::uint32_t index) {
+    if (squared_distance >= worst_) return true;
     int i = std::min(count_, capacity_ - 1);
     for (; i > 0 && distances_[i - 1] > squared_distance; --i) {
       distances_[i] = distances_[i - 1];
       indices_[i] = indices_[i - 1];
     }
     distances_[i] = squared_distance;
-    indices_[i] = index;
+    indices_[i] = static_cast<int>(index);
     if (count_ < capacity_) ++count_;
     if (count_ == capacity_) worst_ = distances_[capacity_ - 1];
+    return true;
   }
 
  private:
@@ -46,22 +50,6 @@ class BoundedKnnResult {
   double worst_;
   int* indices_;
   double* distances_;
-};
-
-/// nanoflann's RESULTSET concept over BoundedKnnResult.
-class NanoflannResult {
- public:
-  explicit NanoflannResult(BoundedKnnResult* result) : result_(result) {}
-  size_t size() const { return static_cast<size_t>(result_->count()); }
-  bool full() const { return true; }
-  bool addPoint(double squared_distance, std::uint32_t index) {
-    result_->Add(squared_distance, static_cast<int>(index));
-    return true;
-  }
-  double worstDist() const { return result_->worst(); }
-
- private:
-  BoundedKnnResult* result_;
 };
 
 /// nanoflann's RESULTSET concept for the one nearest point strictly below a bound.
@@ -148,8 +136,7 @@ void KdTree::KNearest(const Vec3& query, int k, std::vector<int>* indices,
   if (capacity == 0) return;
   BoundedKnnResult result(capacity, std::numeric_limits<double>::infinity(), indices->data(),
                           squared_distances->data());
-  NanoflannResult adapter(&result);
-  impl_->Search(query, &adapter);
+  impl_->Search(query, &result);
   indices->resize(result.count());
   squared_distances->resize(result.count());
 }
