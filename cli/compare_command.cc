@@ -84,7 +84,7 @@ int RunCompare(const CompareArgs& a) {
   std::fputs(text.c_str(), stdout);
   if (!a.report_dir.empty()) {
     for (const std::string& file :
-         WriteCompareReport(a.report_dir, capture, result, options, a.threads, text)) {
+         WriteCompareReport(a.report_dir, capture, result, options, text)) {
       std::printf("report: %s\n", file.c_str());
     }
   }

@@ -128,13 +128,13 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
 
 std::vector<std::string> WriteCompareReport(const std::string& dir, const RigCapture& capture,
                                             const CompareResult& result,
-                                            const RefineOptions& options, int num_threads,
+                                            const RefineOptions& options,
                                             const std::string& summary) {
   CreateReportDirectory(dir);
   RefineOptions leveling_only = options;
   leveling_only.run_registration = false;
-  leveling_only.threads = num_threads;
   const RefineResult leveling = Refine(capture, result.initial, leveling_only);
+  const int num_threads = options.threads;
   const DiagnosticRig rig = PrepareDiagnostics(capture, leveling, options, num_threads);
   std::vector<NamedPoses> pose_sets = {{"initial", &result.initial},
                                        {"before (leveled)", &result.leveled}};

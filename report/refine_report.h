@@ -47,12 +47,12 @@ std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapt
 /// WriteRefineReport creates it: the 3-D view (report/view3d.h, RigView3dScene) at the
 /// initial, the leveled ("before") and each run's output poses, the bands selected at the
 /// leveled poses as Compare selects them (leveling run again on `capture` from
-/// result.initial with `options`), and kReportIndexFile showing `summary` and a link to the
-/// view. Returns the paths written, the page last. Throws InputError when a file cannot be
-/// written.
+/// result.initial with `options`, its threads too), and kReportIndexFile showing `summary` and a
+/// link to the view. Returns the paths written, the page last. Throws InputError when a file cannot
+/// be written.
 std::vector<std::string> WriteCompareReport(const std::string& dir, const RigCapture& capture,
                                             const CompareResult& result,
-                                            const RefineOptions& options, int num_threads,
+                                            const RefineOptions& options,
                                             const std::string& summary);
 
 }  // namespace rigfit

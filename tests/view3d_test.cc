@@ -314,8 +314,7 @@ TEST(CompareView3d, HasTheSurfaceBundleRunsPlanes) {
   ASSERT_EQ(bundle.name, "surface_bundle");
   ASSERT_TRUE(bundle.success && bundle.surface.ran);
   const TempDir dir("rigfit_view3d_compare_test");
-  WriteCompareReport((dir.path() / "report").string(), rig.capture, result, options, 2,
-                     "summary\n");
+  WriteCompareReport((dir.path() / "report").string(), rig.capture, result, options, "summary\n");
   std::string data = testing::ReadText(dir.path() / "report" / kView3dDataFile);
   data = data.substr(data.find('{'), data.rfind('}') - data.find('{') + 1);
   std::vector<Pose> poses;
