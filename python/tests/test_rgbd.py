@@ -198,7 +198,8 @@ def assert_defaults_and_names_are_the_clis(command, function, switches):
 def test_track_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "track", rigfit.track,
-        {"keyframes": True, "bilateral": True, "depth_weights": True, "guard": True})
+        {"keyframes": True, "bilateral": True, "depth_weights": True, "guard": True,
+         "loop_closure": True})
 
 
 @need_cli
@@ -294,7 +295,8 @@ def test_slam_list_of_frames_equals_sequence(kitchen, slammed, caplog):
 @need_cli
 def test_slam_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
-        "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True})
+        "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True,
+                             "loop_closure": True})
 
 
 @need_cli
