@@ -134,9 +134,11 @@ def test_track_kitchen_against_ground_truth(kitchen, tracked):
 
 
 def without_run_counts(tum: bytes) -> bytes:
-    """The CLI's trajectory without the '# rigfit ...' lines of the run's counts."""
+    """The CLI's trajectory without the '# rigfit ...' lines of the run's counts (and of its
+    loop closure)."""
     return b"".join(line for line in tum.splitlines(keepends=True)
-                    if not line.startswith(b"# rigfit ") and not line.startswith(b"# weak "))
+                    if not line.startswith(b"# rigfit ") and not line.startswith(b"# weak ")
+                    and not line.startswith(b"# loop closure: "))
 
 
 @need_cli
@@ -436,3 +438,11 @@ def test_trajectory_file_round_trip(tmp_path):
     assert np.allclose(back.poses, poses, atol=1e-12, rtol=0)
     with pytest.raises(ValueError, match="t.txt"):
         rigfit.read_trajectory(tmp_path / "missing" / "t.txt")
+
+
+def test_track_reports_its_loop_closure(tracked):
+    """The loop closure's counts come with the run (on by default, as in the CLI)."""
+    closure = tracked.loop_closure
+    assert closure is not None and closure["keyframes"] >= 1
+    assert 0 <= closure["accepted"] <= closure["candidates"]
+    assert isinstance(closure["applied"], bool) and closure["seconds"] >= 0
