@@ -115,4 +115,42 @@ std::vector<std::string> GuardMetadata(const std::string& command, const GuardCo
   return lines;
 }
 
+void AddLoopClosureFlag(CLI::App* sub, bool* loop_closure) {
+  sub->add_flag("--loop-closure,!--no-loop-closure", *loop_closure,
+                std::string("Close loops after the run: revisited keyframes verified by ICP, a "
+                            "keyframe pose graph solved, every frame moved with its keyframe (") +
+                    (LoopClosureOptions{}.enabled ? "default" : "off by default") +
+                    "; docs/rgbd.md)");
+}
+
+std::string LoopClosureSummaryText(const LoopClosureResult& closed) {
+  std::string text;
+  Appendf(&text, "loop closure: %zu keyframes, %d candidate(s), %d loop(s) accepted; %s (%.2f s)\n",
+          closed.keyframes.size(), closed.candidates, closed.accepted,
+          closed.applied ? "trajectory corrected" : ("not applied: " + closed.message).c_str(),
+          closed.seconds);
+  return text;
+}
+
+std::string LoopClosureMetadata(const LoopClosureResult& closed) {
+  std::string line;
+  Appendf(&line, "loop closure: keyframes %zu, candidates %d, accepted %d, applied %s",
+          closed.keyframes.size(), closed.candidates, closed.accepted,
+          closed.applied ? "yes" : "no");
+  return line;
+}
+
+std::string UnclosedEvaluationText(const RgbdSequence& sequence, const Trajectory& unclosed,
+                                   const Log& log) {
+  const std::string text = TrajectoryEvaluationText(sequence, unclosed, log);
+  std::string prefixed;
+  std::size_t begin = 0;
+  while (begin < text.size()) {
+    const std::size_t end = text.find('\n', begin);
+    prefixed += "without loop closure: " + text.substr(begin, end + 1 - begin);
+    begin = end + 1;
+  }
+  return prefixed;
+}
+
 }  // namespace rigfit::cli

@@ -13,6 +13,7 @@
 #include "core/trajectory.h"
 #include "io/rgbd_sequence.h"
 #include "rgbd/frame.h"
+#include "rgbd/loop_closure.h"
 #include "rgbd/motion_guard.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
@@ -69,5 +70,21 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log);
 /// The '#' lines of the TUM output: "<command>: frames F, failed X, restarts S, recovered R,
 /// diverged D, weak-direction frames W" and, when any, the weak directions' counts.
 std::vector<std::string> GuardMetadata(const std::string& command, const GuardCounts& counts);
+
+/// The --loop-closure/--no-loop-closure flag both commands take.
+void AddLoopClosureFlag(CLI::App* sub, bool* loop_closure);
+
+/// The summary line of a loop closure: keyframes, candidates, accepted loops, whether the
+/// trajectory was corrected, the time.
+std::string LoopClosureSummaryText(const LoopClosureResult& closed);
+
+/// The '#' line of the TUM output: "loop closure: keyframes K, candidates C, accepted A,
+/// applied yes|no".
+std::string LoopClosureMetadata(const LoopClosureResult& closed);
+
+/// TrajectoryEvaluationText of the run's trajectory before the loop closure, each line
+/// prefixed "without loop closure: ".
+std::string UnclosedEvaluationText(const RgbdSequence& sequence, const Trajectory& unclosed,
+                                   const Log& log);
 
 }  // namespace rigfit::cli

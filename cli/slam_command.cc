@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,7 @@
 #include "report/palette.h"
 #include "report/refine_report.h"
 #include "report/trajectory_report.h"
+#include "rgbd/loop_closure.h"
 #include "rgbd/slam.h"
 #include "rgbd/slam_options.h"
 #include "rgbd/tracking_options.h"
@@ -40,6 +42,7 @@ struct SlamArgs {
   std::vector<int> iterations = {10, 5, 4};
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
   double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
+  bool loop_closure = LoopClosureOptions{}.enabled;
   bool evaluate = false;
   bool quiet = false;
 };
@@ -84,7 +87,10 @@ int RunSlamCommand(SlamArgs a) {
     last_percent = percent;
     std::fprintf(stderr, "slam: %d/%d frames, map %d points\n", done, total, frame.map_size);
   };
-  const SlamResult result = RunSlam(*sequence, a.slam, log, progress);
+  SlamResult result = RunSlam(*sequence, a.slam, log, progress);
+  const Trajectory unclosed = result.trajectory;
+  std::optional<LoopClosureResult> closed;
+  if (a.loop_closure) closed = CloseSlamLoops(*sequence, a.slam, &result, log);
   const int frames = static_cast<int>(result.frames.size());
   int largest = 0;
   double matched = 0.0;
@@ -93,7 +99,9 @@ int RunSlamCommand(SlamArgs a) {
     largest = std::max(largest, frame.map_size);
     matched += frame.track.matched_ratio;
   }
-  WriteTumTrajectory(a.out_path, result.trajectory, GuardMetadata("slam", counts));
+  std::vector<std::string> metadata = GuardMetadata("slam", counts);
+  if (closed) metadata.push_back(LoopClosureMetadata(*closed));
+  WriteTumTrajectory(a.out_path, result.trajectory, metadata);
   if (!a.map_path.empty()) WritePly(a.map_path, SurfelMapToPly(result.map));
 
   const double work_s = result.preprocess_s + result.render_s + result.track_s + result.fuse_s;
@@ -113,6 +121,10 @@ int RunSlamCommand(SlamArgs a) {
           frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s,
           result.render_s, result.track_s, result.fuse_s, work_s > 0.0 ? frames / work_s : 0.0);
   summary += GuardSummaryText(counts, log);
+  if (closed) summary += LoopClosureSummaryText(*closed);
+  if (a.evaluate && closed && closed->applied) {
+    summary += UnclosedEvaluationText(*sequence, unclosed, log);
+  }
   if (a.evaluate) summary += TrajectoryEvaluationText(*sequence, result.trajectory, log);
   std::fputs(summary.c_str(), stdout);
   if (!a.report_dir.empty()) {
@@ -217,6 +229,7 @@ Command AddSlamCommand(CLI::App& app) {
   sub->add_flag("--color,!--no-color", a.slam.color,
                 "Fuse the sequence's registered colour when it has one (default)");
   AddGuardFlags(sub, &a.slam.guard, &a.weak_ratio);
+  AddLoopClosureFlag(sub, &a.loop_closure);
   sub->add_option("--threads", a.slam.threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", a.evaluate,
                 "Print ATE and RPE against the sequence's own ground truth");

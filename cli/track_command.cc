@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 #include "core/trajectory.h"
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
+#include "rgbd/loop_closure.h"
 #include "rgbd/odometry.h"
 #include "rgbd/tracking_options.h"
 
@@ -29,6 +31,7 @@ struct TrackArgs {
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
   double min_step_m = ProjectiveIcpOptions{}.converged_translation_m;
   double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
+  bool loop_closure = LoopClosureOptions{}.enabled;
   bool evaluate = false;
   bool quiet = false;
 };
@@ -51,7 +54,10 @@ int RunTrack(TrackArgs a) {
     last_percent = percent;
     std::fprintf(stderr, "track: %d/%d frames\n", done, total);
   };
-  const OdometryResult result = RunOdometry(*sequence, a.odometry, log, progress);
+  OdometryResult result = RunOdometry(*sequence, a.odometry, log, progress);
+  const Trajectory unclosed = result.trajectory;
+  std::optional<LoopClosureResult> closed;
+  if (a.loop_closure) closed = CloseOdometryLoops(*sequence, a.odometry, &result, log);
 
   const int frames = static_cast<int>(result.frames.size());
   int keyframes = 0;
@@ -61,7 +67,9 @@ int RunTrack(TrackArgs a) {
     keyframes += frame.keyframe ? 1 : 0;
     matched += frame.track.matched_ratio;
   }
-  WriteTumTrajectory(a.out_path, result.trajectory, GuardMetadata("track", counts));
+  std::vector<std::string> metadata = GuardMetadata("track", counts);
+  if (closed) metadata.push_back(LoopClosureMetadata(*closed));
+  WriteTumTrajectory(a.out_path, result.trajectory, metadata);
   const double tracked_s = result.preprocess_s + result.track_s;
   std::printf("tracked %d frames (%d failed, %d restarts, %d keyframes) -> %s\n", frames,
               result.failures, result.restarts, keyframes, a.out_path.c_str());
@@ -71,6 +79,10 @@ int RunTrack(TrackArgs a) {
       frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s, result.track_s,
       tracked_s > 0.0 ? frames / tracked_s : 0.0);
   std::fputs(GuardSummaryText(counts, log).c_str(), stdout);
+  if (closed) std::fputs(LoopClosureSummaryText(*closed).c_str(), stdout);
+  if (a.evaluate && closed && closed->applied) {
+    std::fputs(UnclosedEvaluationText(*sequence, unclosed, log).c_str(), stdout);
+  }
   if (a.evaluate) {
     std::fputs(TrajectoryEvaluationText(*sequence, result.trajectory, log).c_str(), stdout);
   }
@@ -137,6 +149,7 @@ Command AddTrackCommand(CLI::App& app) {
                   "turns it less than this many radians")
       ->capture_default_str();
   AddGuardFlags(sub, &args->odometry.guard, &args->weak_ratio);
+  AddLoopClosureFlag(sub, &args->loop_closure);
   sub->add_option("--threads", args->odometry.threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", args->evaluate,
                 "Print ATE and RPE against the sequence's own ground truth");

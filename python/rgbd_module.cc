@@ -22,6 +22,7 @@
 #include "io/trajectory_tum.h"
 #include "python/convert.h"
 #include "python/keywords.h"
+#include "rgbd/loop_closure.h"
 #include "rgbd/motion_guard.h"
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
@@ -313,6 +314,7 @@ struct TrackKeywords {
   std::string prior = MotionPriorName(OdometryOptions{}.prior);
   double min_step = OdometryOptions{}.icp.converged_translation_m;
   double weak_ratio = OdometryOptions{}.icp.weak_direction_ratio;
+  bool loop_closure = LoopClosureOptions{}.enabled;
 };
 
 const KeywordTable<TrackKeywords>& TrackTable() {
@@ -335,12 +337,13 @@ const KeywordTable<TrackKeywords>& TrackTable() {
           .Add("min_step", [](K& k) { return &k.min_step; })
           .Add("guard", [](K& k) { return &k.odometry.guard.enabled; })
           .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
+          .Add("loop_closure", [](K& k) { return &k.loop_closure; })
           .Add("threads", [](K& k) { return &k.odometry.threads; });
   return table;
 }
 
-/// The options of rigfit.track's keywords, checked as `rigfit track` checks its flags.
-OdometryOptions TrackOptionsOf(const py::dict& keywords) {
+/// rigfit.track's keywords, checked as `rigfit track` checks its flags.
+TrackKeywords TrackOptionsOf(const py::dict& keywords) {
   TrackKeywords k = TrackTable().Apply(keywords);
   OdometryOptions& o = k.odometry;
   CheckKeywords("track", [&] {
@@ -349,11 +352,28 @@ OdometryOptions TrackOptionsOf(const py::dict& keywords) {
     ApplyMinStep(k.min_step, &o.icp);
     ApplyWeakRatio(k.weak_ratio, &o.icp);
   });
-  return o;
+  return k;
+}
+
+/// The counts of a loop closure for a run's dict (None when it was not asked for).
+void AddLoopClosure(const std::optional<LoopClosureResult>& closed, py::dict* out) {
+  if (!closed) {
+    (*out)["loop_closure"] = py::none();
+    return;
+  }
+  py::dict d;
+  d["keyframes"] = closed->keyframes.size();
+  d["candidates"] = closed->candidates;
+  d["accepted"] = closed->accepted;
+  d["applied"] = closed->applied;
+  d["message"] = closed->message;
+  d["seconds"] = closed->seconds;
+  (*out)["loop_closure"] = d;
 }
 
 py::dict Track(const py::object& source, const py::dict& keywords, const py::object& logger) {
-  const OdometryOptions options = TrackOptionsOf(keywords);
+  const TrackKeywords k = TrackOptionsOf(keywords);
+  const OdometryOptions& options = k.odometry;
   std::unique_ptr<ArraySequence> arrays;
   const RgbdSequence& sequence = SequenceOf(source, "track", &arrays);
   const Log log = PythonLog(logger);
@@ -363,9 +383,11 @@ py::dict Track(const py::object& source, const py::dict& keywords, const py::obj
     log.Info("track: " + std::to_string(done) + "/" + std::to_string(total) + " frames");
   };
   OdometryResult result;
+  std::optional<LoopClosureResult> closed;
   {
     py::gil_scoped_release release;
     result = RunOdometry(sequence, options, log, progress);
+    if (k.loop_closure) closed = CloseOdometryLoops(sequence, options, &result, log);
   }
   py::list frames;
   for (size_t k = 0; k < result.frames.size(); ++k) {
@@ -383,6 +405,7 @@ py::dict Track(const py::object& source, const py::dict& keywords, const py::obj
   timings["preprocess_s"] = result.preprocess_s;
   timings["track_s"] = result.track_s;
   out["timings"] = timings;
+  AddLoopClosure(closed, &out);
   return out;
 }
 
@@ -393,6 +416,7 @@ struct SlamKeywords {
   std::vector<int> iterations = SlamOptions{}.icp.iterations;
   std::string prior = MotionPriorName(SlamOptions{}.prior);
   double weak_ratio = SlamOptions{}.icp.weak_direction_ratio;
+  bool loop_closure = LoopClosureOptions{}.enabled;
 };
 
 const KeywordTable<SlamKeywords>& SlamTable() {
@@ -421,12 +445,13 @@ const KeywordTable<SlamKeywords>& SlamTable() {
           .Add("color", [](K& k) { return &k.slam.color; })
           .Add("guard", [](K& k) { return &k.slam.guard.enabled; })
           .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
+          .Add("loop_closure", [](K& k) { return &k.loop_closure; })
           .Add("threads", [](K& k) { return &k.slam.threads; });
   return table;
 }
 
-/// The options of rigfit.slam's keywords, checked as `rigfit slam` checks its flags.
-SlamOptions SlamOptionsOf(const py::dict& keywords) {
+/// rigfit.slam's keywords, checked as `rigfit slam` checks its flags.
+SlamKeywords SlamOptionsOf(const py::dict& keywords) {
   SlamKeywords k = SlamTable().Apply(keywords);
   SlamOptions& o = k.slam;
   CheckKeywords("slam", [&] {
@@ -435,7 +460,7 @@ SlamOptions SlamOptionsOf(const py::dict& keywords) {
     CheckSlamSettings(o);
     ApplyWeakRatio(k.weak_ratio, &o.icp);
   });
-  return o;
+  return k;
 }
 
 /// The map as numpy arrays without a copy: the map is moved into a capsule that every array
@@ -465,7 +490,8 @@ py::dict SurfelMapToDict(SurfelMap&& map) {
 }
 
 py::dict Slam(const py::object& source, const py::dict& keywords, const py::object& logger) {
-  const SlamOptions options = SlamOptionsOf(keywords);
+  const SlamKeywords k = SlamOptionsOf(keywords);
+  const SlamOptions& options = k.slam;
   std::unique_ptr<ArraySequence> arrays;
   const RgbdSequence& sequence = SequenceOf(source, "slam", &arrays);
   const Log log = PythonLog(logger);
@@ -476,9 +502,11 @@ py::dict Slam(const py::object& source, const py::dict& keywords, const py::obje
              std::to_string(frame.map_size) + " points");
   };
   SlamResult result;
+  std::optional<LoopClosureResult> closed;
   {
     py::gil_scoped_release release;
     result = RunSlam(sequence, options, log, progress);
+    if (k.loop_closure) closed = CloseSlamLoops(sequence, options, &result, log);
   }
   py::list frames;
   std::vector<int> map_sizes;
@@ -509,6 +537,7 @@ py::dict Slam(const py::object& source, const py::dict& keywords, const py::obje
   timings["track_s"] = result.track_s;
   timings["fuse_s"] = result.fuse_s;
   out["timings"] = timings;
+  AddLoopClosure(closed, &out);
   out["map"] = SurfelMapToDict(std::move(result.map));
   return out;
 }

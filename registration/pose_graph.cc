@@ -54,8 +54,8 @@ PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
     for (int i : {e.a, e.b}) {
       problem->AddParameterBlock(blocks[i].data(), kPoseAmbientSize, SharedPoseManifold());
     }
-    problem->AddResidualBlock(RelativePoseCost::Create(e.T_a_b, e.information), &loss,
-                              blocks[e.a].data(), blocks[e.b].data());
+    problem->AddResidualBlock(RelativePoseCost::Create(e.T_a_b, e.information),
+                              e.robust ? &loss : nullptr, blocks[e.a].data(), blocks[e.b].data());
   }
   if (problem->NumResidualBlocks() == 0) {
     result.message = "no edges reach the reference camera";

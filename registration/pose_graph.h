@@ -15,6 +15,10 @@ struct PoseGraphEdge {
   int b = 0;
   Pose T_a_b = Pose::Identity();        ///< measured T_world_a^-1 T_world_b
   Mat6 information = Mat6::Identity();  ///< in RelativePoseCost's error frame (camera a)
+  /// Under the Cauchy loss (below); false: plain least squares (an edge trusted to hold, e.g.
+  /// a verified loop closure that the loss would take for an outlier while the graph is far
+  /// from it).
+  bool robust = true;
 };
 
 struct PoseGraphResult {
@@ -29,7 +33,7 @@ struct PoseGraphResult {
 std::vector<bool> ConnectedTo(int reference, size_t n,
                               const std::vector<std::pair<int, int>>& links);
 
-/// Optimises the poses of the cameras connected to `reference` (held constant). Edges
+/// Optimises the poses of the cameras connected to `reference` (held constant). Robust edges
 /// carry a Cauchy loss so one inconsistent pair cannot drag the others. Single-threaded (a
 /// few edges; the result does not depend on the caller's thread count). Never throws.
 PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,

@@ -59,6 +59,22 @@ double SurfelMap::CompressionRatio() const {
   return positions_.empty() ? 0.0 : static_cast<double>(input_points_) / positions_.size();
 }
 
+void SurfelMap::MovePoints(const std::function<Pose(int frame_index)>& correction) {
+  int frame = -1;
+  Eigen::Matrix3f R = Eigen::Matrix3f::Identity();
+  Vec3f t = Vec3f::Zero();
+  for (std::size_t i = 0; i < positions_.size(); ++i) {
+    if (last_seen_[i] != frame) {  // points of one frame often lie together
+      frame = last_seen_[i];
+      const Pose C = correction(frame);
+      R = C.linear().cast<float>();
+      t = C.translation().cast<float>();
+    }
+    positions_[i] = R * positions_[i] + t;
+    normals_[i] = R * normals_[i];
+  }
+}
+
 /// A frame's camera as the fusion's gates see it (single precision).
 struct FusionCamera {
   FusionCamera(const FrameLevel& frame_in, const Pose& T_world_camera_in,

@@ -30,6 +30,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "core/pose.h"
@@ -114,6 +115,10 @@ class SurfelMap {
   FusionStats FuseFrame(const FrameLevel& frame, const Pose& T_world_camera, int frame_index,
                         const FusionOptions& options, const std::vector<std::uint8_t>& color = {},
                         int threads = 2, const MapView* view = nullptr);
+
+  /// Moves every point by the world correction of the frame that last saw it (loop closure,
+  /// rgbd/loop_closure.h): p <- C p, n <- R_C n with C = correction(last_seen()[i]).
+  void MovePoints(const std::function<Pose(int frame_index)>& correction);
 
   int size() const { return static_cast<int>(positions_.size()); }
   bool has_color() const { return has_color_; }

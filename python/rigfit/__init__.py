@@ -527,6 +527,9 @@ class TrackResult(Trajectory):
     recovered: int = 0  #: frames the motion guard re-tracked successfully
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
+    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "applied", "message",
+    #: "seconds"} (the loops checked and accepted, whether the trajectory was corrected)
+    loop_closure: Optional[Dict[str, Any]] = None
 
 
 @dataclass
@@ -614,6 +617,9 @@ class SlamResult(Trajectory):
     recovered: int = 0  #: frames the motion guard re-tracked successfully
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
+    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "applied", "message",
+    #: "seconds"} (the loops checked and accepted, whether the trajectory was corrected)
+    loop_closure: Optional[Dict[str, Any]] = None
 
 
 def _frame(raw: Mapping[str, Any]) -> Frame:
@@ -728,7 +734,8 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
     ``max_distance`` (m) and ``max_angle`` (deg) the association; ``depth_weights`` and
     ``huber`` the weighting; ``min_step`` the convergence test; ``guard`` and ``weak_ratio`` the
     motion guard (weak directions held, divergence detected and re-tracked; docs/rgbd.md);
-    ``threads``. Runs without the
+    ``loop_closure`` (revisited keyframes verified by ICP, a keyframe pose graph solved, the
+    trajectory corrected; counts in the result's ``loop_closure``); ``threads``. Runs without the
     GIL; progress (every tenth) and warnings (failed frames) go to the logger ``"rigfit"``. A
     failed frame keeps its prediction and is counted, as in the CLI.
 
@@ -739,7 +746,8 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
         timestamps=raw["timestamps"], poses=raw["poses"],
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
         restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]),
-        recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"])
+        recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"],
+        loop_closure=raw["loop_closure"])
 
 
 @_keywords("slam")
@@ -758,8 +766,8 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
     ``max_distance``, ``max_angle``); fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg)
     gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
     ``cover_radius`` (the coverage rule; 0: off), ``fold``; the model: ``model_weight``,
-    ``model_recent``, ``splat``; ``color``; ``guard`` and ``weak_ratio`` as for ``track``;
-    ``threads``. Runs without the GIL; progress (every
+    ``model_recent``, ``splat``; ``color``; ``guard``, ``weak_ratio`` and ``loop_closure`` as for
+    ``track`` (the map's points moved with the frame that last saw them); ``threads``. Runs without the GIL; progress (every
     tenth, with the map size) and warnings go to the logger ``"rigfit"``. A failed frame keeps
     its prediction and is not fused; a frame without colour while the map is coloured is
     tracked but not fused, with a warning (``color=False`` fuses depth only).
@@ -772,7 +780,8 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         frames=[SlamFrame(**f) for f in raw["frames"]], failures=raw["failures"],
         restarts=raw["restarts"], timings=SlamTimings(**raw["timings"]),
         map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
-        diverged=raw["diverged"], weak_frames=raw["weak_frames"])
+        diverged=raw["diverged"], weak_frames=raw["weak_frames"],
+        loop_closure=raw["loop_closure"])
 
 
 @dataclass

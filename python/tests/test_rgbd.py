@@ -134,9 +134,11 @@ def test_track_kitchen_against_ground_truth(kitchen, tracked):
 
 
 def without_run_counts(tum: bytes) -> bytes:
-    """The CLI's trajectory without the '# rigfit ...' lines of the run's counts."""
+    """The CLI's trajectory without the '# rigfit ...' lines of the run's counts (and of its
+    loop closure)."""
     return b"".join(line for line in tum.splitlines(keepends=True)
-                    if not line.startswith(b"# rigfit ") and not line.startswith(b"# weak "))
+                    if not line.startswith(b"# rigfit ") and not line.startswith(b"# weak ")
+                    and not line.startswith(b"# loop closure: "))
 
 
 @need_cli
@@ -198,7 +200,8 @@ def assert_defaults_and_names_are_the_clis(command, function, switches):
 def test_track_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "track", rigfit.track,
-        {"keyframes": True, "bilateral": True, "depth_weights": True, "guard": True})
+        {"keyframes": True, "bilateral": True, "depth_weights": True, "guard": True,
+         "loop_closure": True})
 
 
 @need_cli
@@ -294,7 +297,8 @@ def test_slam_list_of_frames_equals_sequence(kitchen, slammed, caplog):
 @need_cli
 def test_slam_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
-        "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True})
+        "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True,
+                             "loop_closure": True})
 
 
 @need_cli
@@ -434,3 +438,11 @@ def test_trajectory_file_round_trip(tmp_path):
     assert np.allclose(back.poses, poses, atol=1e-12, rtol=0)
     with pytest.raises(ValueError, match="t.txt"):
         rigfit.read_trajectory(tmp_path / "missing" / "t.txt")
+
+
+def test_track_reports_its_loop_closure(tracked):
+    """The loop closure's counts come with the run (on by default, as in the CLI)."""
+    closure = tracked.loop_closure
+    assert closure is not None and closure["keyframes"] >= 1
+    assert 0 <= closure["accepted"] <= closure["candidates"]
+    assert isinstance(closure["applied"], bool) and closure["seconds"] >= 0

@@ -1,0 +1,113 @@
+// Loop closure over the keyframes of a finished run (issue 34; docs/rgbd.md, "Loop closure"):
+// revisits are detected by pose proximity among keyframes far apart along the path, each
+// candidate is verified by projective ICP between the two keyframes (rgbd/projective_icp.h),
+// and the keyframes' poses are solved as a pose graph (registration/pose_graph.h) with
+// sequential edges from the run and loop edges from the verified ICP, each weighed by its
+// ICP's information. Every frame then moves with its keyframe.
+//
+// Information of an edge a -> b: the ICP's normal equations H (projective_icp.h) are in the
+// left update x = [w; dt] of T_a_b, T_a_b <- Exp(x) T_a_b, in camera a's axes. RelativePoseCost's
+// error is e = [w; dt + w x t_a_b] to first order, e = J x with J = [I 0; -[t]_x I], so
+//   information_e = J^-T (s H / rmse^2) J^-1,   J^-1 = [I 0; [t]_x I],
+// with rmse the pairs' RMS distance and s = information_scale, which makes up for H's depth
+// weights (normalised to 1 at 1 m, so H is smaller than the unweighted sum) and the pairs'
+// correlated errors, calibrated on simulated loops.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/log.h"
+#include "core/pose.h"
+#include "core/rgbd.h"
+#include "core/trajectory.h"
+#include "rgbd/frame.h"
+#include "rgbd/odometry.h"
+#include "rgbd/projective_icp.h"
+#include "rgbd/slam.h"
+
+namespace rigfit {
+
+struct LoopClosureOptions {
+  /// Whether `rigfit track`, `rigfit slam` and their Python functions close loops by default.
+  bool enabled = true;
+  /// How the keyframes' pyramids are rebuilt and registered: the run's settings.
+  FrameOptions frame;
+  ProjectiveIcpOptions icp;
+  /// HalveFrame this many times after loading (SlamOptions::halvings).
+  int halvings = 0;
+  /// Keyframes of a run without its own (slam): a frame becomes one when it moved or turned
+  /// more than these from the last (OdometryOptions' rule).
+  double keyframe_translation_m = 0.1;
+  double keyframe_rotation_deg = 5.0;
+  /// A revisit candidate: an earlier keyframe within these of a keyframe's pose, at least
+  /// min_path_m back along the estimated path (the nearest such one is checked).
+  double candidate_distance_m = 0.3;
+  double candidate_angle_deg = 20.0;
+  double min_path_m = 1.0;
+  /// A candidate is accepted when its ICP succeeds with no weak direction, matches at least
+  /// this share of the later keyframe's pixels, and its RMS distance is at most
+  /// max_rmse_ratio times the median of the sequential edges'.
+  double min_matched_ratio = 0.5;
+  double max_rmse_ratio = 1.5;
+  /// Information = information_scale H / rmse^2 (header comment), plus floor_information on
+  /// the diagonal (a sequential edge across a view that fixes no direction keeps the graph
+  /// whole). The scale makes the sequential edges' chi-square against the ground truth about
+  /// chi2(6)'s (median 5.3; docs/rgbd.md, "Loop closure").
+  double information_scale = 20.0;
+  double floor_information = 1.0;
+  int threads = 2;
+};
+
+/// A verified (or rejected) revisit: keyframe b (later) registered onto keyframe a.
+struct LoopCheck {
+  int frame_a = 0;  ///< positions in the run's trajectory
+  int frame_b = 0;
+  TrackResult track;  ///< T_target_source = T_a_b
+  bool accepted = false;
+  std::string reason;  ///< why rejected
+};
+
+struct LoopClosureResult {
+  Trajectory trajectory;         ///< corrected (the input's when nothing was accepted)
+  std::vector<Pose> correction;  ///< per frame: T_world_corrected T_world_run^-1
+  std::vector<int> keyframes;    ///< positions in the trajectory
+  std::vector<LoopCheck> checks;
+  int candidates = 0;
+  int accepted = 0;
+  bool applied = false;  ///< the graph was solved and the trajectory corrected
+  std::string message;
+  double seconds = 0.0;
+};
+
+/// The first frame and every frame that moved or turned more than the options' keyframe
+/// thresholds from the last keyframe, among the `usable` ones (same size as the trajectory).
+std::vector<bool> SelectKeyframes(const Trajectory& trajectory, const std::vector<bool>& usable,
+                                  const LoopClosureOptions& options);
+
+/// Registers `later` onto `earlier` from T_init (T_earlier_later) and judges it by the
+/// options' acceptance rules, with `median_rmse_m` the sequential edges' median RMS distance.
+LoopCheck VerifyLoop(const FramePyramid& later, const FramePyramid& earlier, const Pose& T_init,
+                     double median_rmse_m, const LoopClosureOptions& options);
+
+/// Closes the loops of a run: `frames` are the sequence indices of the trajectory's poses,
+/// `keyframes` flags the poses to build the graph on (the first must be one). Never throws
+/// on geometry; InputError on inconsistent sizes.
+LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int>& frames,
+                             const Trajectory& trajectory, const std::vector<bool>& keyframes,
+                             const LoopClosureOptions& options, const Log& log = {});
+
+/// The loop-closure settings of a run of RunOdometry / RunSlam (their frame and ICP options).
+LoopClosureOptions LoopClosureOptionsOf(const OdometryOptions& options);
+LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options);
+
+/// Closes the loops of an odometry run over its own keyframes and corrects its trajectory.
+LoopClosureResult CloseOdometryLoops(const RgbdSequence& sequence, const OdometryOptions& options,
+                                     OdometryResult* result, const Log& log = {});
+
+/// Closes the loops of a SLAM run (keyframes by SelectKeyframes among its successful frames),
+/// corrects its trajectory and moves every map point with the frame that last saw it.
+LoopClosureResult CloseSlamLoops(const RgbdSequence& sequence, const SlamOptions& options,
+                                 SlamResult* result, const Log& log = {});
+
+}  // namespace rigfit
