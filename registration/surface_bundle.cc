@@ -371,21 +371,40 @@ Pose LevelReference(const std::vector<SurfaceCamera>& cameras,
   return correction;
 }
 
-/// Whether the planes a camera sees fix its pose (see kMinPlanesPerCamera).
+/// Whether the planes a camera sees fix its pose against the cameras held in
+/// place (not free): a free camera is fixed when kMinPlanesPerCamera of its
+/// planes are seen by a held or an already fixed camera and their normals
+/// spread (see kMinPlanesPerCamera); repeated until no camera is added.
+/// Counting every plane a camera sees let free cameras that alone share the
+/// planes fixing one direction slide along it together: on stereo seed 2 two
+/// cameras saw the only walls facing X, and went 8 m along X in the first round.
 std::vector<bool> PlanesFixPose(const std::vector<ClusterTerm>& terms,
-                                const std::vector<PlaneBlock>& planes, size_t num_cameras) {
-  std::vector<Mat3> scatter(num_cameras, Mat3::Zero());
-  std::vector<int> count(num_cameras, 0);
-  for (const ClusterTerm& t : terms) {
-    const Vec3 n = planes[t.plane].Normal();
-    scatter[t.camera] += n * n.transpose();
-    ++count[t.camera];
-  }
-  std::vector<bool> fixed(num_cameras, false);
-  for (size_t c = 0; c < num_cameras; ++c) {
-    if (count[c] < kMinPlanesPerCamera) continue;
-    const Vec3 eigenvalues = Eigen::SelfAdjointEigenSolver<Mat3>(scatter[c]).eigenvalues();
-    fixed[c] = eigenvalues(0) >= kMinNormalSpread * eigenvalues(2);
+                                const std::vector<PlaneBlock>& planes,
+                                const std::vector<SurfaceCamera>& cameras) {
+  const size_t n = cameras.size();
+  std::vector<bool> anchored(n), fixed(n, false);
+  for (size_t c = 0; c < n; ++c) anchored[c] = !cameras[c].free;
+  for (bool grew = true; grew;) {
+    grew = false;
+    std::vector<bool> plane_anchored(planes.size(), false);
+    for (const ClusterTerm& t : terms) {
+      if (anchored[t.camera]) plane_anchored[t.plane] = true;
+    }
+    std::vector<Mat3> scatter(n, Mat3::Zero());
+    std::vector<int> count(n, 0);
+    for (const ClusterTerm& t : terms) {
+      if (!plane_anchored[t.plane]) continue;
+      const Vec3 normal = planes[t.plane].Normal();
+      scatter[t.camera] += normal * normal.transpose();
+      ++count[t.camera];
+    }
+    for (size_t c = 0; c < n; ++c) {
+      if (anchored[c] || count[c] < kMinPlanesPerCamera) continue;
+      const Vec3 eigenvalues = Eigen::SelfAdjointEigenSolver<Mat3>(scatter[c]).eigenvalues();
+      if (eigenvalues(0) < kMinNormalSpread * eigenvalues(2)) continue;
+      fixed[c] = anchored[c] = true;
+      grew = true;
+    }
   }
   return fixed;
 }
@@ -601,7 +620,7 @@ BundleSolver::Next BundleSolver::Round(int round, int rounds) {
   if (round == 0) {
     result_.thickness_before = Thickness(terms_, TermCosts(terms_, cameras_, blocks_, planes_), n_);
   }
-  fixed_ = PlanesFixPose(terms_, planes_, n_);
+  fixed_ = PlanesFixPose(terms_, planes_, cameras_);
   if (!SolveOnce({})) {
     // The previous round's poses stand (the start's in the first round).
     result_.message = "surface bundle: " + summary_.message;
