@@ -64,6 +64,22 @@ Pose CommonMotion(const std::vector<Pose>& leveled, const std::vector<Pose>& ref
   return G;
 }
 
+/// Why a camera's own change against the rig (after the common motion) exceeds the safety
+/// bounds (max_rotation_deg, max_translation_m); empty when it does not.
+std::string BoundsViolation(const Vec6& own, const IcpOptions& options) {
+  const double rotation_deg = own.head<3>().norm() * kRadToDeg;
+  const double translation_m = own.tail<3>().norm();
+  if (rotation_deg > options.max_rotation_deg) {
+    return "rotation change against the rig " + Fixed(rotation_deg, 3) +
+           " deg exceeds max_rotation_deg " + Fixed(options.max_rotation_deg, 3);
+  }
+  if (translation_m > options.max_translation_m) {
+    return "translation change against the rig " + Fixed(translation_m, 4) +
+           " m exceeds max_translation_m " + Fixed(options.max_translation_m, 4);
+  }
+  return "";
+}
+
 /// The index of camera `reference` (CheckRefineInput made sure it is there); empty: 0.
 int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
@@ -162,6 +178,17 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
            "camera " + camera.serial +
                ": too few planes fix its pose for the surface bundle; it keeps its joint "
                "point-to-plane pose");
+      continue;
+    }
+    // The bundle's change from the joint pose held to the safety bounds here (its gauge is
+    // the reference's, which it moves by its leveling alone), so that a camera it moved too far
+    // keeps its joint pose, not (as the bounds at the end would have it) its leveled one.
+    const std::string violation =
+        BoundsViolation(PoseDifference(joint->poses[i], bundle.poses[i]), options);
+    if (!violation.empty()) {
+      Warn(result, log,
+           "camera " + camera.serial + ": surface bundle " + violation +
+               "; it keeps its joint point-to-plane pose");
       continue;
     }
     joint->poses[i] = bundle.poses[i];
@@ -441,12 +468,8 @@ int ApplySafetyBounds(const std::vector<Pose>& leveled, const std::vector<Pose>&
       report.message = "not connected to the reference camera by an accepted pair";
     } else if (!refined[i].matrix().allFinite()) {
       report.message = "registration produced a non-finite pose";
-    } else if (report.own_rotation_deg > options.max_rotation_deg) {
-      report.message = "rotation change against the rig " + Fixed(report.own_rotation_deg, 3) +
-                       " deg exceeds max_rotation_deg " + Fixed(options.max_rotation_deg, 3);
-    } else if (report.own_translation_m > options.max_translation_m) {
-      report.message = "translation change against the rig " + Fixed(report.own_translation_m, 4) +
-                       " m exceeds max_translation_m " + Fixed(options.max_translation_m, 4);
+    } else if (const std::string violation = BoundsViolation(own, options); !violation.empty()) {
+      report.message = violation;
     } else {
       report.accepted = true;
       ++moved;
