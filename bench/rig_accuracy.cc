@@ -504,7 +504,8 @@ int main(int argc, char** argv) {
   int worse_rotation = 0, worse_translation = 0;
   double simulate_s = 0.0;
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
-  double sum_nr2 = 0, sum_nt2 = 0;
+  double sum_nr2 = 0, sum_nt2 = 0, sum_model_nr2 = 0, sum_model_nt2 = 0;
+  int few_surfaces = 0;
   BiasSplit bias;
   SegmentationDiagnostic diagnostic;
   // Every seed's draws in turn: run k is draw k % noise_draws of seed first_seed + k / noise_draws.
@@ -632,12 +633,18 @@ int main(int argc, char** argv) {
       const double sigma_r = std::sqrt(c.covariance.topLeftCorner<3, 3>().trace());
       const double sigma_t = std::sqrt(c.covariance.bottomRightCorner<3, 3>().trace());
       if (verbose_sigma) {
-        std::printf("       %s: error %.4f deg %.2f mm, predicted %.4f deg %.2f mm\n",
-                    c.serial.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3,
-                    sigma_r * kRadToDeg, sigma_t * 1e3);
+        std::printf(
+            "       %s: error %.4f deg %.2f mm, predicted %.4f deg %.2f mm (inflation %.2f %.2f, "
+            "%d surface orientations)\n",
+            c.serial.c_str(), e.rotation_rad * kRadToDeg, e.translation_m * 1e3,
+            sigma_r * kRadToDeg, sigma_t * 1e3, c.sigma_inflation.rotation,
+            c.sigma_inflation.translation, c.surfaces);
       }
       sum_nr2 += std::pow(e.rotation_rad / sigma_r, 2);
       sum_nt2 += std::pow(e.translation_m / sigma_t, 2);
+      sum_model_nr2 += std::pow(e.rotation_rad * c.sigma_inflation.rotation / sigma_r, 2);
+      sum_model_nt2 += std::pow(e.translation_m * c.sigma_inflation.translation / sigma_t, 2);
+      few_surfaces += c.few_surfaces ? 1 : 0;
       ++normalised;
     }
     for (const PairError& p : after.pairs) {
@@ -680,6 +687,10 @@ int main(int argc, char** argv) {
         "normalised errors (error / predicted 1-sigma, joint covariance): RMS %.2f "
         "rotation, %.2f translation over %d cameras\n",
         std::sqrt(sum_nr2 / normalised), std::sqrt(sum_nt2 / normalised), normalised);
+    std::printf(
+        "  without the inflation (the noise model's 1-sigma): RMS %.2f rotation, %.2f "
+        "translation; %d of the cameras on few surfaces\n",
+        std::sqrt(sum_model_nr2 / normalised), std::sqrt(sum_model_nt2 / normalised), few_surfaces);
   }
   if (crlb && surface.seeds > 0) {
     std::printf(

@@ -159,21 +159,34 @@ std::string CameraStatus(const CameraReport& c, const RefineOptions& options, co
   return status;
 }
 
+/// How much the 1-sigma was inflated, "rotation/translation" ("-" without a covariance).
+std::string InflationText(const CameraReport& c) {
+  if (!c.has_covariance) return "-";
+  return Fixed(c.sigma_inflation.rotation, 1) + "/" + Fixed(c.sigma_inflation.translation, 1);
+}
+
+/// The surface orientations under a joint pose, "few" when too few ("-" elsewhere).
+std::string SurfacesText(const RefineResult& result, const CameraReport& c) {
+  if (result.mode != RefineMode::kJoint || c.reference || !c.connected) return "-";
+  return std::to_string(c.surfaces) + (c.few_surfaces ? " few" : "");
+}
+
 /// The cameras' table: leveling, registration and against the rig (deg, mm each), the
-/// 1-sigma, the result.
+/// 1-sigma with its inflation and the surfaces under the pose, the result.
 std::string CameraTable(const RefineResult& result, const RefineOptions& options,
                         const RefineArgs& a) {
   std::vector<TextColumn> columns = {{16, Align::kLeft, ""}};
-  for (size_t width : {7, 6, 7, 7, 7, 7, 8, 8, 6, 6, 6}) columns.push_back({width});
+  for (size_t width : {7, 6, 7, 7, 7, 7, 8, 8, 6, 6, 6, 9, 8}) columns.push_back({width});
   columns.push_back({0, Align::kLeft, "  "});
   TextTable table(columns);
   table.AddSpans({{"", 1},
                   {"leveling", 2, Align::kCentre},
                   {"registration", 2, Align::kCentre},
                   {"against the rig", 2, Align::kCentre},
-                  {"1-sigma (joint covariance)", 5, Align::kCentre}});
+                  {"1-sigma (joint covariance)", 6, Align::kCentre},
+                  {"", 1}});
   table.AddRow({"camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg", "x mm",
-                "y mm", "z mm", "result"});
+                "y mm", "z mm", "inflated", "surfaces", "result"});
   for (const CameraReport& c : result.cameras) {
     const GroundResult& g = c.ground;
     const bool level_shown = options.ground.enabled && g.accepted;
@@ -189,7 +202,8 @@ std::string CameraTable(const RefineResult& result, const RefineOptions& options
                   FixedOrDash(c.has_covariance, sigma.tilt_deg, 3),
                   FixedOrDash(c.has_covariance, sigma.x_mm, 2),
                   FixedOrDash(c.has_covariance, sigma.y_mm, 2),
-                  FixedOrDash(c.has_covariance, sigma.z_mm, 2), CameraStatus(c, options, a)});
+                  FixedOrDash(c.has_covariance, sigma.z_mm, 2), InflationText(c),
+                  SurfacesText(result, c), CameraStatus(c, options, a)});
   }
   return table.text();
 }

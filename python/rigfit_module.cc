@@ -238,10 +238,17 @@ py::list CameraReports(const RefineResult& result) {
       s["y_mm"] = sigma.y_mm;
       s["z_mm"] = sigma.z_mm;
       d["sigma"] = s;
+      py::dict inflation;
+      inflation["rotation"] = c.sigma_inflation.rotation;
+      inflation["translation"] = c.sigma_inflation.translation;
+      d["sigma_inflation"] = inflation;
     } else {
       d["covariance"] = py::none();
       d["sigma"] = py::none();
+      d["sigma_inflation"] = py::none();
     }
+    d["surfaces"] = c.surfaces;
+    d["few_surfaces"] = c.few_surfaces;
     py::list weak;
     for (const WeakDirection& w : c.weak_directions) {
       py::dict wd;

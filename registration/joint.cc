@@ -122,7 +122,8 @@ Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& camera
                                    const std::vector<CameraView>& views,
                                    const std::vector<bool>& free,
                                    const std::vector<MatchedViews>& terms,
-                                   const IcpOptions& options, int num_threads) {
+                                   const IcpOptions& options, int num_threads,
+                                   ClusterSandwiches* sandwiches = nullptr) {
   std::vector<int> column(cameras.size(), -1);
   int count = 0;
   for (size_t i = 0; i < cameras.size(); ++i) {
@@ -139,7 +140,7 @@ Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& camera
                                     ? Eigen::MatrixXd::Zero(6 * count, 6 * count)
                                     : Information(problem.get(), FreeBlocks(blocks, free), priors,
                                                   /*scale_by_residuals=*/false);
-  return SharedNoiseCovariance(views, column, terms, options, prior, num_threads);
+  return SharedNoiseCovariance(views, column, terms, options, prior, num_threads, sandwiches);
 }
 
 /// RegisterJoint's problem through its outer iterations: the cameras' pose blocks, the views
@@ -169,6 +170,8 @@ class JointProblem {
     result_.connected.assign(n_, false);
     result_.pair_correspondences.assign(pairs_.size(), 0);
     result_.covariance.assign(n_, Mat6::Zero());
+    result_.sigma_inflation.assign(n_, SigmaInflation{});
+    result_.surfaces.assign(n_, 0);
     result_.weak.assign(n_, {});
   }
 
@@ -408,14 +411,23 @@ class JointProblem {
     for (size_t i = 0; i < n_; ++i) {
       if (free[i]) views_[i].T_world_camera = PoseFromParameters(blocks_[i].data());
     }
-    const Eigen::MatrixXd covariance =
-        FreePoseCovariance(cameras_, blocks_, views_, free, LinkedTerms(), options_, num_threads_);
+    // Each camera's 1-sigma is raised by the design effect its terms' residuals show.
+    ClusterSandwiches sandwiches;
+    const Eigen::MatrixXd covariance = FreePoseCovariance(
+        cameras_, blocks_, views_, free, LinkedTerms(), options_, num_threads_, &sandwiches);
     result_.covariance_ok = covariance.size() > 0;
     int k = 0;  // the free cameras, in camera order
     for (size_t i = 0; i < n_ && result_.covariance_ok; ++i) {
       if (!free[i]) continue;
-      result_.covariance[i] = covariance.block<6, 6>(6 * k, 6 * k);
+      result_.sigma_inflation[i] = InflationOf(sandwiches, 6 * k);
+      result_.covariance[i] =
+          Inflated(covariance.block<6, 6>(6 * k, 6 * k), result_.sigma_inflation[i]);
       ++k;
+    }
+    const std::vector<StabilityAccumulator> stability =
+        Stability(views_, pairs_, matches_, options_, num_threads_);
+    for (size_t i = 0; i < n_; ++i) {
+      if (result_.connected[i]) result_.surfaces[i] = stability[i].Orientations();
     }
     result_.covariance_s = SecondsSince(start);
   }

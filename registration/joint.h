@@ -17,6 +17,7 @@
 #include "prepare/region.h"
 #include "registration/pairwise.h"
 #include "uncertainty/degeneracy.h"
+#include "uncertainty/inflation.h"
 
 namespace rigfit {
 
@@ -30,8 +31,17 @@ struct JointResult {
   /// Per camera: 6x6 covariance of the pose in the PoseManifold tangent (world rotation
   /// vector, world translation), gauge fixed by the reference (whose covariance is 0),
   /// scaled by the measured variance of the whitened residuals. Zero when unavailable.
+  /// Raised by `sigma_inflation`.
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
+  /// Per camera: how much the residuals' own scatter raised the noise model's 1-sigma (at least 1;
+  /// 1 without a covariance): the design effect of its terms' realised residuals in cells of
+  /// kCovarianceCellM against single points (uncertainty/covariance.h, ClusterSandwiches), the
+  /// noise's correlation and the surfaces' bias that the model takes as independent.
+  std::vector<SigmaInflation> sigma_inflation;
+  /// Per camera: the distinct orientations of the surfaces its correspondences lie on, each
+  /// holding a share of its information (StabilityAccumulator::Orientations; 0 when not connected).
+  std::vector<int> surfaces;
   /// Per camera, the directions its correspondences barely constrain at the end
   /// (uncertainty/degeneracy.h); with options.hold_weak_directions a non-reference camera's
   /// are held at its start pose.

@@ -24,6 +24,7 @@
 #include "residuals/gravity_prior.h"
 #include "residuals/plane_cluster.h"
 #include "uncertainty/covariance.h"
+#include "uncertainty/degeneracy.h"
 
 namespace rigfit {
 namespace {
@@ -571,6 +572,8 @@ BundleSolver::BundleSolver(const std::vector<SurfaceCamera>& cameras, const IcpO
   result_.fallback.assign(n_, false);
   result_.leveled.assign(n_, false);
   result_.covariance.assign(n_, Mat6::Zero());
+  result_.sigma_inflation.assign(n_, SigmaInflation{});
+  result_.surfaces.assign(n_, 0);
   result_.thickness_before.assign(n_, 0.0);
   result_.thickness_after.assign(n_, 0.0);
   for (size_t c = 0; c < n_; ++c) {
@@ -718,6 +721,11 @@ void BundleSolver::Statistics() {
   std::vector<double> costs = TermCosts(terms_, cameras_, blocks_, planes_);
   for (size_t k = 0; k < terms_.size(); ++k) costs[k] *= correlation_[terms_[k].camera];
   result_.thickness_after = Thickness(terms_, costs, n_);
+  std::vector<SurfaceOrientations> orientations(n_);
+  for (const ClusterTerm& t : terms_) {
+    orientations[t.camera].Add(planes_[t.plane].Normal(), t.cluster.Count());
+  }
+  for (size_t c = 0; c < n_; ++c) result_.surfaces[c] = orientations[c].Count();
   int parameters = 0;
   for (size_t c = 0; c < n_; ++c) {
     if (Free(c)) parameters += 6;
@@ -745,11 +753,14 @@ void BundleSolver::Statistics() {
   result_.covariance_ok = covariance.size() > 0;
   if (!result_.covariance_ok) return;
   covariance *= result_.noise_scale * result_.noise_scale;
+  const Eigen::MatrixXd model = covariance;
   if (robust.size() > 0 && result_.noise_scale > 0.0) {
     covariance = CovarianceAtLeast(covariance, robust);
   }
   for (size_t k = 0; k < free_cameras.size(); ++k) {
     result_.covariance[free_cameras[k]] = covariance.block<6, 6>(6 * k, 6 * k);
+    result_.sigma_inflation[free_cameras[k]] =
+        InflationBetween(model.block<6, 6>(6 * k, 6 * k), covariance.block<6, 6>(6 * k, 6 * k));
   }
 }
 

@@ -22,6 +22,7 @@
 #include "core/log.h"
 #include "core/types.h"
 #include "options/refine_options.h"
+#include "uncertainty/inflation.h"
 
 namespace rigfit {
 
@@ -69,6 +70,11 @@ struct SurfaceBundleResult {
   /// noise_scale^2); zero when unavailable.
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
+  /// Per free camera: how much the planes' cluster-robust covariance raised the noise model's
+  /// 1-sigma (uncertainty/inflation.h; 1 elsewhere), and the distinct orientations of the planes
+  /// its pixels are on, weighted by its pixels (SurfaceOrientations; 0 for a camera on none).
+  std::vector<SigmaInflation> sigma_inflation;
+  std::vector<int> surfaces;
   /// Per camera: RMS whitened residual of its pixels on the planes at the start and at the
   /// end ("plane thickness" in standard deviations; near 1 when the noise model holds).
   std::vector<double> thickness_before;

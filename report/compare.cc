@@ -120,7 +120,28 @@ std::string CameraTable(const CompareResult& c) {
   return table.text();
 }
 
-/// Per camera: the joint run's 1-sigma and the surface bundle's plane thickness.
+/// A run's inflation of a camera's 1-sigma, "rotation/translation" ("-" without a covariance).
+std::string InflationText(const CameraReport* c) {
+  if (c == nullptr || !c->has_covariance) return "-";
+  return Fixed(c->sigma_inflation.rotation, 1) + "/" + Fixed(c->sigma_inflation.translation, 1);
+}
+
+/// The surface orientations under a camera's joint pose, "few" when too few.
+std::string SurfacesText(const CameraReport* c) {
+  if (c == nullptr || c->reference || !c->connected) return "-";
+  return std::to_string(c->surfaces) + (c->few_surfaces ? " few" : "");
+}
+
+/// A camera's 1-sigma as "rotation deg / translation mm" (square roots of its blocks' traces).
+std::string SigmaText(const CameraReport* c) {
+  if (c == nullptr || !c->has_covariance) return "-";
+  return Fixed(std::sqrt(c->covariance.topLeftCorner<3, 3>().trace()) * kRadToDeg, 3) + "/" +
+         Fixed(std::sqrt(c->covariance.bottomRightCorner<3, 3>().trace()) * 1e3, 1);
+}
+
+/// Per camera: the joint run's 1-sigma, its inflation and the surfaces under the pose, and the
+/// surface bundle's plane thickness, noise correlation and 1-sigma (a camera that kept its joint
+/// pose: the joint covariance).
 std::string UncertaintyTable(const CompareResult& c) {
   const CompareRun* joint = RunNamed(c, "joint");
   const CompareRun* surface = RunNamed(c, "surface_bundle");
@@ -139,12 +160,16 @@ std::string UncertaintyTable(const CompareResult& c) {
                    {6},
                    {6},
                    {6},
+                   {8},
+                   {8},
                    {23, Align::kRight, " | "},
                    {17},
+                   {15},
+                   {8},
                    {0, Align::kLeft, "  "}});
-  table.AddSpans({{"", 1}, {"joint 1-sigma", 5}, {"surface bundle", 3}});
-  table.AddRow({"camera", "yaw deg", "tilt deg", "x mm", "y mm", "z mm", "plane thickness (sigma)",
-                "noise correlation", ""});
+  table.AddSpans({{"", 1}, {"joint 1-sigma", 7}, {"surface bundle", 5}});
+  table.AddRow({"camera", "yaw deg", "tilt deg", "x mm", "y mm", "z mm", "inflated", "surfaces",
+                "plane thickness (sigma)", "noise correlation", "1-sigma deg/mm", "inflated"});
   for (size_t i = 0; i < c.serials.size(); ++i) {
     std::vector<std::string> row = {c.serials[i]};
     const CameraReport* j = joint != nullptr ? &joint->cameras[i] : nullptr;
@@ -152,15 +177,17 @@ std::string UncertaintyTable(const CompareResult& c) {
     const PoseSigma s = shown ? SigmaOf(j->covariance) : PoseSigma{};
     row.insert(row.end(), {FixedOrDash(shown, s.yaw_deg, 3), FixedOrDash(shown, s.tilt_deg, 3),
                            FixedOrDash(shown, s.x_mm, 2), FixedOrDash(shown, s.y_mm, 2),
-                           FixedOrDash(shown, s.z_mm, 2)});
+                           FixedOrDash(shown, s.z_mm, 2), InflationText(j), SurfacesText(j)});
     const CameraReport* b = bundled ? &surface->cameras[i] : nullptr;
     row.insert(row.end(), {b == nullptr ? "-"
                                         : Fixed(b->surface_thickness_before, 2) + " -> " +
                                               Fixed(b->surface_thickness_after, 2),
-                           FixedOrDash(b != nullptr, b ? b->surface_noise_correlation : 0.0, 1)});
+                           FixedOrDash(b != nullptr, b ? b->surface_noise_correlation : 0.0, 1),
+                           SigmaText(b), InflationText(b)});
     std::vector<std::string> notes;
     if (j != nullptr && j->reference) notes.push_back("(reference)");
     if (b != nullptr && b->surface_fallback) notes.push_back("kept its joint pose");
+    if (b != nullptr && b->few_surfaces) notes.push_back("few surfaces");
     row.push_back(Join(notes, ", "));
     table.AddRow(row);
   }
@@ -303,6 +330,12 @@ Json CameraJson(const CompareResult& c, const CompareRun& run, size_t i) {
                        {"x_mm", s.x_mm},
                        {"y_mm", s.y_mm},
                        {"z_mm", s.z_mm}};
+    camera["sigma_inflation"] = {{"rotation", outcome.sigma_inflation.rotation},
+                                 {"translation", outcome.sigma_inflation.translation}};
+  }
+  if (run.mode == RefineMode::kJoint && outcome.connected && !outcome.reference) {
+    camera["surfaces"] = outcome.surfaces;
+    camera["few_surfaces"] = outcome.few_surfaces;
   }
   if (run.surface.ran) {
     camera["surface"] = {{"thickness_before", outcome.surface_thickness_before},

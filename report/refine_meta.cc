@@ -103,7 +103,15 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options,
                          {"own_rotation_deg", NumberOrNull(measured, c.own_rotation_deg)},
                          {"own_translation_m", NumberOrNull(measured, c.own_translation_m)},
                          {"message", c.message}};
-    if (c.has_covariance) cameras[c.serial]["sigma"] = SigmaJson(SigmaOf(c.covariance));
+    if (c.has_covariance) {
+      cameras[c.serial]["sigma"] = SigmaJson(SigmaOf(c.covariance));
+      cameras[c.serial]["sigma_inflation"] = {{"rotation", c.sigma_inflation.rotation},
+                                              {"translation", c.sigma_inflation.translation}};
+    }
+    if (c.connected && !c.reference && result.mode == RefineMode::kJoint) {
+      cameras[c.serial]["surfaces"] = c.surfaces;
+      cameras[c.serial]["few_surfaces"] = c.few_surfaces;
+    }
     if (!c.weak_directions.empty()) {
       Json weak = Json::array();
       for (const WeakDirection& d : c.weak_directions) {

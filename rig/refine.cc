@@ -178,7 +178,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
            "camera " + camera.serial +
                ": too few planes fix its pose for the surface bundle; it keeps its joint "
                "point-to-plane pose");
-      continue;
+      continue;  // with the joint covariance
     }
     // The bundle's change from the joint pose held to the safety bounds here (its gauge is
     // the reference's, which it moves by its leveling alone), so that a camera it moved too far
@@ -192,9 +192,10 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
       continue;
     }
     joint->poses[i] = bundle.poses[i];
-    joint->covariance[i] = bundle.covariance[i];
+    joint->covariance[i] = bundle.covariance_ok ? bundle.covariance[i] : Mat6::Zero();
+    joint->sigma_inflation[i] = bundle.sigma_inflation[i];
+    joint->surfaces[i] = bundle.surfaces[i];
   }
-  joint->covariance_ok = joint->covariance_ok && bundle.covariance_ok;
   if (options.keep_surface_diagnostics) {
     report.plane_list = bundle.plane_list;
     report.terms = bundle.terms;
@@ -209,9 +210,19 @@ void ReportJointCameras(const JointResult& joint, const IcpOptions& options, con
   for (size_t i = 0; i < result->cameras.size(); ++i) {
     CameraReport& report = result->cameras[i];
     report.connected = joint.connected[i];
-    report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference;
+    report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference &&
+                            !joint.covariance[i].isZero(0.0);
     report.covariance = joint.covariance[i];
     if (report.reference) continue;
+    report.sigma_inflation = joint.sigma_inflation[i];
+    report.surfaces = joint.surfaces[i];
+    report.few_surfaces = joint.connected[i] && joint.surfaces[i] < kFewSurfaceOrientations;
+    if (report.few_surfaces) {
+      Warn(result, log,
+           "camera " + report.serial + ": its pose rests on " + std::to_string(report.surfaces) +
+               " surface orientation(s); a bias of one of them moves it whole, which its 1-sigma "
+               "cannot show");
+    }
     report.weak_directions = joint.weak[i];
     for (const WeakDirection& d : joint.weak[i]) {
       Warn(result, log,

@@ -14,6 +14,7 @@
 #include "prepare/region.h"
 #include "registration/surface_bundle.h"
 #include "uncertainty/degeneracy.h"
+#include "uncertainty/inflation.h"
 
 namespace rigfit {
 
@@ -36,6 +37,16 @@ struct CameraReport {
   /// rotation vector, world translation), gauge fixed by the reference.
   bool has_covariance = false;
   Mat6 covariance = Mat6::Zero();
+  /// Joint mode: how much what the residuals show (correlated noise, surfaces' bias) raised the
+  /// noise model's 1-sigma in `covariance` (docs/uncertainty.md, "Inflation"; the surface
+  /// bundle's cameras: its planes' cluster-robust covariance), 1 without a covariance.
+  SigmaInflation sigma_inflation;
+  /// Joint mode: the distinct orientations of the surfaces the pose rests on (the surface
+  /// bundle's planes for the cameras it refined), and whether they are fewer than
+  /// kFewSurfaceOrientations: one surface's bias then moves the pose whole, and the 1-sigma
+  /// cannot show it (warned).
+  int surfaces = 0;
+  bool few_surfaces = false;
   /// Joint mode: directions the correspondences barely constrain (reported as a warning;
   /// held at the leveled pose with icp.hold_weak_directions).
   std::vector<WeakDirection> weak_directions;

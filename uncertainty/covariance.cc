@@ -5,6 +5,11 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <optional>
 #include <stdexcept>
 #include <type_traits>
 
@@ -249,6 +254,7 @@ namespace {
 template <typename Term>
 struct Linearised {
   static constexpr int kRows = Term::kNumResiduals;
+  Eigen::Matrix<double, kRows, 1> r;
   Eigen::Matrix<double, kRows, 6> J_source, J_target;
   Eigen::Matrix<double, kRows, 3> D_source, D_target;
 };
@@ -261,10 +267,9 @@ Linearised<Term> Linearise(const Term& term, const CameraView& source, const Cam
                            const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_target,
                            const Mat3& R_source, const Mat3& R_target) {
   constexpr int kRows = Term::kNumResiduals;
-  double r[kRows];
   Eigen::Matrix<double, kRows, 7, Eigen::RowMajor> Ja, Jb;
-  term.Evaluate(source.pose_block, target.pose_block, r, Ja.data(), Jb.data());
   Linearised<Term> l;
+  term.Evaluate(source.pose_block, target.pose_block, l.r.data(), Ja.data(), Jb.data());
   l.J_source = Ja * plus_source;
   l.J_target = Jb * plus_target;
   // r depends on p through T_source p and on q through T_target q only (both methods), so
@@ -280,6 +285,64 @@ template <typename A, typename B>
 void AddBlock(Eigen::MatrixXd* M, int u, int w, const A& a, const B& b) {
   if (u < 0 || w < 0) return;
   M->block<6, 6>(u, w) += a.transpose() * b;
+}
+
+/// World cells (cubes of one edge) -> the summed realised scores of the points in them.
+using CellScores = std::map<std::array<int64_t, 3>, Eigen::VectorXd>;
+
+/// The realised scores J_t^T r_t of the terms whose source is one view, summed per source point,
+/// then per world cell (ClusterSandwiches' clusters).
+class ClusterScores {
+ public:
+  ClusterScores(const CameraView& view, int dimension)
+      : view_(view), by_point_(Eigen::MatrixXd::Zero(view.level->points.size(), dimension)) {}
+
+  /// Adds a term's score J^T r for the free view at column c (none for a fixed view, c < 0) to
+  /// its source point i.
+  void Add(size_t i, int c, const Vec6& score) {
+    if (c >= 0) by_point_.row(i).segment<6>(c) += score.transpose();
+  }
+
+  /// Adds the points' scores to the cubes of `edge` (world frame) that hold them. The grid is
+  /// offset by half a cube, so that the leveled floor (y = 0) and surfaces at round coordinates
+  /// lie inside cubes: a surface on a cube's face would put each of its points on the side its
+  /// noise sends it, and so cluster the noise by its sign.
+  void AddToCells(double edge, CellScores* cells) const {
+    for (Eigen::Index i = 0; i < by_point_.rows(); ++i) {
+      if (by_point_.row(i).isZero(0.0)) continue;
+      const Vec3 cell = (view_.T_world_camera * view_.level->points[i] / edge).array() + 0.5;
+      const Vec3 floor = cell.array().floor();
+      const std::array<int64_t, 3> key = {static_cast<int64_t>(floor.x()),
+                                          static_cast<int64_t>(floor.y()),
+                                          static_cast<int64_t>(floor.z())};
+      const auto [it, added] = cells->try_emplace(key, Eigen::VectorXd::Zero(by_point_.cols()));
+      it->second += by_point_.row(i).transpose();
+    }
+  }
+
+ private:
+  const CameraView& view_;
+  Eigen::MatrixXd by_point_;
+};
+
+/// One view's realised scores per fine and per coarse world cell.
+struct Meats {
+  CellScores fine;
+  CellScores coarse;
+};
+
+/// sum_g s_g s_g^T over the cells of every view's (the same cell's scores summed first).
+Eigen::MatrixXd MeatOf(const std::vector<Meats>& meats, CellScores Meats::*cells, int dimension) {
+  CellScores all;
+  for (const Meats& m : meats) {
+    for (const auto& [key, g] : m.*cells) {
+      const auto [it, added] = all.try_emplace(key, Eigen::VectorXd::Zero(dimension));
+      it->second += g;
+    }
+  }
+  Eigen::MatrixXd meat = Eigen::MatrixXd::Zero(dimension, dimension);
+  for (const auto& [key, g] : all) meat += g * g.transpose();
+  return meat;
 }
 
 /// How a method's terms share noise: each term's own floor (share of min_noise_m, whitened)
@@ -318,18 +381,28 @@ class SharedNoise {
     }
   }
 
-  /// Adds view v's terms' information to H and its terms' and points' noise to M.
-  void AddView(int v, Eigen::MatrixXd* H, Eigen::MatrixXd* M) const {
+  /// Adds view v's terms' information to H and its terms' and points' noise to M; with
+  /// `meats`, the realised scores of the terms whose source is v to its cells, fine ones of
+  /// the view's voxel and coarse ones of `cell_m`.
+  void AddView(int v, Eigen::MatrixXd* H, Eigen::MatrixXd* M, Meats* meats, double cell_m) const {
     std::vector<Score> scores;  // [point * free + free index of the view]
-    for (const MatchedViews& m : terms_) AddTerms(v, m, H, M, &scores);
+    std::optional<ClusterScores> realised;
+    if (meats != nullptr) realised.emplace(views_[v], static_cast<int>(H->rows()));
+    for (const MatchedViews& m : terms_) {
+      AddTerms(v, m, H, M, &scores, realised ? &*realised : nullptr);
+    }
     if (!scores.empty()) AddPointNoise(v, scores, M);
+    if (realised) {
+      realised->AddToCells(views_[v].level->voxel_size, &meats->fine);
+      realised->AddToCells(cell_m, &meats->coarse);
+    }
   }
 
  private:
   size_t Index(const CameraView* view) const { return static_cast<size_t>(view - views_.data()); }
 
   void AddTerms(int v, const MatchedViews& m, Eigen::MatrixXd* H, Eigen::MatrixXd* M,
-                std::vector<Score>* scores) const {
+                std::vector<Score>* scores, ClusterScores* realised) const {
     const size_t s = Index(m.source), t = Index(m.target);
     if (s != static_cast<size_t>(v) && t != static_cast<size_t>(v)) return;
     if (scores->empty()) scores->assign(views_[v].level->points.size() * free_, Score::Zero());
@@ -360,6 +433,10 @@ class SharedNoise {
         }
         score(c.source, cs, l.J_source, l.D_source);
         score(c.source, ct, l.J_target, l.D_source);
+        if (realised != nullptr) {
+          realised->Add(c.source, cs, l.J_source.transpose() * l.r);
+          realised->Add(c.source, ct, l.J_target.transpose() * l.r);
+        }
       }
       if (t == static_cast<size_t>(v)) {
         score(c.target, cs, l.J_source, l.D_target);
@@ -405,21 +482,26 @@ class SharedNoise {
   std::vector<Mat3> rotation_;
 };
 
+/// A term type as a value (for a generic lambda).
+template <typename T>
+struct TermType {
+  using type = T;
+};
+
 /// Sums the views' H and M over the prior and returns H^-1 M H^-1 (empty when H is singular
-/// or the result not finite).
+/// or the result not finite); with `sandwiches`, also the realised ones.
 template <typename Term, typename MakeTerm>
-Eigen::MatrixXd SharedNoiseOf(const std::vector<CameraView>& views, const std::vector<int>& column,
-                              const std::vector<MatchedViews>& terms, const IcpOptions& options,
-                              const Eigen::MatrixXd& prior_information, const MakeTerm& make_term,
-                              FloorShares floors, int num_threads) {
-  const size_t n = views.size();
-  const int free = static_cast<int>(prior_information.rows()) / 6;
-  const SharedNoise<Term, MakeTerm> shared(views, column, terms, options, make_term, floors, free);
-  std::vector<Eigen::MatrixXd> H(
-      n, Eigen::MatrixXd::Zero(prior_information.rows(), prior_information.cols()));
-  std::vector<Eigen::MatrixXd> M = H;
+Eigen::MatrixXd SharedNoiseOf(const SharedNoise<Term, MakeTerm>& shared, size_t n,
+                              const Eigen::MatrixXd& prior_information, int num_threads,
+                              ClusterSandwiches* sandwiches) {
+  const Eigen::MatrixXd zero =
+      Eigen::MatrixXd::Zero(prior_information.rows(), prior_information.cols());
+  std::vector<Eigen::MatrixXd> H(n, zero), M(n, zero);
+  std::vector<Meats> meats(sandwiches != nullptr ? n : 0);
+  const double cell_m = sandwiches != nullptr ? sandwiches->cell_m : 0.0;
   ParallelFor(
-      static_cast<int>(n), num_threads, [&](int v) { shared.AddView(v, &H[v], &M[v]); },
+      static_cast<int>(n), num_threads,
+      [&](int v) { shared.AddView(v, &H[v], &M[v], meats.empty() ? nullptr : &meats[v], cell_m); },
       /*min_per_thread=*/1);
   Eigen::MatrixXd H_total = prior_information;
   Eigen::MatrixXd M_total = prior_information;
@@ -431,6 +513,11 @@ Eigen::MatrixXd SharedNoiseOf(const std::vector<CameraView>& views, const std::v
   if (H_inverse.size() == 0) return {};
   Eigen::MatrixXd covariance = H_inverse * M_total * H_inverse;
   if (!covariance.allFinite()) return {};
+  if (sandwiches != nullptr) {
+    const int dimension = static_cast<int>(zero.rows());
+    sandwiches->fine = H_inverse * MeatOf(meats, &Meats::fine, dimension) * H_inverse;
+    sandwiches->coarse = H_inverse * MeatOf(meats, &Meats::coarse, dimension) * H_inverse;
+  }
   return covariance;
 }
 
@@ -440,22 +527,34 @@ Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
                                       const std::vector<int>& column,
                                       const std::vector<MatchedViews>& terms,
                                       const IcpOptions& options,
-                                      const Eigen::MatrixXd& prior_information, int num_threads) {
+                                      const Eigen::MatrixXd& prior_information, int num_threads,
+                                      ClusterSandwiches* sandwiches) {
+  if (sandwiches != nullptr) sandwiches->fine = sandwiches->coarse = Eigen::MatrixXd();
   if (prior_information.rows() == 0 || terms.empty()) return {};
+  const int free = static_cast<int>(prior_information.rows()) / 6;
+  const auto run = [&](const auto& make_term, FloorShares floors, auto term_type) {
+    using Term = typename decltype(term_type)::type;
+    const SharedNoise<Term, std::decay_t<decltype(make_term)>> shared(views, column, terms, options,
+                                                                      make_term, floors, free);
+    return SharedNoiseOf(shared, views.size(), prior_information, num_threads, sandwiches);
+  };
   if (options.method == RegistrationMethod::kGicp) {
-    return SharedNoiseOf<GicpTerm>(
-        views, column, terms, options, prior_information,
-        [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
-          return MakeGicpTerm(s, t, c, options);
-        },
-        FloorShares{/*term=*/0.0, /*point=*/0.5}, num_threads);
+    return run([&](const CameraView& s, const CameraView& t,
+                   const Correspondence& c) { return MakeGicpTerm(s, t, c, options); },
+               FloorShares{/*term=*/0.0, /*point=*/0.5}, TermType<GicpTerm>{});
   }
-  return SharedNoiseOf<PointToPlaneTerm>(
-      views, column, terms, options, prior_information,
-      [&](const CameraView& s, const CameraView& t, const Correspondence& c) {
-        return MakePointToPlaneTerm(s, t, c, options);
-      },
-      FloorShares{/*term=*/1.0, /*point=*/0.0}, num_threads);
+  return run([&](const CameraView& s, const CameraView& t,
+                 const Correspondence& c) { return MakePointToPlaneTerm(s, t, c, options); },
+             FloorShares{/*term=*/1.0, /*point=*/0.0}, TermType<PointToPlaneTerm>{});
+}
+
+SigmaInflation InflationOf(const ClusterSandwiches& sandwiches, int column) {
+  const auto factor = [&](int offset) {
+    const double fine = sandwiches.fine.block<3, 3>(column + offset, column + offset).trace();
+    const double coarse = sandwiches.coarse.block<3, 3>(column + offset, column + offset).trace();
+    return fine > 0.0 ? std::sqrt(std::max(1.0, coarse / fine)) : 1.0;
+  };
+  return {factor(0), factor(3)};
 }
 
 }  // namespace rigfit

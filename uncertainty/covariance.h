@@ -11,6 +11,7 @@
 
 #include "options/refine_options.h"
 #include "prepare/correspondences.h"
+#include "uncertainty/inflation.h"
 
 namespace rigfit {
 
@@ -70,6 +71,30 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
 /// (16 clusters, 6 parameters).
 Eigen::MatrixXd CovarianceAtLeast(const Eigen::MatrixXd& model, const Eigen::MatrixXd& other);
 
+/// The edge of SharedNoiseCovariance's coarse clusters (m, world frame): a cell holds many
+/// pixels of one or two surfaces, so that the noise correlated over a few pixels and a
+/// surface's bias stay within clusters (docs/uncertainty.md, "Inflation").
+constexpr double kCovarianceCellM = 1.0;
+
+/// Cluster-robust sandwiches of a least-squares estimate from its realised residuals,
+/// H^-1 (sum_g s_g s_g^T) H^-1 with s_g = sum_{t in g} J_t^T r_t (r_t whitened, loss not
+/// applied), for two clusterings of the same terms: `fine` (each cluster what the noise model
+/// already takes as one error: a point, the points matched to it, both directions) and `coarse`
+/// (clusters that also hold the errors the model takes as independent: neighbouring pixels'
+/// correlated noise, a surface's bias). Their ratio is the design effect of the residuals,
+/// whatever their overall scale (nearest-neighbour association shrinks it): about 1 when the
+/// errors are as independent as the model says (docs/uncertainty.md, "Inflation").
+struct ClusterSandwiches {
+  double cell_m = kCovarianceCellM;  ///< input: the edge of the coarse clusters' cubes
+  Eigen::MatrixXd fine;
+  Eigen::MatrixXd coarse;
+};
+
+/// The inflation of the pose whose tangent starts at `column` of the sandwiches: per half
+/// (rotation, translation), sqrt(trace of `coarse` / trace of `fine`) over its 3 x 3 block,
+/// at least 1; 1 where `fine`'s trace is 0.
+SigmaInflation InflationOf(const ClusterSandwiches& sandwiches, int column);
+
 /// The correspondences of one pair direction between two views.
 struct MatchedViews {
   const CameraView* source = nullptr;
@@ -97,10 +122,16 @@ struct MatchedViews {
 /// are no terms or free views, or when H is singular (information below 1e-12 of the
 /// largest in some direction, e.g. a free view in no term). The views' points are
 /// split over up to num_threads threads; the result does not depend on it.
+///
+/// With `sandwiches` (not null): also the cluster-robust sandwiches of the terms' realised
+/// residuals, the terms clustered by where their source point is in the world: `fine` in cubes
+/// of the source view's voxel (a point, its nearest neighbours in the other views and their
+/// terms back), `coarse` in cubes of sandwiches->cell_m; empty when the covariance is.
 Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
                                       const std::vector<int>& column,
                                       const std::vector<MatchedViews>& terms,
                                       const IcpOptions& options,
-                                      const Eigen::MatrixXd& prior_information, int num_threads);
+                                      const Eigen::MatrixXd& prior_information, int num_threads,
+                                      ClusterSandwiches* sandwiches = nullptr);
 
 }  // namespace rigfit

@@ -1,6 +1,7 @@
 #include "uncertainty/degeneracy.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -56,6 +57,45 @@ void StabilityAccumulator::Add(const Vec3& p_world, const Vec3& n_world, double 
   sum_p_ += weight * p_world;
   sum_p2_ += weight * p_world.squaredNorm();
   ++count_;
+  orientations_.Add(n_world, 1.0);
+}
+
+void SurfaceOrientations::Add(const Vec3& n_any, double weight) {
+  // One sign per orientation: the largest coordinate positive.
+  Eigen::Index largest = 0;
+  n_any.cwiseAbs().maxCoeff(&largest);
+  const Vec3 n = n_any(largest) < 0.0 ? Vec3(-n_any) : n_any;
+  const std::array<int, 3> key = {static_cast<int>(std::lround(10.0 * n.x())),
+                                  static_cast<int>(std::lround(10.0 * n.y())),
+                                  static_cast<int>(std::lround(10.0 * n.z()))};
+  auto& [w, sum] = normals_.try_emplace(key, 0.0, Vec3::Zero()).first->second;
+  w += weight;
+  sum += weight * n;
+  sum_w_ += weight;
+}
+
+int SurfaceOrientations::Count() const {
+  if (!(sum_w_ > 0.0)) return 0;
+  std::vector<std::pair<double, Vec3>> cells;  // weight, mean normal
+  for (const auto& [key, cell] : normals_) {
+    if (cell.first > 0.0) cells.emplace_back(cell.first, cell.second.normalized());
+  }
+  std::sort(cells.begin(), cells.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first; });
+  const double cosine = std::cos(kOrientationAngleDeg * kDegToRad);
+  std::vector<bool> taken(cells.size(), false);
+  int orientations = 0;
+  for (size_t first = 0; first < cells.size(); ++first) {
+    if (taken[first]) continue;
+    double weight = 0.0;
+    for (size_t k = first; k < cells.size(); ++k) {
+      if (taken[k] || std::abs(cells[k].second.dot(cells[first].second)) < cosine) continue;
+      taken[k] = true;
+      weight += cells[k].first;
+    }
+    if (weight >= kOrientationMinShare * sum_w_) ++orientations;
+  }
+  return orientations;
 }
 
 std::vector<WeakDirection> StabilityAccumulator::WeakDirections(const Vec3& camera_center_world,

@@ -16,7 +16,10 @@
 // overlap, weighted ones are 4x apart (docs/benchmarks.md).
 #pragma once
 
+#include <array>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/types.h"
@@ -34,6 +37,33 @@ struct WeakDirection {
   std::string reason;     ///< e.g. "the near-floor band lacks vertical structure"
 };
 
+/// Orientations within this angle of a group's first are one surface orientation.
+constexpr double kOrientationAngleDeg = 20.0;
+/// The share of a camera's weight that makes an orientation count.
+constexpr double kOrientationMinShare = 0.02;
+
+/// How many distinct orientations the surfaces under one camera's pose have: the normals
+/// (n and -n alike, weighted by their information) gathered greedily, heaviest first, into
+/// groups within kOrientationAngleDeg of the group's first, counting the groups that hold at
+/// least kOrientationMinShare of the weight. A camera on fewer than kFewSurfaceOrientations has
+/// a pose that one surface's bias moves whole, with too few surfaces for the residuals to show
+/// it (docs/uncertainty.md, "Inflation").
+class SurfaceOrientations {
+ public:
+  void Add(const Vec3& n, double weight);
+  int Count() const;  ///< 0 when nothing was added
+
+ private:
+  double sum_w_ = 0.0;
+  /// Weight and weighted sum of the normals (sign made canonical) per cell of a 0.1 grid of
+  /// the unit vector's coordinates.
+  std::map<std::array<int, 3>, std::pair<double, Vec3>> normals_;
+};
+
+/// A pose on fewer surface orientations than this rests on few surfaces (SurfaceOrientations):
+/// on one, in a rig the floor with nothing else holding 2 % of the camera's correspondences.
+constexpr int kFewSurfaceOrientations = 2;
+
 /// Accumulates the constraint rows of one camera's correspondences (world frame).
 class StabilityAccumulator {
  public:
@@ -48,12 +78,17 @@ class StabilityAccumulator {
   std::vector<WeakDirection> WeakDirections(const Vec3& camera_center_world,
                                             double threshold) const;
 
+  /// How many distinct surface orientations the rows rest on (SurfaceOrientations, each row
+  /// counted once: the noise weights give the near floor nearly all the weight).
+  int Orientations() const { return orientations_.Count(); }
+
  private:
   Mat6 moments_ = Mat6::Zero();  ///< sum of [p x n; n][p x n; n]^T (about the world origin)
   double sum_w_ = 0.0;
   Vec3 sum_p_ = Vec3::Zero();
   double sum_p2_ = 0.0;
   int count_ = 0;
+  SurfaceOrientations orientations_;
 };
 
 /// The information matrix (PoseManifold tangent of the camera) of a prior that holds the

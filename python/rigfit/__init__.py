@@ -32,8 +32,8 @@ from . import _rigfit
 if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
-__all__ = ["defaults", "refine", "RefineResult", "CameraReport", "PoseSigma", "WeakDirection",
-           "PairReport", "compare", "CompareResult", "CompareRun", "evaluate", "RigErrors",
+__all__ = ["defaults", "refine", "RefineResult", "CameraReport", "PoseSigma", "SigmaInflation",
+           "WeakDirection", "PairReport", "compare", "CompareResult", "CompareRun", "evaluate", "RigErrors",
            "PairError", "CameraTilt", "ErrorSummary", "RmsMax", "read_capture", "write_capture",
            "read_extrinsics", "write_extrinsics", "simulate", "SimulatedRig", "open_sequence",
            "Sequence", "Frame", "track", "TrackResult", "TrackedFrame", "TrackTimings", "slam",
@@ -111,6 +111,15 @@ class PoseSigma:
 
 
 @dataclass
+class SigmaInflation:
+    """How much what the residuals show (correlated noise, surfaces' bias) raised the noise
+    model's 1-sigma of a pose (``_meta``'s ``sigma_inflation``): factors, at least 1."""
+
+    rotation: float
+    translation: float
+
+
+@dataclass
 class WeakDirection:
     """A direction of a camera's pose that the data fixes poorly (``_meta``'s
     ``weak_directions``): which, its information against the best-constrained direction's, and
@@ -127,8 +136,12 @@ class CameraReport:
 
     ``covariance`` is the 6x6 covariance of the refined pose in the PoseManifold tangent (world
     rotation vector, world translation; gauge fixed by the reference), joint mode only, else
-    None; ``sigma`` its 1-sigma read-off. ``delta_*`` is the registration change (refined
-    against leveled), ``own_*`` the change against the rig that the safety bounds apply to.
+    None; ``sigma`` its 1-sigma read-off and ``sigma_inflation`` how much the residuals raised
+    it above the noise model's. ``surfaces`` is the number of distinct surface orientations the
+    joint pose rests on, ``few_surfaces`` whether they are too few for the 1-sigma to show one
+    surface's bias (0 and False outside joint mode). ``delta_*`` is the registration change
+    (refined against leveled), ``own_*`` the change against the rig that the safety bounds apply
+    to.
     """
 
     serial: str
@@ -146,6 +159,9 @@ class CameraReport:
     own_translation_m: float
     covariance: Optional["np.ndarray"]
     sigma: Optional[PoseSigma]
+    sigma_inflation: Optional[SigmaInflation]
+    surfaces: int
+    few_surfaces: bool
     weak_directions: List[WeakDirection]
 
 
@@ -193,6 +209,8 @@ class RefineResult:
 def _camera_report(raw: Dict[str, Any]) -> CameraReport:
     raw = dict(raw)
     raw["sigma"] = None if raw["sigma"] is None else PoseSigma(**raw["sigma"])
+    raw["sigma_inflation"] = (None if raw["sigma_inflation"] is None
+                              else SigmaInflation(**raw["sigma_inflation"]))
     raw["weak_directions"] = [WeakDirection(**w) for w in raw["weak_directions"]]
     return CameraReport(**raw)
 

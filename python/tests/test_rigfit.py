@@ -277,6 +277,8 @@ def test_camera_and_pair_reports_match_meta(rig):
         # Joint mode: the 6x6 covariance, symmetric, and its 1-sigma as in _meta.
         assert c.covariance.shape == (6, 6) and np.allclose(c.covariance, c.covariance.T)
         assert dataclasses.asdict(c.sigma) == m["sigma"]
+        assert dataclasses.asdict(c.sigma_inflation) == m["sigma_inflation"]
+        assert (c.surfaces, c.few_surfaces) == (m["surfaces"], m["few_surfaces"])
         assert [dataclasses.asdict(w) for w in c.weak_directions] == m.get("weak_directions", [])
     assert len(result.pairs) == len(meta["pairs"])
     for p, m in zip(result.pairs, meta["pairs"]):
