@@ -104,8 +104,8 @@ struct IcpOptions {
   int surface_rounds = 3;
   /// Surface bundle: keep its last round's planes and pixels in RefineResult::surface
   /// (SurfaceBundleReport::plane_list, terms, points) for a caller that looks inside it
-  /// (bench/rig_accuracy --segmentation, the reports' 3-D view of the planes). The refinement is the same either way; off, no pixel
-  /// is copied. Asked for in code, not a config key.
+  /// (bench/rig_accuracy --segmentation, the reports' 3-D view of the planes). The refinement is
+  /// the same either way; off, no pixel is copied. Asked for in code, not a config key.
   bool keep_surface_diagnostics = false;
   RobustLoss robust_loss = RobustLoss::kHuber;
   /// Scale of the robust loss on whitened residuals, in standard deviations.

@@ -13,7 +13,8 @@
 //
 // RGB-D pipeline: an RgbdSequence (core/rgbd.h) from OpenRgbdSequence (io/rgbd_sequence.h) or
 // a SimulatedSequence (sim/simulate_sequence.h) is tracked by RunOdometry (rgbd/odometry.h) or
-// RunSlam (rgbd/slam.h: frame-to-model, into a SurfelMap); EvaluateTrajectory
+// RunSlam (rgbd/slam.h: frame-to-model, into a SurfelMap), their loops closed by
+// CloseOdometryLoops / CloseSlamLoops (rgbd/loop_closure.h); EvaluateTrajectory
 // (core/trajectory.h) gives ATE and RPE, ReadTumTrajectory and WriteTumTrajectory
 // (io/trajectory_tum.h) the TUM files.
 //
@@ -41,6 +42,7 @@
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
 #include "options/refine_options.h"
+#include "rgbd/loop_closure.h"
 #include "rgbd/odometry.h"
 #include "rgbd/slam.h"
 #include "rgbd/tracking_options.h"
