@@ -140,7 +140,13 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   for (size_t i = 0; i < surfaces.size(); ++i) {
     surfaces[i].T_world_camera = joint->poses[i];
     surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
-    if (joint->covariance_ok) surfaces[i].start_covariance = joint->covariance[i];
+    // The start's information is the noise model's: the inflation (uncertainty/inflation.h)
+    // widens the reported 1-sigma, not the prior that holds the bundle at the joint pose.
+    if (joint->covariance_ok) {
+      const SigmaInflation& f = joint->sigma_inflation[i];
+      surfaces[i].start_covariance =
+          Inflated(joint->covariance[i], {1.0 / f.rotation, 1.0 / f.translation});
+    }
     // A camera the joint solve could not link keeps its leveled pose, which may be far off:
     // its pixels would pull the planes.
     if (!joint->connected[i]) surfaces[i].points.clear();
