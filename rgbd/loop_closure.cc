@@ -232,22 +232,29 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
   return result;
 }
 
-LoopClosureOptions LoopClosureOptionsOf(const OdometryOptions& options) {
+namespace {
+
+/// The settings a loop closure shares with the run it closes: frames, ICP, threads.
+LoopClosureOptions LoopClosureOptionsOfLoop(const TrackingLoopOptions& options) {
   LoopClosureOptions o;
   o.frame = options.frame;
   o.icp = options.icp;
-  o.keyframe_translation_m = options.keyframe_translation_m;
-  o.keyframe_rotation_deg = options.keyframe_rotation_deg;
   o.threads = options.threads;
   return o;
 }
 
+}  // namespace
+
+LoopClosureOptions LoopClosureOptionsOf(const OdometryOptions& options) {
+  LoopClosureOptions o = LoopClosureOptionsOfLoop(options);
+  o.keyframe_translation_m = options.keyframe_translation_m;
+  o.keyframe_rotation_deg = options.keyframe_rotation_deg;
+  return o;
+}
+
 LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options) {
-  LoopClosureOptions o;
-  o.frame = options.frame;
-  o.icp = options.icp;
+  LoopClosureOptions o = LoopClosureOptionsOfLoop(options);
   o.halvings = options.halvings;
-  o.threads = options.threads;
   return o;
 }
 
