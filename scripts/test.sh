@@ -3,8 +3,9 @@
 #   scripts/test.sh              Release build in build/ (or $RIGFIT_BUILD_DIR)
 #   scripts/test.sh --sanitize   the same suite built with AddressSanitizer +
 #                                UndefinedBehaviorSanitizer in build-asan/ (or
-#                                $RIGFIT_ASAN_BUILD_DIR), benchmarks left out; any finding
-#                                fails its test (docs/reliability.md)
+#                                $RIGFIT_ASAN_BUILD_DIR), benchmarks and the tests labelled
+#                                long (tests/long_tests.txt) left out; any finding fails
+#                                its test (docs/reliability.md)
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 sanitize=0
@@ -29,5 +30,5 @@ else
   export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:check_initialization_order=1:strict_init_order=1}"
   export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1}"
   export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$root/scripts/lsan_suppressions.txt}"
-  ctest --output-on-failure -j2
+  ctest --output-on-failure -j2 --label-exclude long
 fi

@@ -1,0 +1,15 @@
+# cmake -DTESTS_DIR=<build>/tests -P check_long_tests.cmake: fails when a name of
+# tests/long_tests.txt is not among the tests gtest_discover_tests found (ctest would ignore it).
+file(STRINGS ${CMAKE_CURRENT_LIST_DIR}/long_tests.txt long_tests REGEX "^[^#]")
+file(GLOB discovered ${TESTS_DIR}/*_tests.cmake)
+set(all "")
+foreach(file IN LISTS discovered)
+  file(READ ${file} text)
+  string(APPEND all "${text}")
+endforeach()
+foreach(name IN LISTS long_tests)
+  string(FIND "${all}" "add_test([=[${name}]=]" at)
+  if(at EQUAL -1)
+    message(FATAL_ERROR "tests/long_tests.txt: no test named ${name}")
+  endif()
+endforeach()
