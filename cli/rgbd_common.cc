@@ -4,9 +4,35 @@
 
 #include "core/errors.h"
 #include "core/format.h"
+#include "io/rgbd_sequence.h"
 #include "rgbd/tracking_options.h"
 
 namespace rigfit::cli {
+namespace {
+
+/// --guard/--no-guard and --weak-ratio (into *weak_ratio, applied by ApplyTrackingArgs).
+void AddGuardFlags(CLI::App* sub, GuardOptions* guard, double* weak_ratio) {
+  sub->add_flag("--guard,!--no-guard", guard->enabled,
+                "Guard against divergence: damp the constant-velocity prior along weak "
+                "directions, re-track a frame that jumps, loses its matches or whose residual "
+                "rises from the last good pose, count it recovered or diverged (default; "
+                "docs/rgbd.md)");
+  sub->add_option("--weak-ratio", *weak_ratio,
+                  "A direction of the motion is weak (held at the prediction) when its "
+                  "eigenvalue of the scaled information matrix is below this share of the "
+                  "largest")
+      ->capture_default_str();
+}
+
+void AddLoopClosureFlag(CLI::App* sub, bool* loop_closure) {
+  sub->add_flag("--loop-closure,!--no-loop-closure", *loop_closure,
+                std::string("Close loops after the run: revisited keyframes verified by ICP, a "
+                            "keyframe pose graph solved, every frame moved with its keyframe (") +
+                    (LoopClosureOptions{}.enabled ? "default" : "off by default") +
+                    "; docs/rgbd.md)");
+}
+
+}  // namespace
 
 std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
                                                  const SequenceOptions& options, const Log& log) {
@@ -52,19 +78,6 @@ std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Traject
     log.Warning(std::string("--evaluate: ") + error.what());
   }
   return text;
-}
-
-void AddGuardFlags(CLI::App* sub, GuardOptions* guard, double* weak_ratio) {
-  sub->add_flag("--guard,!--no-guard", guard->enabled,
-                "Guard against divergence: damp the constant-velocity prior along weak "
-                "directions, re-track a frame that jumps, loses its matches or whose residual "
-                "rises from the last good pose, count it recovered or diverged (default; "
-                "docs/rgbd.md)");
-  sub->add_option("--weak-ratio", *weak_ratio,
-                  "A direction of the motion is weak (held at the prediction) when its "
-                  "eigenvalue of the scaled information matrix is below this share of the "
-                  "largest")
-      ->capture_default_str();
 }
 
 void CountWeakDirections(const TrackResult& track, GuardCounts* counts) {
@@ -115,14 +128,6 @@ std::vector<std::string> GuardMetadata(const std::string& command, const GuardCo
   return lines;
 }
 
-void AddLoopClosureFlag(CLI::App* sub, bool* loop_closure) {
-  sub->add_flag("--loop-closure,!--no-loop-closure", *loop_closure,
-                std::string("Close loops after the run: revisited keyframes verified by ICP, a "
-                            "keyframe pose graph solved, every frame moved with its keyframe (") +
-                    (LoopClosureOptions{}.enabled ? "default" : "off by default") +
-                    "; docs/rgbd.md)");
-}
-
 std::string LoopClosureSummaryText(const LoopClosureResult& closed) {
   std::string text;
   Appendf(&text, "loop closure: %zu keyframes, %d candidate(s), %d loop(s) accepted; %s (%.2f s)\n",
@@ -151,6 +156,64 @@ std::string UnclosedEvaluationText(const RgbdSequence& sequence, const Trajector
     begin = end + 1;
   }
   return prefixed;
+}
+
+void AddSequenceArguments(CLI::App* sub, TrackingArgs* args) {
+  sub->add_option("SEQUENCE", args->sequence_path, "Sequence folder or capture file")->required();
+  sub->add_option("--out", args->out_path, "Trajectory to write (TUM format)")->required();
+}
+
+void AddFrameSelectionFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
+  sub->add_option("--camera", args->sequence.serial,
+                  "Capture file: the camera's serial (default: the first)");
+  sub->add_option("--tum-camera", args->sequence.tum_camera,
+                  "TUM folder: fr1, fr2, fr3 or default (default: from the folder or depth.txt)");
+  sub->add_option("--intrinsics", args->intrinsics,
+                  "fx,fy,cx,cy of the depth image instead of the format's")
+      ->delimiter(',');
+  sub->add_option("--first", loop->first_frame, "First frame index")->capture_default_str();
+  sub->add_option("--max-frames", loop->max_frames, "Frames to track (0 = all)")
+      ->capture_default_str();
+  sub->add_option("--stride", loop->stride, "Track every N-th frame")->capture_default_str();
+}
+
+void AddFrameStartFlags(CLI::App* sub, TrackingArgs* args) {
+  sub->add_option("--iterations", args->iterations,
+                  "Gauss-Newton iterations per pyramid level, finest first (the count of "
+                  "numbers is the number of levels)")
+      ->delimiter(',')
+      ->capture_default_str();
+  sub->add_option("--prior", args->prior, "Start of each frame: constant-velocity or identity")
+      ->capture_default_str();
+}
+
+void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop) {
+  sub->add_option("--min-depth", loop->frame.min_depth_m, "Depth used from, metres")
+      ->capture_default_str();
+  sub->add_option("--max-depth", loop->frame.max_depth_m, "Depth used up to, metres")
+      ->capture_default_str();
+  sub->add_option("--max-distance", loop->icp.association.max_distance_m,
+                  "Tracking: largest point distance, metres")
+      ->capture_default_str();
+  sub->add_option("--max-angle", loop->icp.association.max_normal_angle_deg,
+                  "Tracking: largest normal angle, degrees")
+      ->capture_default_str();
+}
+
+void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
+  AddGuardFlags(sub, &loop->guard, &args->weak_ratio);
+  AddLoopClosureFlag(sub, &args->loop_closure);
+  sub->add_option("--threads", loop->threads, "Threads")->capture_default_str();
+  sub->add_flag("--evaluate", args->evaluate,
+                "Print ATE and RPE against the sequence's own ground truth");
+  sub->add_flag("--quiet", args->quiet, "No progress on stderr (warnings still)");
+}
+
+void ApplyTrackingArgs(TrackingArgs* args, TrackingLoopOptions* loop) {
+  ApplyTrackingSettings(args->prior, args->iterations, loop->threads, loop->max_frames,
+                        &loop->prior, &loop->frame, &loop->icp);
+  ApplyWeakRatio(args->weak_ratio, &loop->icp);
+  SetSequenceIntrinsics(args->intrinsics, &args->sequence);
 }
 
 }  // namespace rigfit::cli

@@ -1,5 +1,5 @@
-// What `rigfit track` and `rigfit slam` share: the tracking flags, the --intrinsics option
-// and the --evaluate lines against the sequence's ground truth.
+// What `rigfit track` and `rigfit slam` share: their arguments and flags, the --evaluate
+// lines against the sequence's ground truth, the guard's and the loop closure's outputs.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -17,8 +17,43 @@
 #include "rgbd/motion_guard.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
+#include "rgbd/tracking_loop.h"
 
 namespace rigfit::cli {
+
+/// The command-line arguments both commands read beside their options structs.
+struct TrackingArgs {
+  std::string sequence_path;
+  std::string out_path;
+  SequenceOptions sequence;
+  std::string prior = "constant-velocity";
+  std::vector<int> iterations = {10, 5, 4};
+  std::vector<double> intrinsics;  ///< fx, fy, cx, cy
+  double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
+  bool loop_closure = LoopClosureOptions{}.enabled;
+  bool evaluate = false;
+  bool quiet = false;
+};
+
+/// SEQUENCE and --out.
+void AddSequenceArguments(CLI::App* sub, TrackingArgs* args);
+
+/// The frames to track: --camera, --tum-camera, --intrinsics, --first, --max-frames, --stride.
+void AddFrameSelectionFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop);
+
+/// How each frame starts: --iterations and --prior.
+void AddFrameStartFlags(CLI::App* sub, TrackingArgs* args);
+
+/// The depth used and the tracking's association: --min-depth, --max-depth, --max-distance,
+/// --max-angle.
+void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop);
+
+/// The run's end: the guard's flags, --loop-closure, --threads, --evaluate and --quiet.
+void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop);
+
+/// Applies what `args` holds beside `loop` (--prior, --iterations, --weak-ratio into `loop`;
+/// --intrinsics into args->sequence) and checks the loop's settings (SettingError).
+void ApplyTrackingArgs(TrackingArgs* args, TrackingLoopOptions* loop);
 
 /// Opens the sequence (io/rgbd_sequence.h), its loader's warnings and its description to `log`.
 std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
@@ -29,10 +64,6 @@ std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,
 /// sequence has none or the two cannot be compared.
 std::string TrajectoryEvaluationText(const RgbdSequence& sequence, const Trajectory& estimate,
                                      const Log& log);
-
-/// The guard's flags both commands take: --guard/--no-guard and --weak-ratio (into
-/// *weak_ratio, applied by rgbd/tracking_options.h's ApplyWeakRatio).
-void AddGuardFlags(CLI::App* sub, GuardOptions* guard, double* weak_ratio);
 
 /// What a run's frames went through, for the summary and the trajectory's metadata.
 struct GuardCounts {
@@ -70,9 +101,6 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log);
 /// The '#' lines of the TUM output: "<command>: frames F, failed X, restarts S, recovered R,
 /// diverged D, weak-direction frames W" and, when any, the weak directions' counts.
 std::vector<std::string> GuardMetadata(const std::string& command, const GuardCounts& counts);
-
-/// The --loop-closure/--no-loop-closure flag both commands take.
-void AddLoopClosureFlag(CLI::App* sub, bool* loop_closure);
 
 /// The summary line of a loop closure: keyframes, candidates, accepted loops, whether the
 /// trajectory was corrected, the time.

@@ -30,23 +30,12 @@
 namespace rigfit::cli {
 namespace {
 
-struct SlamArgs {
-  std::string sequence_path;
-  std::string out_path;
+struct SlamArgs : TrackingArgs {
   std::string map_path;
   std::string report_dir;  ///< empty: no report
   bool force = false;
-  SequenceOptions sequence;
   SlamOptions slam;
-  std::string prior = "constant-velocity";
-  std::vector<int> iterations = {10, 5, 4};
-  std::vector<double> intrinsics;  ///< fx, fy, cx, cy
-  double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
-  bool loop_closure = LoopClosureOptions{}.enabled;
-  bool evaluate = false;
-  bool quiet = false;
 };
-
 /// The report's overlays: the sequence's ground truth over the run's time span (when it has
 /// one), then the estimated trajectory.
 std::vector<MapOverlay> TrajectoryOverlays(const RgbdSequence& sequence,
@@ -71,11 +60,8 @@ int RunSlamCommand(SlamArgs a) {
     CheckOutputFile(a.map_path, {a.sequence_path, a.out_path}, a.force, "slam: --map");
   }
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "slam: --report");
-  ApplyTrackingSettings(a.prior, a.iterations, a.slam.threads, a.slam.max_frames, &a.slam.prior,
-                        &a.slam.frame, &a.slam.icp);
+  ApplyTrackingArgs(&a, &a.slam);
   CheckSlamSettings(a.slam);
-  ApplyWeakRatio(a.weak_ratio, &a.slam.icp);
-  SetSequenceIntrinsics(a.intrinsics, &a.sequence);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
   const std::unique_ptr<RgbdSequence> sequence =
@@ -155,8 +141,7 @@ Command AddSlamCommand(CLI::App& app) {
       "PLY with normals (and colours) and, with --report, as a picture from above. Exit codes: 0 "
       "done (failed frames are warned and "
       "counted); 2 bad input or usage (nothing written).");
-  sub->add_option("SEQUENCE", a.sequence_path, "Sequence folder or capture file")->required();
-  sub->add_option("--out", a.out_path, "Trajectory to write (TUM format)")->required();
+  AddSequenceArguments(sub, &a);
   sub->add_option("--map", a.map_path,
                   "Surfel map to write (PLY with normals and colours); its directory must "
                   "exist, and it must not be an input file");
@@ -166,38 +151,13 @@ Command AddSlamCommand(CLI::App& app) {
                   "page showing it with the summary (index.html), and an interactive 3-D view of "
                   "the map and trajectories (view3d.html, opens offline) into this directory "
                   "(created; its parent must exist)");
-  sub->add_option("--camera", a.sequence.serial,
-                  "Capture file: the camera's serial (default: the first)");
-  sub->add_option("--tum-camera", a.sequence.tum_camera,
-                  "TUM folder: fr1, fr2, fr3 or default (default: from the folder or depth.txt)");
-  sub->add_option("--intrinsics", a.intrinsics,
-                  "fx,fy,cx,cy of the depth image instead of the format's")
-      ->delimiter(',');
-  sub->add_option("--first", a.slam.first_frame, "First frame index")->capture_default_str();
-  sub->add_option("--max-frames", a.slam.max_frames, "Frames to track (0 = all)")
-      ->capture_default_str();
-  sub->add_option("--stride", a.slam.stride, "Track every N-th frame")->capture_default_str();
+  AddFrameSelectionFlags(sub, &a, &a.slam);
   sub->add_option("--halve", a.slam.halvings,
                   "Halve the frames' resolution this many times first (1: 640x480 runs at "
                   "320x240; depth averaged over 2x2 blocks without crossing a depth jump)")
       ->capture_default_str();
-  sub->add_option("--iterations", a.iterations,
-                  "Gauss-Newton iterations per pyramid level, finest first (the count of "
-                  "numbers is the number of levels)")
-      ->delimiter(',')
-      ->capture_default_str();
-  sub->add_option("--prior", a.prior, "Start of each frame: constant-velocity or identity")
-      ->capture_default_str();
-  sub->add_option("--min-depth", a.slam.frame.min_depth_m, "Depth used from, metres")
-      ->capture_default_str();
-  sub->add_option("--max-depth", a.slam.frame.max_depth_m, "Depth used up to, metres")
-      ->capture_default_str();
-  sub->add_option("--max-distance", a.slam.icp.association.max_distance_m,
-                  "Tracking: largest point distance, metres")
-      ->capture_default_str();
-  sub->add_option("--max-angle", a.slam.icp.association.max_normal_angle_deg,
-                  "Tracking: largest normal angle, degrees")
-      ->capture_default_str();
+  AddFrameStartFlags(sub, &a);
+  AddDepthAndAssociationFlags(sub, &a.slam);
   sub->add_option("--fuse-distance", a.slam.fusion.max_distance_m,
                   "Fusion: merge a pixel into a map point only within this distance (metres)")
       ->capture_default_str();
@@ -228,12 +188,7 @@ Command AddSlamCommand(CLI::App& app) {
       "Render each map point over its surfel disc, or on its nearest pixel only (default)");
   sub->add_flag("--color,!--no-color", a.slam.color,
                 "Fuse the sequence's registered colour when it has one (default)");
-  AddGuardFlags(sub, &a.slam.guard, &a.weak_ratio);
-  AddLoopClosureFlag(sub, &a.loop_closure);
-  sub->add_option("--threads", a.slam.threads, "Threads")->capture_default_str();
-  sub->add_flag("--evaluate", a.evaluate,
-                "Print ATE and RPE against the sequence's own ground truth");
-  sub->add_flag("--quiet", a.quiet, "No progress on stderr (warnings still)");
+  AddRunFlags(sub, &a, &a.slam);
   return {sub, [args] { return RunSlamCommand(*args); }};
 }
 

@@ -21,28 +21,13 @@
 namespace rigfit::cli {
 namespace {
 
-struct TrackArgs {
-  std::string sequence_path;
-  std::string out_path;
-  SequenceOptions sequence;
+struct TrackArgs : TrackingArgs {
   OdometryOptions odometry;
-  std::string prior = "constant-velocity";
-  std::vector<int> iterations = {10, 5, 4};
-  std::vector<double> intrinsics;  ///< fx, fy, cx, cy
   double min_step_m = ProjectiveIcpOptions{}.converged_translation_m;
-  double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
-  bool loop_closure = LoopClosureOptions{}.enabled;
-  bool evaluate = false;
-  bool quiet = false;
 };
-
 int RunTrack(TrackArgs a) {
-  ApplyTrackingSettings(a.prior, a.iterations, a.odometry.threads, a.odometry.max_frames,
-                        &a.odometry.prior, &a.odometry.frame, &a.odometry.icp);
+  ApplyTrackingArgs(&a, &a.odometry);
   ApplyMinStep(a.min_step_m, &a.odometry.icp);
-  ApplyWeakRatio(a.weak_ratio, &a.odometry.icp);
-
-  SetSequenceIntrinsics(a.intrinsics, &a.sequence);
 
   const Log log = StderrLog("track: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
   const std::unique_ptr<RgbdSequence> sequence =
@@ -100,60 +85,28 @@ Command AddTrackCommand(CLI::App& app) {
       "--no-keyframes: the previous frame) by projective point-to-plane ICP, coarse to fine; "
       "the trajectory is written in the TUM format (timestamp tx ty tz qx qy qz qw). Exit "
       "codes: 0 done (failed frames are warned and counted); 2 bad input or usage.");
-  sub->add_option("SEQUENCE", args->sequence_path, "Sequence folder or capture file")->required();
-  sub->add_option("--out", args->out_path, "Trajectory to write (TUM format)")->required();
-  sub->add_option("--camera", args->sequence.serial,
-                  "Capture file: the camera's serial (default: the first)");
-  sub->add_option("--tum-camera", args->sequence.tum_camera,
-                  "TUM folder: fr1, fr2, fr3 or default (default: from the folder or depth.txt)");
-  sub->add_option("--intrinsics", args->intrinsics,
-                  "fx,fy,cx,cy of the depth image instead of the format's")
-      ->delimiter(',');
-  sub->add_option("--first", args->odometry.first_frame, "First frame index")
-      ->capture_default_str();
-  sub->add_option("--max-frames", args->odometry.max_frames, "Frames to track (0 = all)")
-      ->capture_default_str();
-  sub->add_option("--stride", args->odometry.stride, "Track every N-th frame")
-      ->capture_default_str();
-  sub->add_option("--iterations", args->iterations,
-                  "Gauss-Newton iterations per pyramid level, finest first (the count of "
-                  "numbers is the number of levels)")
-      ->delimiter(',')
-      ->capture_default_str();
-  sub->add_option("--prior", args->prior, "Start of each frame: constant-velocity or identity")
-      ->capture_default_str();
-  sub->add_flag("--keyframes,!--no-keyframes", args->odometry.keyframes,
+  TrackArgs& a = *args;
+  AddSequenceArguments(sub, &a);
+  AddFrameSelectionFlags(sub, &a, &a.odometry);
+  AddFrameStartFlags(sub, &a);
+  sub->add_flag("--keyframes,!--no-keyframes", a.odometry.keyframes,
                 "Track against a keyframe, renewed after 10 cm, 5 deg or half the pixels lost "
                 "(default), or against the previous frame");
-  sub->add_option("--min-depth", args->odometry.frame.min_depth_m, "Depth used from, metres")
-      ->capture_default_str();
-  sub->add_option("--max-depth", args->odometry.frame.max_depth_m, "Depth used up to, metres")
-      ->capture_default_str();
-  sub->add_flag("--bilateral,!--no-bilateral", args->odometry.frame.bilateral,
+  AddDepthAndAssociationFlags(sub, &a.odometry);
+  sub->add_flag("--bilateral,!--no-bilateral", a.odometry.frame.bilateral,
                 "Level-0 normals from the bilateral-filtered depth; the points stay the measured "
                 "ones (default)");
-  sub->add_option("--max-distance", args->odometry.icp.association.max_distance_m,
-                  "Association: largest point distance, metres")
-      ->capture_default_str();
-  sub->add_option("--max-angle", args->odometry.icp.association.max_normal_angle_deg,
-                  "Association: largest normal angle, degrees")
-      ->capture_default_str();
-  sub->add_flag("--depth-weights,!--no-depth-weights", args->odometry.icp.weighting.depth_noise,
+  sub->add_flag("--depth-weights,!--no-depth-weights", a.odometry.icp.weighting.depth_noise,
                 "Weigh pairs by the inverse variance of depth noise growing as z^2 (default)");
-  sub->add_option("--huber", args->odometry.icp.weighting.huber_delta_m,
+  sub->add_option("--huber", a.odometry.icp.weighting.huber_delta_m,
                   "Huber threshold on the whitened point-to-plane distance (metres at 1 m depth; "
                   "with depth weights it grows as z^2); 0 = off")
       ->capture_default_str();
-  sub->add_option("--min-step", args->min_step_m,
+  sub->add_option("--min-step", a.min_step_m,
                   "A pyramid level ends when a step moves the camera less than this (metres) and "
                   "turns it less than this many radians")
       ->capture_default_str();
-  AddGuardFlags(sub, &args->odometry.guard, &args->weak_ratio);
-  AddLoopClosureFlag(sub, &args->loop_closure);
-  sub->add_option("--threads", args->odometry.threads, "Threads")->capture_default_str();
-  sub->add_flag("--evaluate", args->evaluate,
-                "Print ATE and RPE against the sequence's own ground truth");
-  sub->add_flag("--quiet", args->quiet, "No progress on stderr (warnings still)");
+  AddRunFlags(sub, &a, &a.odometry);
   return {sub, [args] { return RunTrack(*args); }};
 }
 
