@@ -126,11 +126,14 @@ void ClearLevel(int width, int height, const PinholeIntrinsics& intrinsics, Fram
 
 }  // namespace
 
-void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
-                 const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
-                 int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view) {
-  ClearLevel(width, height, intrinsics, level);
-  const MapProjector projector(map, T_world_camera, intrinsics, options, frame_index);
+void RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
+                 const RenderOptions& options, int threads, ZBuffer* zbuffer, FrameLevel* level,
+                 MapView* view) {
+  const int width = viewpoint.width;
+  const int height = viewpoint.height;
+  ClearLevel(width, height, viewpoint.intrinsics, level);
+  const MapProjector projector(map, viewpoint.T_world_camera, viewpoint.intrinsics, options,
+                               viewpoint.frame_index);
   // 1. Every thread projects its share of the points into its own z-buffer (and collects
   // the view's points).
   const int pixels = width * height;
@@ -168,21 +171,19 @@ void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, in
     if (keys[j] != ZBuffer::kEmpty) level->valid_pixels.push_back(j);
   }
   if (view) {
-    view->T_world_camera = T_world_camera;
-    view->intrinsics = intrinsics;
+    view->T_world_camera = viewpoint.T_world_camera;
+    view->intrinsics = viewpoint.intrinsics;
     view->width = width;
     view->height = height;
     view->map_size = map.size();
   }
 }
 
-FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
-                       const PinholeIntrinsics& intrinsics, const RenderOptions& options,
-                       int frame_index, int threads) {
+FrameLevel RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
+                       const RenderOptions& options, int threads) {
   FrameLevel level;
   ZBuffer zbuffer;
-  RenderModel(map, T_world_camera, width, height, intrinsics, options, frame_index, threads,
-              &zbuffer, &level, nullptr);
+  RenderModel(map, viewpoint, options, threads, &zbuffer, &level, nullptr);
   return level;
 }
 
@@ -214,8 +215,8 @@ class ModelTarget : public TrackingTarget {
     const auto start = std::chrono::steady_clock::now();
     const FrameLevel& base = pyramid.levels[0];
     model_.levels.resize(1);
-    RenderModel(result_->map, T_world_start, base.width, base.height, base.intrinsics,
-                options_.render, index, options_.threads, &zbuffer_, &model_.levels[0], &view_);
+    RenderModel(result_->map, {T_world_start, base.width, base.height, base.intrinsics, index},
+                options_.render, options_.threads, &zbuffer_, &model_.levels[0], &view_);
     BuildCoarserLevels(&model_, options_.frame.levels, options_.frame.max_depth_jump_ratio,
                        options_.threads);
     model_pixels_ = static_cast<int>(model_.levels[0].valid_pixels.size());

@@ -37,24 +37,32 @@ struct RenderOptions {
   int max_splat_px = 2;
 };
 
-/// The map seen from T_world_camera by a camera of the given size and intrinsics: a z-buffer
-/// (index map) where each rendered map point p, moved into the camera (p_c = R^T (p - t)) and
-/// projected, fills its nearest pixel (and with options.splat the pixels of its disc) unless
-/// a point closer along the ray is already there (at equal depth: the lower index). The
-/// level's vertices and normals are the points' (camera frame), depth_m their z; uncovered
-/// pixels are invalid (NaN), as in a frame. `frame_index`: the current frame, the clock of
-/// RenderOptions::recent_frames. The points are split over `threads` threads, each with its
-/// own z-buffer, merged by depth: the result has the same bits for every thread count.
-FrameLevel RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
-                       const PinholeIntrinsics& intrinsics, const RenderOptions& options,
-                       int frame_index = 0, int threads = 2);
+/// Where the model is seen from: the camera's pose, image size and intrinsics, and the current
+/// frame (the clock of RenderOptions::recent_frames).
+struct ModelViewpoint {
+  Pose T_world_camera = Pose::Identity();
+  int width = 0;
+  int height = 0;
+  PinholeIntrinsics intrinsics;
+  int frame_index = 0;
+};
+
+/// The map seen from `viewpoint`: a z-buffer (index map) where each rendered map point p, moved
+/// into the camera (p_c = R^T (p - t)) and projected, fills its nearest pixel (and with
+/// options.splat the pixels of its disc) unless a point closer along the ray is already there
+/// (at equal depth: the lower index). The level's vertices and normals are the points' (camera
+/// frame), depth_m their z; uncovered pixels are invalid (NaN), as in a frame. The points are
+/// split over `threads` threads, each with its own z-buffer, merged by depth: the result has
+/// the same bits for every thread count.
+FrameLevel RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
+                       const RenderOptions& options, int threads = 2);
 
 /// As above, into *level, whose buffers are reused, as are *zbuffer's (what a sequence
 /// renders every frame without allocating); with a `view`, also collects the map points near
 /// the view (MapView, rgbd/surfel_map.h) for the fusion of the same frame.
-void RenderModel(const SurfelMap& map, const Pose& T_world_camera, int width, int height,
-                 const PinholeIntrinsics& intrinsics, const RenderOptions& options, int frame_index,
-                 int threads, ZBuffer* zbuffer, FrameLevel* level, MapView* view = nullptr);
+void RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
+                 const RenderOptions& options, int threads, ZBuffer* zbuffer, FrameLevel* level,
+                 MapView* view = nullptr);
 
 /// SLAM's settings: the shared loop's (rgbd/tracking_loop.h; a restart drops the map and starts
 /// a new one from the current frame), fusion, rendering, colour and resolution.

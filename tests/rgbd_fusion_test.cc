@@ -231,8 +231,8 @@ TEST_F(RgbdFusionRoom, CoveredPixelsAreNotAddedSoAJitteringViewStaysBounded) {
   EXPECT_LT(covered_map.size() - one_view, 0.25 * (full_map.size() - one_view));
   // The points left out were on surfaces already in the map: rendered, the two maps cover the
   // view alike.
-  const FrameLevel a = RenderModel(covered_map, T, 160, 120, levels[0].intrinsics, {});
-  const FrameLevel b = RenderModel(full_map, T, 160, 120, levels[0].intrinsics, {});
+  const FrameLevel a = RenderModel(covered_map, {T, 160, 120, levels[0].intrinsics}, {});
+  const FrameLevel b = RenderModel(full_map, {T, 160, 120, levels[0].intrinsics}, {});
   EXPECT_GT(a.valid_pixels.size(), 0.9 * b.valid_pixels.size());
 }
 

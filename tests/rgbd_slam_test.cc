@@ -32,7 +32,7 @@ TEST(RgbdRender, APointFillsThePixelItProjectsToAndTheNearestIsKept) {
   map.FuseFrame(SinglePixelLevel(1.0f), Pose::Identity(), 1, FusionOptions{});
   ASSERT_EQ(map.size(), 2);
   const PinholeIntrinsics K{10.0, 10.0, 2.0, 2.0};
-  const FrameLevel same = RenderModel(map, Pose::Identity(), 5, 5, K, PixelOnly());
+  const FrameLevel same = RenderModel(map, {Pose::Identity(), 5, 5, K}, PixelOnly());
   ASSERT_EQ(same.valid_pixels, std::vector<int>{12});
   EXPECT_FLOAT_EQ(same.depth_m[12], 1.0f);  // the nearer one
   EXPECT_LT((same.vertices[12] - Vec3f(0, 0, 1)).norm(), 1e-6f);
@@ -42,7 +42,7 @@ TEST(RgbdRender, APointFillsThePixelItProjectsToAndTheNearestIsKept) {
   // at 1 m at u = 10 * 0.2 / 1 + 2 = 4, both in the middle row, in the camera's frame.
   Pose left = Pose::Identity();
   left.translation() = Vec3(-0.2, 0.0, 0.0);
-  const FrameLevel moved = RenderModel(map, left, 5, 5, K, PixelOnly());
+  const FrameLevel moved = RenderModel(map, {left, 5, 5, K}, PixelOnly());
   ASSERT_EQ(moved.valid_pixels, (std::vector<int>{13, 14}));
   EXPECT_LT((moved.vertices[13] - Vec3f(0.2f, 0, 2)).norm(), 1e-6f);
   EXPECT_LT((moved.vertices[14] - Vec3f(0.2f, 0, 1)).norm(), 1e-6f);
@@ -51,7 +51,7 @@ TEST(RgbdRender, APointFillsThePixelItProjectsToAndTheNearestIsKept) {
   Pose behind = Pose::Identity();
   behind.linear() = ExpSO3(Vec3(0.0, M_PI, 0.0));
   behind.translation() = Vec3(0.0, 0.0, 3.0);
-  EXPECT_TRUE(RenderModel(map, behind, 5, 5, K, PixelOnly()).valid_pixels.empty());
+  EXPECT_TRUE(RenderModel(map, {behind, 5, 5, K}, PixelOnly()).valid_pixels.empty());
 }
 
 TEST(RgbdRender, ConfidenceFilterDropsUnstableOldPointsOnly) {
@@ -61,10 +61,10 @@ TEST(RgbdRender, ConfidenceFilterDropsUnstableOldPointsOnly) {
   RenderOptions options = PixelOnly();
   options.min_weight = 2.0f;
   options.recent_frames = 3;
-  EXPECT_EQ(RenderModel(map, Pose::Identity(), 5, 5, K, options, 3).valid_pixels.size(), 1u);
-  EXPECT_TRUE(RenderModel(map, Pose::Identity(), 5, 5, K, options, 4).valid_pixels.empty());
+  EXPECT_EQ(RenderModel(map, {Pose::Identity(), 5, 5, K, 3}, options).valid_pixels.size(), 1u);
+  EXPECT_TRUE(RenderModel(map, {Pose::Identity(), 5, 5, K, 4}, options).valid_pixels.empty());
   map.FuseFrame(SinglePixelLevel(2.0f), Pose::Identity(), 1, FusionOptions{});  // weight 2
-  EXPECT_EQ(RenderModel(map, Pose::Identity(), 5, 5, K, options, 100).valid_pixels.size(), 1u);
+  EXPECT_EQ(RenderModel(map, {Pose::Identity(), 5, 5, K, 100}, options).valid_pixels.size(), 1u);
 }
 
 TEST(RgbdRender, ARenderedMapLiesOnTheSurfacesAndSplattingFillsItsHoles) {
@@ -77,10 +77,10 @@ TEST(RgbdRender, ARenderedMapLiesOnTheSurfacesAndSplattingFillsItsHoles) {
   }
   const RgbdFrame view = Render(scene, poses[5], 160, 120);
   const FramePyramid frame = BuildFramePyramid(view, FrameOptions{});
-  const FrameLevel pixels = RenderModel(map, poses[5], 160, 120, view.intrinsics, PixelOnly());
+  const FrameLevel pixels = RenderModel(map, {poses[5], 160, 120, view.intrinsics}, PixelOnly());
   RenderOptions splat;
   splat.splat = true;
-  const FrameLevel splats = RenderModel(map, poses[5], 160, 120, view.intrinsics, splat);
+  const FrameLevel splats = RenderModel(map, {poses[5], 160, 120, view.intrinsics}, splat);
   EXPECT_GT(splats.valid_pixels.size(), pixels.valid_pixels.size());
   EXPECT_GT(splats.valid_pixels.size(), 0.9 * frame.levels[0].valid_pixels.size());
   // Where the frame has a depth the rendered one is within a millimetre of it (creases and
@@ -140,10 +140,10 @@ TEST(RgbdRender, ThreadsGiveTheSerialResultExactly) {
   RenderOptions splat;
   splat.splat = true;
   for (const RenderOptions& options : {PixelOnly(), splat}) {
-    const FrameLevel one = RenderModel(serial, poses[5], 160, 120, K, options, 9, 1);
+    const FrameLevel one = RenderModel(serial, {poses[5], 160, 120, K, 9}, options, 1);
     EXPECT_GT(one.valid_pixels.size(), 10000u);
-    ExpectSameLevel(one, RenderModel(serial, poses[5], 160, 120, K, options, 9, 2));
-    ExpectSameLevel(one, RenderModel(serial, poses[5], 160, 120, K, options, 9, 3));
+    ExpectSameLevel(one, RenderModel(serial, {poses[5], 160, 120, K, 9}, options, 2));
+    ExpectSameLevel(one, RenderModel(serial, {poses[5], 160, 120, K, 9}, options, 3));
   }
 }
 
@@ -172,7 +172,7 @@ TEST(RgbdRender, FusingThroughTheRenderedViewEqualsFusingThroughTheWholeMap) {
     FrameLevel model;
     MapView view;
     view.margin_px = 6;
-    RenderModel(with_view, predicted, 160, 120, level.intrinsics, {}, k, 2, &zbuffer, &model,
+    RenderModel(with_view, {predicted, 160, 120, level.intrinsics, k}, {}, 2, &zbuffer, &model,
                 &view);
     const bool covers =
         view.Covers(level, poses[k], with_view.size(), FusionOptions{}.max_distance_m);
@@ -192,7 +192,8 @@ TEST(RgbdRender, FusingThroughTheRenderedViewEqualsFusingThroughTheWholeMap) {
   MapView view;
   ZBuffer zbuffer;
   FrameLevel model;
-  RenderModel(whole, poses[6], 160, 120, Intrinsics(160, 120), {}, 12, 2, &zbuffer, &model, &view);
+  RenderModel(whole, {poses[6], 160, 120, Intrinsics(160, 120), 12}, {}, 2, &zbuffer, &model,
+              &view);
   const FrameLevel level =
       BuildFramePyramid(Render(scene, poses[6], 160, 120), FrameOptions{}).levels[0];
   EXPECT_TRUE(view.Covers(level, poses[6], whole.size(), 0.05));
