@@ -239,7 +239,7 @@ speed_table_header() {
 run_speed() {
   local file runs=3 breakdown_runs=5 cams=(2 4 8 16) sizes=(320x180 640x360 1280x720) base=640x360
   file="$(header speed)"
-  [ $quick = 1 ] && { runs=1; breakdown_runs=1; cams=(2); sizes=(160x90); base=160x90; }
+  [ $quick = 1 ] && { runs=1; breakdown_runs=1; cams=(4); sizes=(160x90); base=160x90; }
   local data="$out/raw/captures"
   mkdir -p "$data"
   {
@@ -251,30 +251,27 @@ run_speed() {
     echo "Each cell is the median over the runs. The machine is"
     echo "shared with other engineers' jobs while measuring: the load average column says how busy it was."
     echo
-    echo "#### Stage breakdown: 4 cameras, $base, $breakdown_runs runs"
+    echo "#### Stage breakdown by cameras and resolution ($runs runs; 4 cameras $base: $breakdown_runs)"
     echo
     speed_table_header
   } >>"$file"
-  simulate "$data/c4-$base" --cameras 4 --width "${base%x*}" --height "${base#*x}"
-  for mode in joint pairwise surface_bundle; do
-    speed_case "$data/c4-$base" "$mode" "$breakdown_runs" "$file" "4 cameras $base"
-  done
-  { echo; echo "#### Scaling with the number of cameras: $base, $runs runs"; echo; speed_table_header; } >>"$file"
+  local c s n mode
   for c in "${cams[@]}"; do
+    n=$runs
+    [ "$c" = 4 ] && n=$breakdown_runs
     simulate "$data/c$c-$base" --cameras "$c" --width "${base%x*}" --height "${base#*x}"
     for mode in joint pairwise surface_bundle; do
-      speed_case "$data/c$c-$base" "$mode" "$runs" "$file" "$c cameras $base"
+      speed_case "$data/c$c-$base" "$mode" "$n" "$file" "$c cameras $base"
     done
   done
-  { echo; echo "#### Scaling with resolution: 4 cameras, $runs runs"; echo; speed_table_header; } >>"$file"
   for s in "${sizes[@]}"; do
+    [ "$s" = "$base" ] && continue
     simulate "$data/c4-$s" --cameras 4 --width "${s%x*}" --height "${s#*x}"
     for mode in joint pairwise; do
       speed_case "$data/c4-$s" "$mode" "$runs" "$file" "4 cameras $s"
     done
   done
   if [ $quick = 0 ]; then
-    { echo; echo "#### Largest case: 16 cameras at 1280x720, one run"; echo; speed_table_header; } >>"$file"
     simulate "$data/c16-1280x720" --cameras 16 --width 1280 --height 720
     speed_case "$data/c16-1280x720" joint 1 "$file" "16 cameras 1280x720"
   fi
