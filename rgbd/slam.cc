@@ -195,15 +195,14 @@ class ModelTarget : public TrackingTarget {
   ModelTarget(const SlamOptions& options, const Log& log, SlamResult* result)
       : options_(options), log_(log), result_(result) {}
 
-  /// The frame halved as asked; the first one decides whether the map is coloured.
-  RgbdFrame Load(const RgbdSequence& sequence, int index) override {
+  /// The frame halved as asked, its colour (when fused) checked.
+  RgbdFrame Load(const RgbdSequence& sequence, int index) const override {
     RgbdFrame frame = sequence.Frame(index);
     for (int h = 0; h < options_.halvings; ++h) {
       frame = HalveFrame(frame, options_.frame.max_depth_jump_ratio);
     }
-    if (result_->frames.empty()) use_color_ = options_.color && !frame.color.empty();
     const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
-    if (use_color_ && !frame.color.empty() && frame.color.size() != 3 * pixels) {
+    if (options_.color && !frame.color.empty() && frame.color.size() != 3 * pixels) {
       throw InputError("slam: " + frame.source + ": a colour image not of the depth's size");
     }
     return frame;
@@ -230,8 +229,9 @@ class ModelTarget : public TrackingTarget {
   Pose MotionOrigin() const override { return T_world_model_; }
 
   /// Fuses the frame unless its track failed (a restart drops the map and fuses it anew) or it
-  /// lacks the colour the map has.
+  /// lacks the colour the map has; the first frame decides whether the map is coloured.
   void Accept(const TrackedStep& step, const RgbdFrame& frame, FramePyramid pyramid) override {
+    if (result_->frames.empty()) use_color_ = options_.color && !frame.color.empty();
     SlamFrame tracked;
     tracked.index = step.index;
     tracked.track = step.track;

@@ -1,5 +1,6 @@
 #include "rgbd/tracking_loop.h"
 
+#include <future>
 #include <vector>
 
 #include "core/errors.h"
@@ -34,12 +35,10 @@ class TrackingLoop {
   TrackingLoop(const TrackingLoopOptions& options, TrackingTarget* target, const Log& log)
       : options_(options), target_(target), log_(log), guard_(options.guard) {}
 
-  /// Loads, tracks and hands over the frame `index`, the run's k-th.
-  void Step(const RgbdSequence& sequence, int index, bool first) {
+  /// Tracks and hands over the frame `index` (loaded: the loop waited load_s for it).
+  void Step(const RgbdFrame& frame, int index, bool first, double load_s) {
+    run_.load_s += load_s;
     auto start = std::chrono::steady_clock::now();
-    const RgbdFrame frame = target_->Load(sequence, index);
-    run_.load_s += SecondsSince(start);
-    start = std::chrono::steady_clock::now();
     FramePyramid pyramid = BuildFramePyramid(frame, options_.frame, options_.threads);
     run_.preprocess_s += SecondsSince(start);
 
@@ -137,8 +136,17 @@ TrackingRun RunTracking(const RgbdSequence& sequence, const TrackingLoopOptions&
                         const std::function<void(int, int)>& progress) {
   const std::vector<int> indices = SelectFrames(sequence, options, name);
   TrackingLoop loop(options, target, log);
+  const auto load = [&](std::size_t k) {
+    return std::async(std::launch::async,
+                      [&, index = indices[k]] { return target->Load(sequence, index); });
+  };
+  std::future<RgbdFrame> next = load(0);
   for (std::size_t k = 0; k < indices.size(); ++k) {
-    loop.Step(sequence, indices[k], k == 0);
+    const auto start = std::chrono::steady_clock::now();
+    const RgbdFrame frame = next.get();  // a loading error is thrown here, in frame order
+    const double load_s = SecondsSince(start);
+    if (k + 1 < indices.size()) next = load(k + 1);
+    loop.Step(frame, indices[k], k == 0, load_s);
     if (progress) progress(static_cast<int>(k) + 1, static_cast<int>(indices.size()));
   }
   return loop.TakeRun();

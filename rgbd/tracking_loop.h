@@ -50,7 +50,7 @@ struct TrackingRun {
   int recovered = 0;      ///< frames suspected of divergence and recovered (MotionGuard)
   int diverged = 0;       ///< frames declared diverged (counted in failures too)
   int weak_frames = 0;    ///< frames tracked with weak directions held
-  double load_s = 0.0;
+  double load_s = 0.0;    ///< waiting for frames: the loading not overlapped with tracking
   double preprocess_s = 0.0;
   double track_s = 0.0;  ///< tracking (SLAM: rendering the model apart, SlamResult::render_s)
 };
@@ -71,7 +71,11 @@ class TrackingTarget {
  public:
   virtual ~TrackingTarget() = default;
   /// The frame as it is tracked (timed as loading): SLAM halves it and checks its colour.
-  virtual RgbdFrame Load(const RgbdSequence& sequence, int index) { return sequence.Frame(index); }
+  /// Called on a thread of its own while the previous frame is tracked and accepted: it reads
+  /// no state that Track or Accept change.
+  virtual RgbdFrame Load(const RgbdSequence& sequence, int index) const {
+    return sequence.Frame(index);
+  }
   /// Tracks `pyramid` (frame `index`) started at T_world_start: the track and the frame's pose.
   virtual std::pair<TrackResult, Pose> Track(const FramePyramid& pyramid, int index,
                                              const Pose& T_world_start) = 0;
@@ -87,7 +91,10 @@ class TrackingTarget {
 
 /// Tracks the frames of `sequence` that `options` select against `target`; `name` starts the
 /// messages of bad options ("odometry: stride must be at least 1", InputError).
-/// progress(done, total) after each frame.
+/// progress(done, total) after each frame. The next frame is loaded (TrackingTarget::Load) on
+/// a thread of its own while the current one is tracked, as a camera's driver delivers frames:
+/// TrackingRun::load_s is the time the loop waited for frames. `sequence` must allow Frame()
+/// from that thread (one call at a time).
 TrackingRun RunTracking(const RgbdSequence& sequence, const TrackingLoopOptions& options,
                         const std::string& name, TrackingTarget* target, const Log& log,
                         const std::function<void(int, int)>& progress);
