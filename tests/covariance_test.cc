@@ -730,14 +730,20 @@ struct Coverage {
   double InflatedOverModel(int h) const { return std::sqrt(inflated2[h] / model2[h]); }
 };
 
+/// The coverage over 60 draws of the corner with `correlated` of its depth variance smooth.
+Coverage CoverageOf60Draws(double correlated) {
+  Coverage c;
+  CorrelatedCorner corner(correlated);
+  for (unsigned draw = 0; draw < 60; ++draw) c.Add(corner.Run(100 + draw));
+  return c;
+}
+
 TEST(SharedNoiseCovariance, InflationLeavesTheModelOnIndependentErrors) {
   // Errors as the noise model says (each point's own): the cells' sandwich is the points' one,
   // the inflation about 1 and the model's 1-sigma kept. Measured over 60 draws: the inflated
   // 1-sigma 1.10 times the model's in rotation and translation (the floor at 1 of a noisy
   // ratio); the errors 0.97 / 0.91 of the model's 1-sigma.
-  Coverage c;
-  CorrelatedCorner corner(0.0);
-  for (unsigned draw = 0; draw < 60; ++draw) c.Add(corner.Run(100 + draw));
+  const Coverage c = CoverageOf60Draws(0.0);
   for (int h = 0; h < 2; ++h) {
     EXPECT_LT(c.InflatedOverModel(h), 1.2) << "half " << h;
     EXPECT_NEAR(c.ErrorOverModel(h), 1.0, 0.2) << "half " << h;
@@ -749,9 +755,7 @@ TEST(SharedNoiseCovariance, InflationCoversErrorsCorrelatedOverNeighbours) {
   // 1-sigma is 2.46 (rotation) and 2.62 (translation) times too small over 60 draws; inflated
   // by 1.69 / 1.79, the errors are 1.46 / 1.47 of it (a cell does not hold the field's
   // correlation across its faces). Tolerances about twice those misses.
-  Coverage c;
-  CorrelatedCorner corner(0.8);
-  for (unsigned draw = 0; draw < 60; ++draw) c.Add(corner.Run(100 + draw));
+  const Coverage c = CoverageOf60Draws(0.8);
   for (int h = 0; h < 2; ++h) {
     EXPECT_GT(c.ErrorOverModel(h), 2.0) << "half " << h;
     EXPECT_GT(c.ErrorOverInflated(h), 0.5) << "half " << h;
