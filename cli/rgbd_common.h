@@ -51,6 +51,11 @@ void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop);
 /// The run's end: the guard's flags, --loop-closure, --threads, --evaluate and --quiet.
 void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop);
 
+/// frames / seconds for the summaries, 0 for no time.
+inline double FramesPerSecond(int frames, double seconds) {
+  return seconds > 0.0 ? frames / seconds : 0.0;
+}
+
 /// Applies what `args` holds beside `loop` (--prior, --iterations, --weak-ratio into `loop`;
 /// --intrinsics into args->sequence) and checks the loop's settings (SettingError).
 void ApplyTrackingArgs(TrackingArgs* args, TrackingLoopOptions* loop);

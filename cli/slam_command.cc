@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "cli/rgbd_common.h"
 #include "cli/stderr_log.h"
 #include "core/format.h"
+#include "core/setting_error.h"
 #include "io/atomic_file.h"
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
@@ -31,6 +33,7 @@ namespace rigfit::cli {
 namespace {
 
 struct SlamArgs : TrackingArgs {
+  std::string halve = "auto";  ///< auto or a count
   std::string map_path;
   std::string report_dir;  ///< empty: no report
   bool force = false;
@@ -55,12 +58,29 @@ std::vector<MapOverlay> TrajectoryOverlays(const RgbdSequence& sequence,
   return overlays;
 }
 
+/// --halve: unset for auto, else the count (CheckSlamSettings checks its range).
+std::optional<int> HalvingsOf(const std::string& text) {
+  if (text == "auto") return std::nullopt;
+  std::size_t used = 0;
+  int count = 0;
+  try {
+    count = std::stoi(text, &used);
+  } catch (const std::logic_error&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size()) {
+    throw SettingError("halve", "must be auto or a whole number, not \"" + text + "\"");
+  }
+  return count;
+}
+
 int RunSlamCommand(SlamArgs a) {
   if (!a.map_path.empty()) {
     CheckOutputFile(a.map_path, {a.sequence_path, a.out_path}, a.force, "slam: --map");
   }
   if (!a.report_dir.empty()) CheckReportDirectory(a.report_dir, "slam: --report");
   ApplyTrackingArgs(&a, &a.slam);
+  a.slam.halvings = HalvingsOf(a.halve);
   CheckSlamSettings(a.slam);
 
   const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
@@ -91,9 +111,14 @@ int RunSlamCommand(SlamArgs a) {
   if (!a.map_path.empty()) WritePly(a.map_path, SurfelMapToPly(result.map));
 
   const double work_s = result.preprocess_s + result.render_s + result.track_s + result.fuse_s;
+  const double loop_s = result.load_s + work_s;
   std::string summary;
-  Appendf(&summary, "tracked and fused %d frames (%d failed, %d restarts%s) -> %s\n", frames,
-          result.failures, result.restarts,
+  const std::string halved = result.halvings == 0 ? ""
+                             : result.halvings == 1
+                                 ? ", halved once"
+                                 : ", halved " + std::to_string(result.halvings) + " times";
+  Appendf(&summary, "tracked and fused %d frames (%d failed, %d restarts%s%s) -> %s\n", frames,
+          result.failures, result.restarts, halved.c_str(),
           result.without_color > 0
               ? (", " + std::to_string(result.without_color) + " without colour not fused").c_str()
               : "",
@@ -103,9 +128,10 @@ int RunSlamCommand(SlamArgs a) {
           a.map_path.empty() ? "" : " -> ", a.map_path.c_str());
   Appendf(&summary,
           "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, rendering %.2f, "
-          "tracking %.2f, fusion %.2f (%.1f frames/s without loading)\n",
+          "tracking %.2f, fusion %.2f (%.1f frames/s with loading, %.1f without)\n",
           frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s,
-          result.render_s, result.track_s, result.fuse_s, work_s > 0.0 ? frames / work_s : 0.0);
+          result.render_s, result.track_s, result.fuse_s, FramesPerSecond(frames, loop_s),
+          FramesPerSecond(frames, work_s));
   summary += GuardSummaryText(counts, log);
   if (closed) summary += LoopClosureSummaryText(*closed);
   if (a.evaluate && closed && closed->applied) {
@@ -152,9 +178,10 @@ Command AddSlamCommand(CLI::App& app) {
                   "the map and trajectories (view3d.html, opens offline) into this directory "
                   "(created; its parent must exist)");
   AddFrameSelectionFlags(sub, &a, &a.slam);
-  sub->add_option("--halve", a.slam.halvings,
-                  "Halve the frames' resolution this many times first (1: 640x480 runs at "
-                  "320x240; depth averaged over 2x2 blocks without crossing a depth jump)")
+  sub->add_option("--halve", a.halve,
+                  "Halve the frames' resolution this many times first (depth averaged over 2x2 "
+                  "blocks without crossing a depth jump); auto: until they are at most 480 "
+                  "pixels wide (640x480 runs at 320x240)")
       ->capture_default_str();
   AddFrameStartFlags(sub, &a);
   AddDepthAndAssociationFlags(sub, &a.slam);

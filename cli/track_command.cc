@@ -56,13 +56,14 @@ int RunTrack(TrackArgs a) {
   if (closed) metadata.push_back(LoopClosureMetadata(*closed));
   WriteTumTrajectory(a.out_path, result.trajectory, metadata);
   const double tracked_s = result.preprocess_s + result.track_s;
+  const double loop_s = result.load_s + tracked_s;
   std::printf("tracked %d frames (%d failed, %d restarts, %d keyframes) -> %s\n", frames,
               result.failures, result.restarts, keyframes, a.out_path.c_str());
   std::printf(
       "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, tracking %.2f "
-      "(%.1f frames/s without loading)\n",
+      "(%.1f frames/s with loading, %.1f without)\n",
       frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s, result.track_s,
-      tracked_s > 0.0 ? frames / tracked_s : 0.0);
+      FramesPerSecond(frames, loop_s), FramesPerSecond(frames, tracked_s));
   std::fputs(GuardSummaryText(counts, log).c_str(), stdout);
   if (closed) std::fputs(LoopClosureSummaryText(*closed).c_str(), stdout);
   if (a.evaluate && closed && closed->applied) {

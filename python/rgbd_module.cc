@@ -537,6 +537,7 @@ py::dict Slam(const py::object& source, const py::dict& keywords, const py::obje
   timings["track_s"] = result.track_s;
   timings["fuse_s"] = result.fuse_s;
   out["timings"] = timings;
+  out["halvings"] = result.halvings;
   AddLoopClosure(closed, &out);
   out["map"] = SurfelMapToDict(std::move(result.map));
   return out;

@@ -254,7 +254,7 @@ LoopClosureOptions LoopClosureOptionsOf(const OdometryOptions& options) {
 
 LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options) {
   LoopClosureOptions o = LoopClosureOptionsOfLoop(options);
-  o.halvings = options.halvings;
+  o.halvings = options.halvings.value_or(0);
   return o;
 }
 
@@ -280,7 +280,8 @@ LoopClosureResult CloseSlamLoops(const RgbdSequence& sequence, const SlamOptions
     frames.push_back(f.index);
     usable.push_back(f.track.success && !f.diverged);
   }
-  const LoopClosureOptions o = LoopClosureOptionsOf(options);
+  LoopClosureOptions o = LoopClosureOptionsOf(options);
+  o.halvings = result->halvings;  // as the run halved its frames
   LoopClosureResult closed = CloseLoops(sequence, frames, result->trajectory,
                                         SelectKeyframes(result->trajectory, usable, o), o, log);
   if (closed.applied) {

@@ -97,7 +97,8 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
                              const Trajectory& trajectory, const std::vector<bool>& keyframes,
                              const LoopClosureOptions& options, const Log& log = {});
 
-/// The loop-closure settings of a run of RunOdometry / RunSlam (their frame and ICP options).
+/// The loop-closure settings of a run of RunOdometry / RunSlam (their frame and ICP options;
+/// SLAM's halvings as set, 0 when unset: CloseSlamLoops takes the run's, SlamResult::halvings).
 LoopClosureOptions LoopClosureOptionsOf(const OdometryOptions& options);
 LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options);
 

@@ -198,7 +198,7 @@ class ModelTarget : public TrackingTarget {
   /// The frame halved as asked, its colour (when fused) checked.
   RgbdFrame Load(const RgbdSequence& sequence, int index) const override {
     RgbdFrame frame = sequence.Frame(index);
-    for (int h = 0; h < options_.halvings; ++h) {
+    for (int h = 0; h < options_.halvings.value_or(0); ++h) {
       frame = HalveFrame(frame, options_.frame.max_depth_jump_ratio);
     }
     const std::size_t pixels = static_cast<std::size_t>(frame.width) * frame.height;
@@ -279,16 +279,30 @@ class ModelTarget : public TrackingTarget {
 
 }  // namespace
 
+int SlamHalvings(const std::optional<int>& halvings, int width) {
+  if (halvings) return *halvings;
+  int count = 0;
+  for (; width > kAutoHalvingMaxWidth; width /= 2) ++count;
+  return count;
+}
+
 SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, const Log& log,
                    const std::function<void(int, int, const SlamFrame&)>& progress) {
-  if (options.halvings < 0) throw InputError("slam: halvings must be >= 0");
+  if (options.halvings.value_or(0) < 0) throw InputError("slam: halvings must be >= 0");
   SlamResult result;
-  ModelTarget target(options, log, &result);
+  // The default halving follows the first frame's width (a first frame out of the sequence
+  // is RunTracking's error).
+  SlamOptions run = options;
+  const bool first_in_sequence = options.first_frame >= 0 && options.first_frame < sequence.size();
+  run.halvings = options.halvings || !first_in_sequence
+                     ? options.halvings.value_or(0)
+                     : SlamHalvings(std::nullopt, sequence.Frame(options.first_frame).width);
+  result.halvings = *run.halvings;
+  ModelTarget target(run, log, &result);
   const auto frame_done = [&](int done, int total) {
     if (progress) progress(done, total, result.frames.back());
   };
-  static_cast<TrackingRun&>(result) =
-      RunTracking(sequence, options, "slam", &target, log, frame_done);
+  static_cast<TrackingRun&>(result) = RunTracking(sequence, run, "slam", &target, log, frame_done);
   // Rendering is timed inside tracking; the result keeps the two apart.
   result.track_s -= result.render_s;
   return result;

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "core/log.h"
@@ -73,10 +74,19 @@ struct SlamOptions : TrackingLoopOptions {
   /// without colour is then tracked but not fused: SlamResult::without_color).
   bool color = true;
   /// Halve every frame's resolution this many times before anything else (HalveFrame,
-  /// rgbd/frame.h): 1 runs a 640x480 sequence at 320x240. Timed with the loading (load_s):
-  /// a sensor of that size would not do it.
-  int halvings = 0;
+  /// rgbd/frame.h); unset (the default): as many times as bring the width to at most
+  /// kAutoHalvingMaxWidth (SlamHalvings: 640x480 runs at 320x240), which tracks as well as the
+  /// full resolution on the measured sequences in a fraction of the time (docs/rgbd.md
+  /// section 6). Timed with the loading (load_s): a sensor of that size would not do it.
+  std::optional<int> halvings;
 };
+
+/// The widest frame SlamOptions::halvings' default leaves unhalved, pixels.
+inline constexpr int kAutoHalvingMaxWidth = 480;
+
+/// How many times RunSlam halves frames `width` pixels wide: `halvings` when set, else until
+/// the width is at most kAutoHalvingMaxWidth.
+int SlamHalvings(const std::optional<int>& halvings, int width);
 
 struct SlamFrame {
   int index = 0;           ///< frame index in the sequence
@@ -95,6 +105,7 @@ struct SlamResult : TrackingRun {
   /// first frame with colour) is coloured.
   int without_color = 0;
   double render_s = 0.0;  ///< rendering the model and its pyramid (not in track_s)
+  int halvings = 0;       ///< times every frame was halved (SlamOptions::halvings resolved)
   double fuse_s = 0.0;
 };
 

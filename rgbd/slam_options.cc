@@ -22,7 +22,7 @@ void CheckSlamSettings(const SlamOptions& options) {
   if (options.render.recent_frames < 0) {
     throw SettingError("model_recent", "must be >= 0");
   }
-  if (options.halvings < 0) throw SettingError("halve", "must be >= 0");
+  if (options.halvings.value_or(0) < 0) throw SettingError("halve", "must be >= 0");
 }
 
 }  // namespace rigfit

@@ -248,6 +248,24 @@ TEST(RgbdSlam, AHalvedSequenceIsTrackedAtHalfTheResolution) {
   EXPECT_GT(result.map.input_points(), 5 * 160 * 120);
 }
 
+TEST(RgbdSlam, TheDefaultHalvesFramesWiderThan480Pixels) {
+  EXPECT_EQ(SlamHalvings(std::nullopt, 320), 0);
+  EXPECT_EQ(SlamHalvings(std::nullopt, 480), 0);
+  EXPECT_EQ(SlamHalvings(std::nullopt, 640), 1);
+  EXPECT_EQ(SlamHalvings(std::nullopt, 848), 1);
+  EXPECT_EQ(SlamHalvings(std::nullopt, 1280), 2);
+  EXPECT_EQ(SlamHalvings(0, 1280), 0);
+  EXPECT_EQ(SlamHalvings(2, 320), 2);
+  // The run halves as the first frame's width says, and says so.
+  const Scene scene = TestRoom();
+  const RenderedSequence wide(scene, Walk(2), 640, 480, 0.0);
+  const SlamResult halved = RunSlam(wide, SlamOptions{});
+  EXPECT_EQ(halved.halvings, 1);
+  EXPECT_LE(halved.map.input_points(), 2 * 320 * 240);
+  const RenderedSequence narrow(scene, Walk(2), 320, 240, 0.0);
+  EXPECT_EQ(RunSlam(narrow, SlamOptions{}).halvings, 0);
+}
+
 // Grey colour on every frame but one (as TUM, whose depth images sometimes have no colour
 // image close enough in time).
 class ColoredSequence final : public RgbdSequence {

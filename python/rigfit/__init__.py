@@ -638,6 +638,7 @@ class SlamResult(Trajectory):
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "applied", "message",
     #: "seconds"} (the loops checked and accepted, whether the trajectory was corrected)
     loop_closure: Optional[Dict[str, Any]] = None
+    halvings: int = 0  #: times every frame was halved (``halve``, or its default's choice)
 
 
 def _frame(raw: Mapping[str, Any]) -> Frame:
@@ -780,9 +781,9 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
 
     The keywords are the CLI's flags with its defaults and checks: ``first``, ``max_frames``
     (0: all), ``stride`` pick the frames, ``halve`` halves their resolution that many times
-    first; tracking as ``track`` (``iterations``, ``prior``, ``min_depth``, ``max_depth``,
-    ``max_distance``, ``max_angle``); fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg)
-    gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
+    first (None, the default: until they are at most 480 pixels wide); tracking as ``track``
+    (``iterations``, ``prior``, ``min_depth``, ``max_depth``, ``max_distance``, ``max_angle``);
+    fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg) gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
     ``cover_radius`` (the coverage rule; 0: off), ``fold``; the model: ``model_weight``,
     ``model_recent``, ``splat``; ``color``; ``guard``, ``weak_ratio`` and ``loop_closure`` as for
     ``track`` (the map's points moved with the frame that last saw them); ``threads``. Runs without the GIL; progress (every
@@ -799,7 +800,7 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         restarts=raw["restarts"], timings=SlamTimings(**raw["timings"]),
         map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
         diverged=raw["diverged"], weak_frames=raw["weak_frames"],
-        loop_closure=raw["loop_closure"])
+        loop_closure=raw["loop_closure"], halvings=raw["halvings"])
 
 
 @dataclass

@@ -192,6 +192,8 @@ def assert_defaults_and_names_are_the_clis(command, function, switches):
             assert value == "[" + ",".join(map(str, default)) + "]"
         elif name == "prior":
             assert value == default
+        elif name == "halve":
+            assert value == "auto" and default is None
         else:
             assert float(value) == default, name
 
