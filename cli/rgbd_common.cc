@@ -210,8 +210,7 @@ void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
 }
 
 void ApplyTrackingArgs(TrackingArgs* args, TrackingLoopOptions* loop) {
-  ApplyTrackingSettings(args->prior, args->iterations, loop->threads, loop->max_frames,
-                        &loop->prior, &loop->frame, &loop->icp);
+  ApplyTrackingSettings(args->prior, args->iterations, loop);
   ApplyWeakRatio(args->weak_ratio, &loop->icp);
   SetSequenceIntrinsics(args->intrinsics, &args->sequence);
 }

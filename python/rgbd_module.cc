@@ -347,8 +347,7 @@ TrackKeywords TrackOptionsOf(const py::dict& keywords) {
   TrackKeywords k = TrackTable().Apply(keywords);
   OdometryOptions& o = k.odometry;
   CheckKeywords("track", [&] {
-    ApplyTrackingSettings(k.prior, k.iterations, o.threads, o.max_frames, &o.prior, &o.frame,
-                          &o.icp);
+    ApplyTrackingSettings(k.prior, k.iterations, &o);
     ApplyMinStep(k.min_step, &o.icp);
     ApplyWeakRatio(k.weak_ratio, &o.icp);
   });
@@ -455,8 +454,7 @@ SlamKeywords SlamOptionsOf(const py::dict& keywords) {
   SlamKeywords k = SlamTable().Apply(keywords);
   SlamOptions& o = k.slam;
   CheckKeywords("slam", [&] {
-    ApplyTrackingSettings(k.prior, k.iterations, o.threads, o.max_frames, &o.prior, &o.frame,
-                          &o.icp);
+    ApplyTrackingSettings(k.prior, k.iterations, &o);
     CheckSlamSettings(o);
     ApplyWeakRatio(k.weak_ratio, &o.icp);
   });

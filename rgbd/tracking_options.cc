@@ -9,12 +9,13 @@ const char* MotionPriorName(MotionPrior prior) {
 }
 
 void ApplyTrackingSettings(const std::string& prior, const std::vector<int>& iterations,
-                           int threads, int max_frames, MotionPrior* motion_prior,
-                           FrameOptions* frame, ProjectiveIcpOptions* icp) {
+                           TrackingLoopOptions* loop) {
+  FrameOptions* frame = &loop->frame;
+  ProjectiveIcpOptions* icp = &loop->icp;
   if (prior == MotionPriorName(MotionPrior::kConstantVelocity)) {
-    *motion_prior = MotionPrior::kConstantVelocity;
+    loop->prior = MotionPrior::kConstantVelocity;
   } else if (prior == MotionPriorName(MotionPrior::kIdentity)) {
-    *motion_prior = MotionPrior::kIdentity;
+    loop->prior = MotionPrior::kIdentity;
   } else {
     throw SettingError("prior", "must be constant-velocity or identity, got " + prior);
   }
@@ -39,10 +40,10 @@ void ApplyTrackingSettings(const std::string& prior, const std::vector<int>& ite
   if (!(icp->weighting.huber_delta_m >= 0.0)) {
     throw SettingError("huber", "must be >= 0");
   }
-  if (threads < 1 || threads > kMaxTrackingThreads) {
+  if (loop->threads < 1 || loop->threads > kMaxTrackingThreads) {
     throw SettingError("threads", "must be in [1, " + std::to_string(kMaxTrackingThreads) + "]");
   }
-  if (max_frames < 0) throw SettingError("max_frames", "must be >= 0 (0: all)");
+  if (loop->max_frames < 0) throw SettingError("max_frames", "must be >= 0 (0: all)");
 }
 
 void ApplyMinStep(double min_step_m, ProjectiveIcpOptions* icp) {

@@ -10,6 +10,7 @@
 #include "rgbd/frame.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
+#include "rgbd/tracking_loop.h"
 
 namespace rigfit {
 
@@ -20,15 +21,14 @@ inline constexpr int kMaxTrackingThreads = 64;
 /// or "identity".
 const char* MotionPriorName(MotionPrior prior);
 
-/// Checks and applies the settings both commands have: prior ("constant-velocity" or
+/// Checks and applies to `loop` the settings both commands have: prior ("constant-velocity" or
 /// "identity"), iterations (1 to 6 counts in [0, 100], finest level first; their count is the
-/// number of pyramid levels), min_depth < max_depth (frame), max_distance > 0 and max_angle in
-/// (0, 180] (icp->association), huber >= 0 (already in icp), threads in [1,
-/// kMaxTrackingThreads], max_frames >= 0. Throws SettingError (core/setting_error.h) on a
-/// bad value.
+/// number of pyramid levels), and checks those already in `loop`: min_depth < max_depth
+/// (frame), max_distance > 0 and max_angle in (0, 180] (icp.association), huber >= 0, threads
+/// in [1, kMaxTrackingThreads], max_frames >= 0. Throws SettingError (core/setting_error.h) on
+/// a bad value.
 void ApplyTrackingSettings(const std::string& prior, const std::vector<int>& iterations,
-                           int threads, int max_frames, MotionPrior* motion_prior,
-                           FrameOptions* frame, ProjectiveIcpOptions* icp);
+                           TrackingLoopOptions* loop);
 
 /// Sets the convergence test of `rigfit track --min-step` (rigfit.track's min_step): a
 /// pyramid level ends when a step moves the camera less than min_step_m metres and turns it
