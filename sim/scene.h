@@ -16,6 +16,14 @@ namespace rigfit {
 /// What a box of the scene stands for.
 enum class SurfaceKind { kFloor, kWall, kBaseboard, kFurniture };
 
+/// A pinhole camera looking into the scene: its pose, intrinsics and image size.
+struct SceneCamera {
+  Pose T_world_camera = Pose::Identity();
+  PinholeIntrinsics K;
+  int width = 0;
+  int height = 0;
+};
+
 /// A solid box: the points p with |R_world_box^T (p - center)| <= half_extents per axis.
 struct OrientedBox {
   Vec3 center = Vec3::Zero();

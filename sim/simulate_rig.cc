@@ -405,8 +405,9 @@ void RenderCamera(const SimOptions& options, const Scene& scene,
   }
   SimRng rng(options.seed, kStereoStream + options.noise_draw * kNoiseDrawStreams +
                                static_cast<std::uint64_t>(index));
-  camera->depth_m = StereoDepth(scene, textures, T_world_camera, camera->intrinsics, camera->width,
-                                camera->height, stereo, rng);
+  camera->depth_m =
+      StereoDepth(scene, textures,
+                  {T_world_camera, camera->intrinsics, camera->width, camera->height}, stereo, rng);
   camera->baseline_m = options.stereo_baseline_m;
 }
 

@@ -213,9 +213,12 @@ PinholeIntrinsics SequenceIntrinsics(int width, int height) {
   return K;
 }
 
-std::vector<float> RenderDepth(const Scene& scene, const Pose& T_world_camera,
-                               const PinholeIntrinsics& K, int width, int height,
-                               double max_depth_m, std::vector<std::uint8_t>* color) {
+std::vector<float> RenderDepth(const Scene& scene, const SceneCamera& camera, double max_depth_m,
+                               std::vector<std::uint8_t>* color) {
+  const Pose& T_world_camera = camera.T_world_camera;
+  const PinholeIntrinsics& K = camera.K;
+  const int width = camera.width;
+  const int height = camera.height;
   std::vector<float> depth(static_cast<size_t>(width) * height, kNaNf);
   if (color) color->assign(depth.size() * 3, 0);
   const Mat3& R = T_world_camera.linear();
@@ -301,7 +304,7 @@ RgbdFrame SimulatedSequence::Frame(int index) const {
   const Pose T_world_camera = CameraPose(frame.timestamp);
   frame.T_world_camera_gt = T_world_camera;
   const Scene& scene = InLonePlaneStretch(frame.timestamp) ? lone_plane_scene_ : scene_;
-  frame.depth_m = RenderDepth(scene, T_world_camera, intrinsics_, options_.width, options_.height,
+  frame.depth_m = RenderDepth(scene, {T_world_camera, intrinsics_, options_.width, options_.height},
                               options_.max_depth_m, options_.color ? &frame.color : nullptr);
   if (options_.noise == SequenceNoise::kKinect) {
     SimRng rng(options_.seed, kFrameStream + static_cast<std::uint64_t>(index));

@@ -141,12 +141,11 @@ struct SimSequenceOptions {
 /// (c = (c_640 + 0.5) s - 0.5): 320 x 240 has 262.5, 159.5, 119.5.
 PinholeIntrinsics SequenceIntrinsics(int width, int height);
 
-/// The first surfaces a camera sees at T_world_camera: depth (camera z, metres) per pixel,
+/// The first surfaces `camera` sees: depth (camera z, metres) per pixel,
 /// NaN where the ray leaves the room or hits beyond max_depth_m; when color is not null,
 /// the [height, width, 3] shaded albedo (black where nothing is hit). Rows in parallel.
-std::vector<float> RenderDepth(const Scene& scene, const Pose& T_world_camera,
-                               const PinholeIntrinsics& K, int width, int height,
-                               double max_depth_m, std::vector<std::uint8_t>* color);
+std::vector<float> RenderDepth(const Scene& scene, const SceneCamera& camera, double max_depth_m,
+                               std::vector<std::uint8_t>* color);
 
 /// A simulated sequence read like a dataset: frame i is rendered on demand at timestamp
 /// i / rate_hz (seconds), with its exact T_world_camera_gt (the hand-held path, turned toward

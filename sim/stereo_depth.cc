@@ -141,12 +141,14 @@ std::vector<SurfaceTexture> SimulateTextures(const Scene& scene, std::uint64_t s
 
 std::vector<std::uint8_t> RenderTexturedImage(const Scene& scene,
                                               const std::vector<SurfaceTexture>& textures,
-                                              const Pose& T_world_camera,
-                                              const PinholeIntrinsics& K, int width, int height,
-                                              double image_noise, SimRng& rng) {
+                                              const SceneCamera& camera, double image_noise,
+                                              SimRng& rng) {
+  const PinholeIntrinsics& K = camera.K;
+  const int width = camera.width;
+  const int height = camera.height;
   std::vector<std::uint8_t> image(static_cast<size_t>(width) * height, 0);
-  const Mat3& R = T_world_camera.linear();
-  const Vec3 origin = T_world_camera.translation();
+  const Mat3& R = camera.T_world_camera.linear();
+  const Vec3 origin = camera.T_world_camera.translation();
   for (int v = 0; v < height; ++v) {
     for (int u = 0; u < width; ++u) {
       const double noise = image_noise * rng.Normal();
@@ -166,8 +168,12 @@ std::vector<std::uint8_t> RenderTexturedImage(const Scene& scene,
 }
 
 std::vector<float> StereoDepth(const Scene& scene, const std::vector<SurfaceTexture>& textures,
-                               const Pose& T_world_camera, const PinholeIntrinsics& K, int width,
-                               int height, const StereoOptions& options, SimRng& rng) {
+                               const SceneCamera& camera, const StereoOptions& options,
+                               SimRng& rng) {
+  const Pose& T_world_camera = camera.T_world_camera;
+  const PinholeIntrinsics& K = camera.K;
+  const int width = camera.width;
+  const int height = camera.height;
   const int s = options.upsample;
   const double f_b = K.fx * options.baseline_m;  // disparity = f B / z, camera pixels
   // The search range covers depths down to min_depth_m, in whole multiples of 16 fine pixels.
@@ -178,9 +184,9 @@ std::vector<float> StereoDepth(const Scene& scene, const std::vector<SurfaceText
   Pose T_world_right = T_world_camera;
   T_world_right.translation() += T_world_camera.linear() * Vec3(options.baseline_m, 0.0, 0.0);
   std::vector<std::uint8_t> left = RenderTexturedImage(
-      scene, textures, T_world_camera, fine, fine_width, fine_height, options.image_noise, rng);
+      scene, textures, {T_world_camera, fine, fine_width, fine_height}, options.image_noise, rng);
   std::vector<std::uint8_t> right = RenderTexturedImage(
-      scene, textures, T_world_right, fine, fine_width, fine_height, options.image_noise, rng);
+      scene, textures, {T_world_right, fine, fine_width, fine_height}, options.image_noise, rng);
   const cv::Mat left_image(fine_height, fine_width, CV_8UC1, left.data());
   const cv::Mat right_image(fine_height, fine_width, CV_8UC1, right.data());
   constexpr int kArea = kBlockSize * kBlockSize;

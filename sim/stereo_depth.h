@@ -43,22 +43,20 @@ struct StereoOptions {
   double depth_scale = 1.0;
 };
 
-/// The left camera's grey image, width x height (row-major, 0-255): the scene's shading
-/// (ShadeHit) times the texture, plus N(0, image_noise^2) from rng. The camera at
-/// T_world_camera with intrinsics K; 0 where the ray leaves the room.
+/// The camera's grey image, width x height (row-major, 0-255): the scene's shading (ShadeHit)
+/// times the texture, plus N(0, image_noise^2) from rng; 0 where the ray leaves the room.
 std::vector<std::uint8_t> RenderTexturedImage(const Scene& scene,
                                               const std::vector<SurfaceTexture>& textures,
-                                              const Pose& T_world_camera,
-                                              const PinholeIntrinsics& K, int width, int height,
-                                              double image_noise, SimRng& rng);
+                                              const SceneCamera& camera, double image_noise,
+                                              SimRng& rng);
 
-/// The stereo depth (metres, row-major, NaN for holes) of the camera at T_world_camera with
-/// intrinsics K: the pair rendered at `upsample` times the resolution (the images padded on
-/// the left by the search range, so that every column can be matched), matched by StereoSGBM
-/// (5x5 blocks, 1/16 px disparities, uniqueness 10%, left-right check 1 px, speckle filter),
-/// averaged down over blocks of which at least half matched, then as StereoOptions says.
+/// The stereo depth (metres, row-major, NaN for holes) of `camera` (the left one): the pair
+/// rendered at `upsample` times the resolution (the images padded on the left by the search range,
+/// so that every column can be matched), matched by StereoSGBM (5x5 blocks, 1/16 px disparities,
+/// uniqueness 10%, left-right check 1 px, speckle filter), averaged down over blocks of which at
+/// least half matched, then as StereoOptions says.
 std::vector<float> StereoDepth(const Scene& scene, const std::vector<SurfaceTexture>& textures,
-                               const Pose& T_world_camera, const PinholeIntrinsics& K, int width,
-                               int height, const StereoOptions& options, SimRng& rng);
+                               const SceneCamera& camera, const StereoOptions& options,
+                               SimRng& rng);
 
 }  // namespace rigfit

@@ -103,7 +103,7 @@ TEST(StereoDepth, LeavesHolesOnATexturelessSurfaceAndMatchesATexturedOne) {
     SurfaceTexture texture;
     texture.contrast = contrast;
     SimRng rng(1, 2);
-    return ValidShare(StereoDepth(scene, {texture}, T_world_camera, K, 160, 90, options, rng));
+    return ValidShare(StereoDepth(scene, {texture}, {T_world_camera, K, 160, 90}, options, rng));
   };
   // Measured: 6.0% matched without texture (noise matched by chance), 99.5% with a contrast
   // of 0.3.
