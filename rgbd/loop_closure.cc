@@ -121,7 +121,7 @@ void SolveAndCorrect(const Trajectory& trajectory, const std::vector<PoseGraphEd
   const std::vector<int>& nodes = result->keyframes;
   std::vector<Pose> initial;
   for (int k : nodes) initial.push_back(trajectory.poses[k]);
-  const LoopGraph solved = ConsistentLoopGraph(initial, sequential, loops, options.max_loop_chi2);
+  const LoopGraph solved = ConsistentLoopGraph(initial, sequential, loops, options);
   result->message = solved.graph.message;
   std::size_t e = 0;
   for (LoopCheck& check : result->checks) {
@@ -158,7 +158,8 @@ void SolveAndCorrect(const Trajectory& trajectory, const std::vector<PoseGraphEd
 
 LoopGraph ConsistentLoopGraph(const std::vector<Pose>& initial,
                               const std::vector<PoseGraphEdge>& sequential,
-                              const std::vector<PoseGraphEdge>& loops, double max_chi2) {
+                              const std::vector<PoseGraphEdge>& loops,
+                              const LoopClosureOptions& options) {
   LoopGraph out;
   out.kept.assign(loops.size(), true);
   out.chi2.assign(loops.size(), 0.0);
@@ -166,6 +167,7 @@ LoopGraph ConsistentLoopGraph(const std::vector<Pose>& initial,
     out.graph = OptimizePoseGraph(initial, GraphEdges(sequential, loops, out.kept, -1), 0);
     if (!out.graph.usable) return out;
     int worst = -1;
+    std::vector<double> kept_chi2;
     for (std::size_t e = 0; e < loops.size(); ++e) {
       if (!out.kept[e]) continue;
       const PoseGraphResult without =
@@ -173,8 +175,11 @@ LoopGraph ConsistentLoopGraph(const std::vector<Pose>& initial,
       out.chi2[e] =
           without.usable ? out.graph.cost - without.cost : std::numeric_limits<double>::infinity();
       if (worst < 0 || out.chi2[e] > out.chi2[worst]) worst = static_cast<int>(e);
+      kept_chi2.push_back(out.chi2[e]);
     }
-    if (worst < 0 || out.chi2[worst] <= max_chi2) return out;
+    const double limit =
+        std::max(options.max_loop_chi2, options.max_loop_chi2_ratio * Median(kept_chi2));
+    if (worst < 0 || out.chi2[worst] <= limit) return out;
     out.kept[worst] = false;
   }
 }

@@ -59,9 +59,13 @@ struct LoopClosureOptions {
   double information_scale = 20.0;
   double floor_information = 1.0;
   /// After the solve, a loop edge whose removal lowers the graph's cost (its chi-square)
-  /// by more than this disagrees with the sequential edges and the other loops: the worst
-  /// such edge is dropped and the graph solved again (ConsistentLoopGraph).
+  /// by more than max_loop_chi2 (chi2(6)'s 99.9% quantile) and more than max_loop_chi2_ratio
+  /// times the median of the loops' disagrees with the sequential edges and the other loops:
+  /// the worst such edge is dropped and the graph solved again (ConsistentLoopGraph). The
+  /// ratio: the information is calibrated on simulated loops; on 7-Scenes right loops reach
+  /// chi-square 116-164 together (docs/rgbd.md, "Loop closure").
   double max_loop_chi2 = 22.46;
+  double max_loop_chi2_ratio = 5.0;
   int threads = 2;
 };
 
@@ -104,12 +108,15 @@ struct LoopGraph {
 /// checks each loop against the rest: its chi-square is the drop in the graph's cost
 /// (PoseGraphResult::cost) when it is left out, which for a consistent edge follows about
 /// chi2(6) (the increase of a least-squares optimum by one measurement is its innovation's
-/// Mahalanobis distance). While the largest exceeds max_chi2 that loop is dropped and the
-/// graph solved again. With one loop left the rest is the sequential edges alone: a wrong
-/// loop then cannot be told from a drifted chain.
+/// Mahalanobis distance) when the edges' information is right. While the largest exceeds
+/// both options.max_loop_chi2 and options.max_loop_chi2_ratio times the median of the kept
+/// loops' that loop is dropped and the graph solved again. The ratio needs three loops or
+/// more to drop one: a single loop cannot be told from a drifted chain, nor one of two from
+/// the other.
 LoopGraph ConsistentLoopGraph(const std::vector<Pose>& initial,
                               const std::vector<PoseGraphEdge>& sequential,
-                              const std::vector<PoseGraphEdge>& loops, double max_chi2);
+                              const std::vector<PoseGraphEdge>& loops,
+                              const LoopClosureOptions& options);
 
 /// Per pose of `run`: the correction C_k = T'_k T_k^-1 that puts the keyframes (positions
 /// `keyframes`, increasing, the first 0) at `solved`, and every pose between keyframes j and
