@@ -62,8 +62,8 @@ struct LoopClosureOptions {
   /// by more than max_loop_chi2 (chi2(6)'s 99.9% quantile) and more than max_loop_chi2_ratio
   /// times the median of the loops' disagrees with the sequential edges and the other loops:
   /// the worst such edge is dropped and the graph solved again (ConsistentLoopGraph). The
-  /// ratio: the information is calibrated on simulated loops; on 7-Scenes right loops reach
-  /// chi-square 116-164 together (docs/rgbd.md, "Loop closure").
+  /// ratio: the information is calibrated on simulated loops; on 7-Scenes loops that lower
+  /// the ATE reach chi-square 116-125 together (docs/rgbd.md, "Loop closure").
   double max_loop_chi2 = 22.46;
   double max_loop_chi2_ratio = 5.0;
   int threads = 2;
