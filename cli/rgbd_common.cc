@@ -129,9 +129,17 @@ std::vector<std::string> GuardMetadata(const std::string& command, const GuardCo
 }
 
 std::string LoopClosureSummaryText(const LoopClosureResult& closed) {
+  std::string kept;
+  for (const LoopCheck& check : closed.checks) {
+    if (check.accepted) Appendf(&kept, "%s%.1f", kept.empty() ? "" : ", ", check.chi2);
+  }
+  if (!kept.empty()) kept = " (chi-square against the rest " + kept + ")";
   std::string text;
-  Appendf(&text, "loop closure: %zu keyframes, %d candidate(s), %d loop(s) accepted; %s (%.2f s)\n",
-          closed.keyframes.size(), closed.candidates, closed.accepted,
+  Appendf(&text,
+          "loop closure: %zu keyframes, %d candidate(s), %d loop(s) accepted, %d rejected after "
+          "the solve%s; %s (%.2f s)\n",
+          closed.keyframes.size(), closed.candidates, closed.accepted, closed.rejected_after_solve,
+          kept.c_str(),
           closed.applied ? "trajectory corrected" : ("not applied: " + closed.message).c_str(),
           closed.seconds);
   return text;
@@ -139,8 +147,10 @@ std::string LoopClosureSummaryText(const LoopClosureResult& closed) {
 
 std::string LoopClosureMetadata(const LoopClosureResult& closed) {
   std::string line;
-  Appendf(&line, "loop closure: keyframes %zu, candidates %d, accepted %d, applied %s",
-          closed.keyframes.size(), closed.candidates, closed.accepted,
+  Appendf(&line,
+          "loop closure: keyframes %zu, candidates %d, accepted %d, rejected after the solve %d, "
+          "applied %s",
+          closed.keyframes.size(), closed.candidates, closed.accepted, closed.rejected_after_solve,
           closed.applied ? "yes" : "no");
   return line;
 }

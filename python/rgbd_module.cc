@@ -364,6 +364,7 @@ void AddLoopClosure(const std::optional<LoopClosureResult>& closed, py::dict* ou
   d["keyframes"] = closed->keyframes.size();
   d["candidates"] = closed->candidates;
   d["accepted"] = closed->accepted;
+  d["rejected_after_solve"] = closed->rejected_after_solve;
   d["applied"] = closed->applied;
   d["message"] = closed->message;
   d["seconds"] = closed->seconds;

@@ -73,6 +73,7 @@ PoseGraphResult OptimizePoseGraph(const std::vector<Pose>& initial,
   ceres::Solve(options, problem.get(), &summary);
   result.usable = summary.IsSolutionUsable();
   result.message = summary.message;
+  result.cost = 2.0 * summary.final_cost;
   if (!result.usable) return result;
   for (size_t i = 0; i < initial.size(); ++i) {
     if (result.connected[i]) result.poses[i] = PoseFromParameters(blocks[i].data());

@@ -25,6 +25,9 @@ struct PoseGraphResult {
   std::vector<Pose> poses;      ///< optimised poses; unconnected ones as given
   std::vector<bool> connected;  ///< reachable from the reference through edges
   bool usable = false;          ///< Ceres' solution is usable
+  /// Twice Ceres' final cost: the sum of the edges' squared whitened errors (chi-square),
+  /// each robust edge's through the Cauchy loss.
+  double cost = 0.0;
   std::string message;
 };
 

@@ -94,24 +94,95 @@ double Median(std::vector<double> values) {
   return *middle;
 }
 
-/// Every frame moved with the last keyframe at or before it: T <- T'_kf T_kf^-1 T.
-void CorrectTrajectory(const std::vector<int>& nodes, const std::vector<Pose>& solved,
-                       LoopClosureResult* result) {
-  std::vector<Pose> corrections;
-  for (std::size_t j = 0; j < nodes.size(); ++j) {
-    corrections.push_back(
-        Reorthonormalized(solved[j] * result->trajectory.poses[nodes[j]].inverse()));
+/// The pose between A (s = 0) and B (s = 1): rotation along the geodesic, position on the line.
+Pose Blend(const Pose& A, const Pose& B, double s) {
+  Pose T = Pose::Identity();
+  T.linear() = A.linear() * ExpSO3(s * LogSO3(A.linear().transpose() * B.linear()));
+  T.translation() = (1.0 - s) * A.translation() + s * B.translation();
+  return T;
+}
+
+/// The sequential edges and the loop edges flagged in `kept` but `left_out` (-1: none).
+std::vector<PoseGraphEdge> GraphEdges(const std::vector<PoseGraphEdge>& sequential,
+                                      const std::vector<PoseGraphEdge>& loops,
+                                      const std::vector<bool>& kept, int left_out) {
+  std::vector<PoseGraphEdge> edges = sequential;
+  for (std::size_t e = 0; e < loops.size(); ++e) {
+    if (kept[e] && static_cast<int>(e) != left_out) edges.push_back(loops[e]);
   }
-  std::size_t node = 0;
-  for (std::size_t k = 0; k < result->trajectory.poses.size(); ++k) {
-    while (node + 1 < nodes.size() && nodes[node + 1] <= static_cast<int>(k)) ++node;
-    result->correction[k] = corrections[node];
-    result->trajectory.poses[k] =
-        Reorthonormalized(corrections[node] * result->trajectory.poses[k]);
+  return edges;
+}
+
+/// The graph solved with the loops that survive its check (ConsistentLoopGraph), the
+/// trajectory corrected from it, the loops' checks told which were dropped.
+void SolveAndCorrect(const Trajectory& trajectory, const std::vector<PoseGraphEdge>& sequential,
+                     const std::vector<PoseGraphEdge>& loops, const LoopClosureOptions& options,
+                     LoopClosureResult* result, const Log& log) {
+  const std::vector<int>& nodes = result->keyframes;
+  std::vector<Pose> initial;
+  for (int k : nodes) initial.push_back(trajectory.poses[k]);
+  const LoopGraph solved = ConsistentLoopGraph(initial, sequential, loops, options);
+  result->message = solved.graph.message;
+  std::size_t e = 0;
+  for (LoopCheck& check : result->checks) {
+    if (!check.accepted) continue;
+    check.chi2 = solved.chi2[e];
+    if (!solved.kept[e]) {
+      check.accepted = false;
+      check.reason = "inconsistent with the rest after the solve (chi-square " +
+                     std::to_string(check.chi2) + ")";
+      ++result->rejected_after_solve;
+      log.Warning("loop closure: the loop between trajectory poses " +
+                  std::to_string(check.frame_a) + " and " + std::to_string(check.frame_b) +
+                  " dropped: " + check.reason);
+    }
+    ++e;
   }
+  if (!solved.graph.usable) {
+    log.Warning("loop closure: the pose graph was not solved (" + solved.graph.message +
+                "); the trajectory is the run's");
+    return;
+  }
+  if (result->rejected_after_solve == result->accepted) {
+    result->message = "every loop rejected after the solve";
+    return;
+  }
+  result->correction = InterpolatedCorrections(trajectory, nodes, solved.graph.poses);
+  for (std::size_t k = 0; k < trajectory.poses.size(); ++k) {
+    result->trajectory.poses[k] = Reorthonormalized(result->correction[k] * trajectory.poses[k]);
+  }
+  result->applied = true;
 }
 
 }  // namespace
+
+LoopGraph ConsistentLoopGraph(const std::vector<Pose>& initial,
+                              const std::vector<PoseGraphEdge>& sequential,
+                              const std::vector<PoseGraphEdge>& loops,
+                              const LoopClosureOptions& options) {
+  LoopGraph out;
+  out.kept.assign(loops.size(), true);
+  out.chi2.assign(loops.size(), 0.0);
+  for (;;) {
+    out.graph = OptimizePoseGraph(initial, GraphEdges(sequential, loops, out.kept, -1), 0);
+    if (!out.graph.usable) return out;
+    int worst = -1;
+    std::vector<double> kept_chi2;
+    for (std::size_t e = 0; e < loops.size(); ++e) {
+      if (!out.kept[e]) continue;
+      const PoseGraphResult without =
+          OptimizePoseGraph(initial, GraphEdges(sequential, loops, out.kept, e), 0);
+      out.chi2[e] =
+          without.usable ? out.graph.cost - without.cost : std::numeric_limits<double>::infinity();
+      if (worst < 0 || out.chi2[e] > out.chi2[worst]) worst = static_cast<int>(e);
+      kept_chi2.push_back(out.chi2[e]);
+    }
+    const double limit =
+        std::max(options.max_loop_chi2, options.max_loop_chi2_ratio * Median(kept_chi2));
+    if (worst < 0 || out.chi2[worst] <= limit) return out;
+    out.kept[worst] = false;
+  }
+}
 
 std::vector<bool> SelectKeyframes(const Trajectory& trajectory, const std::vector<bool>& usable,
                                   const LoopClosureOptions& options) {
@@ -130,6 +201,33 @@ std::vector<bool> SelectKeyframes(const Trajectory& trajectory, const std::vecto
     last = static_cast<int>(k);
   }
   return keyframes;
+}
+
+std::vector<Pose> InterpolatedCorrections(const Trajectory& run, const std::vector<int>& keyframes,
+                                          const std::vector<Pose>& solved) {
+  if (keyframes.size() != solved.size() || keyframes.empty() || keyframes.front() != 0) {
+    throw InputError(
+        "loop closure: keyframes and solved poses differ in number, or pose 0 is no keyframe");
+  }
+  const int last = static_cast<int>(keyframes.size()) - 1;
+  std::vector<Pose> corrections;
+  for (int j = 0; j <= last; ++j) {
+    corrections.push_back(Reorthonormalized(solved[j] * run.poses[keyframes[j]].inverse()));
+  }
+  std::vector<Pose> result(run.poses.size(), Pose::Identity());
+  int j = 0;
+  for (std::size_t k = 0; k < result.size(); ++k) {
+    while (j < last && keyframes[j + 1] <= static_cast<int>(k)) ++j;
+    const Pose with_j = corrections[j] * run.poses[k];
+    Pose corrected = with_j;
+    if (j < last) {
+      const double s = static_cast<double>(static_cast<int>(k) - keyframes[j]) /
+                       (keyframes[j + 1] - keyframes[j]);
+      corrected = Blend(with_j, corrections[j + 1] * run.poses[k], s);
+    }
+    result[k] = Reorthonormalized(corrected * run.poses[k].inverse());
+  }
+  return result;
 }
 
 LoopCheck VerifyLoop(const FramePyramid& later, const FramePyramid& earlier, const Pose& T_init,
@@ -174,7 +272,8 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
     return result;
   }
   // Sequential edges, and each keyframe's revisit candidate.
-  std::vector<PoseGraphEdge> edges;
+  std::vector<PoseGraphEdge> sequential;
+  std::vector<PoseGraphEdge> loops;
   std::vector<double> rmse;
   const std::vector<double> path = PathLengths(trajectory);
   std::vector<int> candidate(nodes.size(), -1);
@@ -183,7 +282,7 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
     FramePyramid current = LoadPyramid(sequence, frames[nodes[j]], options);
     const Pose T_a_b = trajectory.poses[nodes[j - 1]].inverse() * trajectory.poses[nodes[j]];
     const MeasuredEdge m = MeasureEdge(current, previous, j - 1, j, T_a_b, options);
-    edges.push_back(m.edge);
+    sequential.push_back(m.edge);
     rmse.push_back(m.rmse_m);
     candidate[j] = FindCandidate(static_cast<int>(j), nodes, trajectory, path, options);
     result.candidates += candidate[j] >= 0 ? 1 : 0;
@@ -206,7 +305,7 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
           MeasureEdge(later, earlier, i, static_cast<int>(j), check.track.T_target_source, options)
               .edge;
       loop.robust = false;  // verified; the loss would reject it while the drift is open
-      edges.push_back(loop);
+      loops.push_back(loop);
     } else {
       log.Debug("loop closure: frames " + std::to_string(frames[nodes[i]]) + " and " +
                 std::to_string(frames[nodes[j]]) + " rejected: " + check.reason);
@@ -216,17 +315,7 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
   if (result.accepted == 0) {
     result.message = "no loop accepted";
   } else {
-    std::vector<Pose> initial;
-    for (int k : nodes) initial.push_back(trajectory.poses[k]);
-    const PoseGraphResult graph = OptimizePoseGraph(initial, edges, 0);
-    result.message = graph.message;
-    if (graph.usable) {
-      CorrectTrajectory(nodes, graph.poses, &result);
-      result.applied = true;
-    } else {
-      log.Warning("loop closure: the pose graph was not solved (" + graph.message +
-                  "); the trajectory is the run's");
-    }
+    SolveAndCorrect(trajectory, sequential, loops, options, &result, log);
   }
   result.seconds = SecondsSince(start);
   return result;

@@ -545,8 +545,9 @@ class TrackResult(Trajectory):
     recovered: int = 0  #: frames the motion guard re-tracked successfully
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
-    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "applied", "message",
-    #: "seconds"} (the loops checked and accepted, whether the trajectory was corrected)
+    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
+    #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
+    #: the check after the solve, whether the trajectory was corrected)
     loop_closure: Optional[Dict[str, Any]] = None
 
 
@@ -635,8 +636,9 @@ class SlamResult(Trajectory):
     recovered: int = 0  #: frames the motion guard re-tracked successfully
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
-    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "applied", "message",
-    #: "seconds"} (the loops checked and accepted, whether the trajectory was corrected)
+    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
+    #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
+    #: the check after the solve, whether the trajectory was corrected)
     loop_closure: Optional[Dict[str, Any]] = None
     halvings: int = 0  #: times every frame was halved (``halve``, or its default's choice)
 

@@ -447,4 +447,5 @@ def test_track_reports_its_loop_closure(tracked):
     closure = tracked.loop_closure
     assert closure is not None and closure["keyframes"] >= 1
     assert 0 <= closure["accepted"] <= closure["candidates"]
+    assert 0 <= closure["rejected_after_solve"] <= closure["accepted"]
     assert isinstance(closure["applied"], bool) and closure["seconds"] >= 0
