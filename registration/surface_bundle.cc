@@ -538,8 +538,11 @@ class BundleSolver {
   /// cubes of kCovarianceCellM within each term (the correlated noise of
   /// neighbouring tiles, a surface's bias). From the problem of the last solve
   /// with each term split by tile and cube: the same J^T J, the same covariance.
-  ClusterSandwiches PixelSandwiches(const std::vector<double*>& free_poses,
-                                    const std::vector<double*>& plane_blocks);
+  /// Returns the poses' covariance (MarginalPoseSandwiches', not scaled), the
+  /// sandwiches and in `priors` the information of the priors.
+  Eigen::MatrixXd PixelSandwiches(const std::vector<double*>& free_poses,
+                                  const std::vector<double*>& plane_blocks,
+                                  ClusterSandwiches* sandwiches, Eigen::MatrixXd* priors);
   /// The start as a prior along the directions it knows better than the planes;
   /// false when no camera has such a direction.
   bool StartPriors(std::vector<Mat6>* priors) const;
@@ -781,15 +784,26 @@ void BundleSolver::Statistics() {
   if (!result_.covariance_ok) return;
   const bool with_robust = robust.size() > 0 && result_.noise_scale > 0.0;
   const Eigen::MatrixXd planes = with_robust ? CovarianceAtLeast(model, robust) : model;
-  // Reported: the model raised by the design effect of the pixels' residuals,
-  // and at least the planes' cluster-robust covariance.
-  const ClusterSandwiches sandwiches = PixelSandwiches(free_poses, plane_blocks);
-  Eigen::VectorXd scale = Eigen::VectorXd::Ones(model.rows());
-  for (size_t k = 0; k < free_cameras.size() && sandwiches.fine.size() > 0; ++k) {
-    const SigmaInflation f = InflationOf(sandwiches, 6 * static_cast<int>(k));
-    scale.segment<6>(6 * k) << Vec3::Constant(f.rotation), Vec3::Constant(f.translation);
+  // Reported: the planes' part of the information raised by the design effect
+  // of the pixels' residuals, the priors' by the start's inflation, and at least
+  // the planes' cluster-robust covariance.
+  ClusterSandwiches sandwiches;
+  Eigen::MatrixXd priors;
+  const Eigen::MatrixXd unscaled = PixelSandwiches(free_poses, plane_blocks, &sandwiches, &priors);
+  Eigen::MatrixXd covariance = model;
+  if (unscaled.size() > 0) {
+    Eigen::VectorXd pixels(model.rows()), start(model.rows());
+    for (size_t k = 0; k < free_cameras.size(); ++k) {
+      const SigmaInflation f = InflationOf(sandwiches, 6 * static_cast<int>(k));
+      const SigmaInflation& g = cameras_[free_cameras[k]].start_inflation;
+      pixels.segment<6>(6 * k) << Vec3::Constant(f.rotation), Vec3::Constant(f.translation);
+      start.segment<6>(6 * k) << Vec3::Constant(g.rotation), Vec3::Constant(g.translation);
+    }
+    covariance =
+        result_.noise_scale * result_.noise_scale *
+        (pixels.asDiagonal() * (unscaled - unscaled * priors * unscaled) * pixels.asDiagonal() +
+         unscaled * start.asDiagonal() * priors * start.asDiagonal() * unscaled);
   }
-  Eigen::MatrixXd covariance = scale.asDiagonal() * model * scale.asDiagonal();
   if (with_robust) covariance = CovarianceAtLeast(covariance, robust);
   for (size_t k = 0; k < free_cameras.size(); ++k) {
     const size_t c = free_cameras[k];
@@ -800,8 +814,10 @@ void BundleSolver::Statistics() {
   }
 }
 
-ClusterSandwiches BundleSolver::PixelSandwiches(const std::vector<double*>& free_poses,
-                                                const std::vector<double*>& plane_blocks) {
+Eigen::MatrixXd BundleSolver::PixelSandwiches(const std::vector<double*>& free_poses,
+                                              const std::vector<double*>& plane_blocks,
+                                              ClusterSandwiches* sandwiches,
+                                              Eigen::MatrixXd* priors) {
   // The terms split: one atom per (term, cube, tile), its cube's cluster.
   std::vector<ClusterTerm> atoms;
   BlockClusters clusters;
@@ -840,9 +856,8 @@ ClusterSandwiches BundleSolver::PixelSandwiches(const std::vector<double*>& free
   split->GetResidualBlocks(&residual_blocks);
   clusters.fine.resize(residual_blocks.size(), -1);  // the priors: in none
   clusters.coarse.resize(residual_blocks.size(), -1);
-  ClusterSandwiches sandwiches;
-  MarginalPoseSandwiches(split.get(), free_poses, plane_blocks, clusters, &sandwiches);
-  return sandwiches;
+  return MarginalPoseSandwiches(split.get(), free_poses, plane_blocks, clusters, sandwiches,
+                                priors);
 }
 
 std::vector<Mat6> BundleSolver::UntiedPriors() const {

@@ -47,6 +47,10 @@ struct SurfaceCamera {
   /// The start's covariance (PoseManifold tangent; zero: none): the start enters as a prior
   /// with it (RegisterSurfaceBundle).
   Mat6 start_covariance = Mat6::Zero();
+  /// How much larger the start's errors are than start_covariance says (the joint solve's
+  /// sigma_inflation): the reported covariance counts the start's prior with it, the prior
+  /// itself does not (its weight stays the noise model's).
+  SigmaInflation start_inflation;
 };
 
 /// One camera's pixels (indices into SurfaceCamera::points) on one plane.

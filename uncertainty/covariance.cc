@@ -231,9 +231,10 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
 
 Eigen::MatrixXd MarginalPoseSandwiches(ceres::Problem* problem, const std::vector<double*>& poses,
                                        const std::vector<double*>& nuisance,
-                                       const BlockClusters& clusters,
-                                       ClusterSandwiches* sandwiches) {
+                                       const BlockClusters& clusters, ClusterSandwiches* sandwiches,
+                                       Eigen::MatrixXd* unclustered) {
   sandwiches->fine = sandwiches->coarse = Eigen::MatrixXd();
+  if (unclustered != nullptr) unclustered->resize(0, 0);
   if (poses.empty()) return {};
   std::vector<double*> blocks = poses;
   blocks.insert(blocks.end(), nuisance.begin(), nuisance.end());
@@ -246,8 +247,12 @@ Eigen::MatrixXd MarginalPoseSandwiches(ceres::Problem* problem, const std::vecto
   std::vector<double> residuals;
   ceres::CRSMatrix J;
   EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
-  SchurBlocks s(problem, static_cast<int>(poses.size()), nuisance, J.num_cols, false);
-  for (int row = 0; row < J.num_rows; ++row) s.AddRow(J, row, residuals[row], false);
+  // With clusters, SchurBlocks gathers the information of the rows without a nuisance block in
+  // P (its per-block scores are not used: the clusters here are the caller's).
+  const bool priors = unclustered != nullptr;
+  SchurBlocks s(problem, static_cast<int>(poses.size()), nuisance, J.num_cols, priors);
+  for (int row = 0; row < J.num_rows; ++row) s.AddRow(J, row, residuals[row], priors);
+  if (priors) *unclustered = s.P;
   std::vector<Eigen::MatrixXd> K(nuisance.size());  // B_j D_j^-1
   for (size_t j = 0; j < nuisance.size(); ++j) {
     if (s.D[j].isZero(0.0) && s.B[j].isZero(0.0)) continue;  // in no residual block

@@ -109,14 +109,16 @@ struct BlockClusters {
 /// conditions), and in `sandwiches` its cluster-robust sandwiches C (sum_g s_g s_g^T) C over the
 /// fine and over the coarse clusters of `clusters`, s_g = sum over the rows of cluster g of
 /// (J_p - B_j D_j^-1 J_j)^T r (the row's score for the poses, its nuisance block j eliminated):
-/// InflationOf gives each pose's design effect. Clusters finer than a nuisance block's residual
-/// blocks come from splitting its residual blocks (e.g. the surface bundle's plane clusters by
-/// where their pixels are), which leaves J^T J and C as they are. Sandwiches empty when C is;
-/// std::invalid_argument unless `clusters` has one entry per residual block.
+/// InflationOf gives each pose's design effect. With `unclustered` (not null): the information
+/// J_p^T J_p of the residual blocks without a nuisance block (priors). Clusters finer than a
+/// nuisance block's residual blocks come from splitting its residual blocks (e.g. the surface
+/// bundle's plane clusters by where their pixels are), which leaves J^T J and C as they are.
+/// Sandwiches empty when C is; std::invalid_argument unless `clusters` has one entry per residual
+/// block.
 Eigen::MatrixXd MarginalPoseSandwiches(ceres::Problem* problem, const std::vector<double*>& poses,
                                        const std::vector<double*>& nuisance,
-                                       const BlockClusters& clusters,
-                                       ClusterSandwiches* sandwiches);
+                                       const BlockClusters& clusters, ClusterSandwiches* sandwiches,
+                                       Eigen::MatrixXd* unclustered = nullptr);
 
 /// The cube of edge `edge_m` (world frame) that holds `world`, of a grid offset by half a cube,
 /// so that the leveled floor (y = 0) and surfaces at round coordinates lie inside cubes: a
