@@ -74,9 +74,11 @@ struct SurfaceBundleResult {
   /// noise_scale^2); zero when unavailable.
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
-  /// Per free camera: how much the planes' cluster-robust covariance raised the noise model's
-  /// 1-sigma (uncertainty/inflation.h; 1 elsewhere), and the distinct orientations of the planes
-  /// its pixels are on, weighted by its pixels (SurfaceOrientations; 0 for a camera on none).
+  /// Per free camera: how much the reported covariance raised the noise model's 1-sigma (the
+  /// pixels' design effect, the start's inflation, at least the planes' cluster-robust
+  /// covariance: docs/uncertainty.md section 10; uncertainty/inflation.h; 1 elsewhere), and the
+  /// distinct orientations of the planes its pixels are on, weighted by its pixels
+  /// (SurfaceOrientations; 0 for a camera on none).
   std::vector<SigmaInflation> sigma_inflation;
   std::vector<int> surfaces;
   /// Per camera: RMS whitened residual of its pixels on the planes at the start and at the
