@@ -165,30 +165,40 @@ MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<P
   return cloud;
 }
 
+/// Adds the camera's pixel i to `cluster`, its sigma times `inflation`.
+void AddPixel(const SurfaceCamera& camera, const IcpOptions& options, double inflation, int i,
+              PlaneCluster* cluster) {
+  const Vec3& p = camera.points[i];
+  if (camera.ray_model) {
+    cluster->AddRay(p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
+                    inflation * InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
+  } else {
+    cluster->AddPoint(p, inflation * options.min_noise_m);
+  }
+}
+
 /// Sums each term's pixels into its cluster, each pixel's variance times its
 /// camera's noise correlation.
 void FillClusters(const std::vector<SurfaceCamera>& cameras, const IcpOptions& options,
                   const std::vector<double>& correlation, std::vector<ClusterTerm>* terms) {
   for (ClusterTerm& t : *terms) {
     t.cluster = PlaneCluster{};
-    const SurfaceCamera& camera = cameras[t.camera];
     const double inflation = std::sqrt(correlation[t.camera]);
-    for (const int i : t.pixels) {
-      const Vec3& p = camera.points[i];
-      if (camera.ray_model) {
-        t.cluster.AddRay(
-            p, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model),
-            inflation * InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m));
-      } else {
-        t.cluster.AddPoint(p, inflation * options.min_noise_m);
-      }
-    }
+    for (const int i : t.pixels) AddPixel(cameras[t.camera], options, inflation, i, &t.cluster);
   }
 }
 
 /// The side of the image tiles over which the noise's correlation is measured,
 /// pixels.
 constexpr double kCorrelationTilePx = 32.0;
+
+/// The image tile of kCorrelationTilePx that holds the camera point p (the
+/// camera has a pixel angle).
+std::pair<long long, long long> TileOf(const SurfaceCamera& camera, const Vec3& p) {
+  const double tile = kCorrelationTilePx * camera.pixel_angle;
+  return {static_cast<long long>(std::floor(p.x() / p.z() / tile)),
+          static_cast<long long>(std::floor(p.y() / p.z() / tile))};
+}
 
 /// Per camera, the noise correlation (SurfaceBundleResult::noise_correlation)
 /// at the blocks: the pixels of each term are grouped by image tile, and the
@@ -212,7 +222,6 @@ std::vector<double> NoiseCorrelation(const std::vector<ClusterTerm>& terms,
     const Vec3 n = planes[t.plane].Normal();
     Vec4 plane_camera;  // [R^T n; n^T t + d]
     plane_camera << T.linear().transpose() * n, n.dot(T.translation()) + planes[t.plane].x(3);
-    const double tile = kCorrelationTilePx * camera.pixel_angle;
     std::map<std::pair<long long, long long>, double> tile_sums;
     for (const int i : t.pixels) {
       const Vec3& p = camera.points[i];
@@ -221,8 +230,7 @@ std::vector<double> NoiseCorrelation(const std::vector<ClusterTerm>& terms,
       b << a, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model);
       const double r = b.dot(plane_camera) / plane_camera(3) /
                        InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m);
-      tile_sums[{static_cast<long long>(std::floor(a.x() / tile)),
-                 static_cast<long long>(std::floor(a.y() / tile))}] += r;
+      tile_sums[TileOf(camera, p)] += r;
       ++pixels[t.camera];
     }
     for (const auto& [key, sum] : tile_sums) squared_sums[t.camera] += sum * sum;
@@ -509,8 +517,10 @@ class BundleSolver {
   /// Solves poses and planes over the terms; false when Ceres fails (summary_
   /// says why).
   bool SolveOnce(const std::vector<Mat6>& priors);
-  void AddPoseAndPlaneBlocks(ceres::ParameterBlockOrdering* ordering);
-  void AddPriors(const std::vector<Mat6>& priors);
+  /// The pose and plane blocks into `problem` (and `ordering`, not null: planes
+  /// eliminated first).
+  void AddPoseAndPlaneBlocks(ceres::Problem* problem, ceres::ParameterBlockOrdering* ordering);
+  void AddPriors(ceres::Problem* problem, const std::vector<Mat6>& priors);
   /// What a round tells the rounds: go on, stop (no plane: the last round's
   /// result stands) or return at once (the solve failed: the previous round's
   /// poses stand, as they are).
@@ -521,6 +531,18 @@ class BundleSolver {
   /// The noise scale, the thickness and the poses' covariance (planes
   /// marginalised).
   void Statistics();
+  /// Per free camera (in camera order, 6 columns each) the design effect of the
+  /// pixels' residuals (ClusterSandwiches): fine clusters the image tiles of the
+  /// noise correlation (what the noise model already counts: each pixel weighs
+  /// 1 / its camera's correlation) within each term and cube, coarse ones the
+  /// cubes of kCovarianceCellM within each term (the correlated noise of
+  /// neighbouring tiles, a surface's bias). From the problem of the last solve
+  /// with each term split by tile and cube: the same J^T J, the same covariance.
+  /// Returns the poses' covariance (MarginalPoseSandwiches', not scaled), the
+  /// sandwiches and in `priors` the information of the priors.
+  Eigen::MatrixXd PixelSandwiches(const std::vector<double*>& free_poses,
+                                  const std::vector<double*>& plane_blocks,
+                                  ClusterSandwiches* sandwiches, Eigen::MatrixXd* priors);
   /// The start as a prior along the directions it knows better than the planes;
   /// false when no camera has such a direction.
   bool StartPriors(std::vector<Mat6>* priors) const;
@@ -547,6 +569,10 @@ class BundleSolver {
   std::vector<double> correlation_;
   std::vector<double> measured_;
   ceres::Solver::Summary summary_;
+  std::vector<Mat6> priors_;  ///< of the last solve
+  // Per camera, the planes' covariance of the poses without PixelSandwiches'
+  // inflation: what the start's prior is weighed against (StartPriors).
+  std::vector<Mat6> planes_covariance_;
   std::vector<bool> fixed_;
   std::vector<bool> untied_;  ///< fixed but not tied (PlaneSupport)
   // The correction of the world that LevelReference applied to the reference:
@@ -568,6 +594,7 @@ BundleSolver::BundleSolver(const std::vector<SurfaceCamera>& cameras, const IcpO
       blocks_(cameras.size()),
       correlation_(cameras.size(), 1.0),
       measured_(cameras.size(), 1.0),
+      planes_covariance_(cameras.size(), Mat6::Zero()),
       untied_(cameras.size(), false) {
   result_.fallback.assign(n_, false);
   result_.leveled.assign(n_, false);
@@ -583,26 +610,27 @@ BundleSolver::BundleSolver(const std::vector<SurfaceCamera>& cameras, const IcpO
   result_.poses = poses_;
 }
 
-void BundleSolver::AddPoseAndPlaneBlocks(ceres::ParameterBlockOrdering* ordering) {
+void BundleSolver::AddPoseAndPlaneBlocks(ceres::Problem* problem,
+                                         ceres::ParameterBlockOrdering* ordering) {
   for (size_t c = 0; c < n_; ++c) {
-    problem_->AddParameterBlock(blocks_[c].data(), kPoseAmbientSize, SharedPoseManifold());
-    ordering->AddElementToGroup(blocks_[c].data(), 1);
+    problem->AddParameterBlock(blocks_[c].data(), kPoseAmbientSize, SharedPoseManifold());
+    if (ordering != nullptr) ordering->AddElementToGroup(blocks_[c].data(), 1);
     result_.fallback[c] = cameras_[c].free && !fixed_[c];
-    if (!Free(c)) problem_->SetParameterBlockConstant(blocks_[c].data());
+    if (!Free(c)) problem->SetParameterBlockConstant(blocks_[c].data());
   }
   for (PlaneBlock& plane : planes_) {
-    problem_->AddParameterBlock(
+    problem->AddParameterBlock(
         plane.x.data(), 4,
         plane.floor ? static_cast<ceres::Manifold*>(&floor_manifold_) : &plane_manifold_);
-    ordering->AddElementToGroup(plane.x.data(), 0);
+    if (ordering != nullptr) ordering->AddElementToGroup(plane.x.data(), 0);
   }
 }
 
-void BundleSolver::AddPriors(const std::vector<Mat6>& priors) {
+void BundleSolver::AddPriors(ceres::Problem* problem, const std::vector<Mat6>& priors) {
   if (options_.gravity_weight > 0.0) {
     for (size_t c = 0; c < n_; ++c) {
       if (!Free(c)) continue;
-      problem_->AddResidualBlock(
+      problem->AddResidualBlock(
           GravityPriorCost::Create(cameras_[c].T_world_leveled.linear(), options_.gravity_weight),
           nullptr, blocks_[c].data());
     }
@@ -610,7 +638,7 @@ void BundleSolver::AddPriors(const std::vector<Mat6>& priors) {
   for (size_t c = 0; c < n_; ++c) {
     if (priors.empty() || priors[c].isZero() || !Free(c)) continue;
     const Pose T0 = gauge_ * cameras_[c].T_world_camera;
-    problem_->AddResidualBlock(
+    problem->AddResidualBlock(
         new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
             new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
         nullptr, blocks_[c].data());
@@ -619,13 +647,14 @@ void BundleSolver::AddPriors(const std::vector<Mat6>& priors) {
 
 bool BundleSolver::SolveOnce(const std::vector<Mat6>& priors) {
   problem_ = NewProblem();
+  priors_ = priors;
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
-  AddPoseAndPlaneBlocks(ordering.get());
+  AddPoseAndPlaneBlocks(problem_.get(), ordering.get());
   for (const ClusterTerm& t : terms_) {
     problem_->AddResidualBlock(PlaneClusterCost::Create(t.cluster, cameras_[t.camera].ray_model),
                                nullptr, blocks_[t.camera].data(), planes_[t.plane].x.data());
   }
-  AddPriors(priors);
+  AddPriors(problem_.get(), priors);
   ceres::Solver::Options solver_options;
   solver_options.linear_solver_type = ceres::DENSE_SCHUR;
   solver_options.linear_solver_ordering = ordering;
@@ -748,20 +777,87 @@ void BundleSolver::Statistics() {
   // covariance: each plane's model error and wrong pixels, which the noise
   // model does not know).
   Eigen::MatrixXd robust;
-  Eigen::MatrixXd covariance =
+  const Eigen::MatrixXd model =
+      result_.noise_scale * result_.noise_scale *
       MarginalPoseCovariance(problem_.get(), free_poses, plane_blocks, &robust);
-  result_.covariance_ok = covariance.size() > 0;
+  result_.covariance_ok = model.size() > 0;
   if (!result_.covariance_ok) return;
-  covariance *= result_.noise_scale * result_.noise_scale;
-  const Eigen::MatrixXd model = covariance;
-  if (robust.size() > 0 && result_.noise_scale > 0.0) {
-    covariance = CovarianceAtLeast(covariance, robust);
+  const bool with_robust = robust.size() > 0 && result_.noise_scale > 0.0;
+  const Eigen::MatrixXd planes = with_robust ? CovarianceAtLeast(model, robust) : model;
+  // Reported: the planes' part of the information raised by the design effect
+  // of the pixels' residuals, the priors' by the start's inflation, and at least
+  // the planes' cluster-robust covariance.
+  ClusterSandwiches sandwiches;
+  Eigen::MatrixXd priors;
+  const Eigen::MatrixXd unscaled = PixelSandwiches(free_poses, plane_blocks, &sandwiches, &priors);
+  Eigen::MatrixXd covariance = model;
+  if (unscaled.size() > 0) {
+    Eigen::VectorXd pixels(model.rows()), start(model.rows());
+    for (size_t k = 0; k < free_cameras.size(); ++k) {
+      const SigmaInflation f = InflationOf(sandwiches, 6 * static_cast<int>(k));
+      const SigmaInflation& g = cameras_[free_cameras[k]].start_inflation;
+      pixels.segment<6>(6 * k) << Vec3::Constant(f.rotation), Vec3::Constant(f.translation);
+      start.segment<6>(6 * k) << Vec3::Constant(g.rotation), Vec3::Constant(g.translation);
+    }
+    covariance =
+        result_.noise_scale * result_.noise_scale *
+        (pixels.asDiagonal() * (unscaled - unscaled * priors * unscaled) * pixels.asDiagonal() +
+         unscaled * start.asDiagonal() * priors * start.asDiagonal() * unscaled);
   }
+  if (with_robust) covariance = CovarianceAtLeast(covariance, robust);
   for (size_t k = 0; k < free_cameras.size(); ++k) {
-    result_.covariance[free_cameras[k]] = covariance.block<6, 6>(6 * k, 6 * k);
-    result_.sigma_inflation[free_cameras[k]] =
-        InflationBetween(model.block<6, 6>(6 * k, 6 * k), covariance.block<6, 6>(6 * k, 6 * k));
+    const size_t c = free_cameras[k];
+    planes_covariance_[c] = planes.block<6, 6>(6 * k, 6 * k);
+    result_.covariance[c] = covariance.block<6, 6>(6 * k, 6 * k);
+    result_.sigma_inflation[c] =
+        InflationBetween(model.block<6, 6>(6 * k, 6 * k), result_.covariance[c]);
   }
+}
+
+Eigen::MatrixXd BundleSolver::PixelSandwiches(const std::vector<double*>& free_poses,
+                                              const std::vector<double*>& plane_blocks,
+                                              ClusterSandwiches* sandwiches,
+                                              Eigen::MatrixXd* priors) {
+  // The terms split: one atom per (term, cube, tile), its cube's cluster.
+  std::vector<ClusterTerm> atoms;
+  BlockClusters clusters;
+  int cubes = 0;
+  for (const ClusterTerm& t : terms_) {
+    const SurfaceCamera& camera = cameras_[t.camera];
+    const Pose T = PoseFromParameters(blocks_[t.camera].data());
+    const bool tiles = camera.ray_model && camera.pixel_angle > 0.0;
+    std::map<std::array<int64_t, 3>, int> cube_of;
+    std::map<std::pair<std::array<int64_t, 3>, std::pair<long long, long long>>, int> atom_of;
+    for (const int i : t.pixels) {
+      const Vec3& p = camera.points[i];
+      const std::array<int64_t, 3> cube = CellOf(T * p, kCovarianceCellM);
+      const auto [cube_it, new_cube] = cube_of.try_emplace(cube, cubes);
+      if (new_cube) ++cubes;
+      const auto tile = tiles ? TileOf(camera, p) : std::pair<long long, long long>{0, 0};
+      const auto [atom_it, new_atom] =
+          atom_of.try_emplace({cube, tile}, static_cast<int>(atoms.size()));
+      if (new_atom) {
+        atoms.push_back({t.camera, t.plane, PlaneCluster{}, {}});
+        clusters.fine.push_back(atom_it->second);
+        clusters.coarse.push_back(cube_it->second);
+      }
+      AddPixel(camera, options_, std::sqrt(correlation_[t.camera]), i,
+               &atoms[atom_it->second].cluster);
+    }
+  }
+  const std::unique_ptr<ceres::Problem> split = NewProblem();
+  AddPoseAndPlaneBlocks(split.get(), nullptr);
+  for (const ClusterTerm& a : atoms) {
+    split->AddResidualBlock(PlaneClusterCost::Create(a.cluster, cameras_[a.camera].ray_model),
+                            nullptr, blocks_[a.camera].data(), planes_[a.plane].x.data());
+  }
+  AddPriors(split.get(), priors_);
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  split->GetResidualBlocks(&residual_blocks);
+  clusters.fine.resize(residual_blocks.size(), -1);  // the priors: in none
+  clusters.coarse.resize(residual_blocks.size(), -1);
+  return MarginalPoseSandwiches(split.get(), free_poses, plane_blocks, clusters, sandwiches,
+                                priors);
 }
 
 std::vector<Mat6> BundleSolver::UntiedPriors() const {
@@ -786,7 +882,7 @@ bool BundleSolver::StartPriors(std::vector<Mat6>* priors) const {
     }
     int directions = 0;
     (*priors)[c] =
-        WeakDirectionPrior(cameras_[c].start_covariance, result_.covariance[c], &directions);
+        WeakDirectionPrior(cameras_[c].start_covariance, planes_covariance_[c], &directions);
     held += directions;
   }
   if (held > 0) {

@@ -47,6 +47,10 @@ struct SurfaceCamera {
   /// The start's covariance (PoseManifold tangent; zero: none): the start enters as a prior
   /// with it (RegisterSurfaceBundle).
   Mat6 start_covariance = Mat6::Zero();
+  /// How much larger the start's errors are than start_covariance says (the joint solve's
+  /// sigma_inflation): the reported covariance counts the start's prior with it, the prior
+  /// itself does not (its weight stays the noise model's).
+  SigmaInflation start_inflation;
 };
 
 /// One camera's pixels (indices into SurfaceCamera::points) on one plane.
@@ -70,9 +74,11 @@ struct SurfaceBundleResult {
   /// noise_scale^2); zero when unavailable.
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
-  /// Per free camera: how much the planes' cluster-robust covariance raised the noise model's
-  /// 1-sigma (uncertainty/inflation.h; 1 elsewhere), and the distinct orientations of the planes
-  /// its pixels are on, weighted by its pixels (SurfaceOrientations; 0 for a camera on none).
+  /// Per free camera: how much the reported covariance raised the noise model's 1-sigma (the
+  /// pixels' design effect, the start's inflation, at least the planes' cluster-robust
+  /// covariance: docs/uncertainty.md section 10; uncertainty/inflation.h; 1 elsewhere), and the
+  /// distinct orientations of the planes its pixels are on, weighted by its pixels
+  /// (SurfaceOrientations; 0 for a camera on none).
   std::vector<SigmaInflation> sigma_inflation;
   std::vector<int> surfaces;
   /// Per camera: RMS whitened residual of its pixels on the planes at the start and at the

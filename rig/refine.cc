@@ -146,6 +146,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
       const SigmaInflation& f = joint->sigma_inflation[i];
       surfaces[i].start_covariance =
           Inflated(joint->covariance[i], {1.0 / f.rotation, 1.0 / f.translation});
+      surfaces[i].start_inflation = f;
     }
     // A camera the joint solve could not link keeps its leveled pose, which may be far off:
     // its pixels would pull the planes.

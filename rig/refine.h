@@ -39,7 +39,8 @@ struct CameraReport {
   Mat6 covariance = Mat6::Zero();
   /// Joint mode: how much what the residuals show (correlated noise, surfaces' bias) raised the
   /// noise model's 1-sigma in `covariance` (docs/uncertainty.md, "Inflation"; the surface
-  /// bundle's cameras: its planes' cluster-robust covariance), 1 without a covariance.
+  /// bundle's cameras: its pixels' design effect and its start's inflation, at least its planes'
+  /// cluster-robust covariance; docs/uncertainty.md section 10), 1 without a covariance.
   SigmaInflation sigma_inflation;
   /// Joint mode: the distinct orientations of the surfaces the pose rests on (the surface
   /// bundle's planes for the cameras it refined), and whether they are fewer than

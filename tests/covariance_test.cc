@@ -431,6 +431,40 @@ TEST(MarginalPoseCovariance, EqualsCeresCovarianceOfThePoses) {
             kRelativeTolerance * expected.norm());
 }
 
+TEST(MarginalPoseSandwiches, SameCovarianceAndSandwichesOfTheGivenClusters) {
+  constexpr double kRelativeTolerance = 1e-10;
+  PlaneBundle bundle;
+  bundle.planes[1](3) += 0.01;  // residuals, so that the scores are not zero
+  const std::vector<double*> free_poses = {bundle.poses[1].data(), bundle.poses[2].data()};
+  std::vector<double*> planes;
+  for (Vec4& plane : bundle.planes) planes.push_back(plane.data());
+  const Eigen::MatrixXd C = MarginalPoseCovariance(bundle.problem.get(), free_poses, planes);
+  // Blocks in camera-major order (3 cameras x 4 planes): fine each block, coarse each camera.
+  BlockClusters clusters;
+  for (int b = 0; b < 12; ++b) {
+    clusters.fine.push_back(b);
+    clusters.coarse.push_back(b / 4);
+  }
+  ClusterSandwiches sandwiches;
+  Eigen::MatrixXd priors;
+  const Eigen::MatrixXd same = MarginalPoseSandwiches(bundle.problem.get(), free_poses, planes,
+                                                      clusters, &sandwiches, &priors);
+  EXPECT_LE((same - C).norm(), kRelativeTolerance * C.norm());
+  EXPECT_TRUE(priors.isZero(0.0));  // no residual block without a plane
+  ASSERT_EQ(sandwiches.fine.rows(), 12);
+  EXPECT_GT(sandwiches.fine.trace(), 0.0);
+  EXPECT_GT(sandwiches.coarse.trace(), 0.0);
+  // The same clusters twice: the same sandwich, no design effect.
+  clusters.coarse = clusters.fine;
+  MarginalPoseSandwiches(bundle.problem.get(), free_poses, planes, clusters, &sandwiches);
+  EXPECT_LE((sandwiches.coarse - sandwiches.fine).norm(), 1e-12 * sandwiches.fine.norm());
+  EXPECT_DOUBLE_EQ(InflationOf(sandwiches, 0).rotation, 1.0);
+  clusters.fine.pop_back();
+  EXPECT_THROW(
+      MarginalPoseSandwiches(bundle.problem.get(), free_poses, planes, clusters, &sandwiches),
+      std::invalid_argument);
+}
+
 TEST(MarginalPoseCovariance, APlaneInNoTermIsLeftOutAndAHalfSeenOneGivesNone) {
   PlaneBundle bundle;
   std::vector<double*> planes;

@@ -229,6 +229,75 @@ Eigen::MatrixXd MarginalPoseCovariance(ceres::Problem* problem, const std::vecto
   return covariance;
 }
 
+Eigen::MatrixXd MarginalPoseSandwiches(ceres::Problem* problem, const std::vector<double*>& poses,
+                                       const std::vector<double*>& nuisance,
+                                       const BlockClusters& clusters, ClusterSandwiches* sandwiches,
+                                       Eigen::MatrixXd* unclustered) {
+  sandwiches->fine = sandwiches->coarse = Eigen::MatrixXd();
+  if (unclustered != nullptr) unclustered->resize(0, 0);
+  if (poses.empty()) return {};
+  std::vector<double*> blocks = poses;
+  blocks.insert(blocks.end(), nuisance.begin(), nuisance.end());
+  std::vector<ceres::ResidualBlockId> residual_blocks;
+  problem->GetResidualBlocks(&residual_blocks);
+  if (clusters.fine.size() != residual_blocks.size() ||
+      clusters.coarse.size() != residual_blocks.size()) {
+    throw std::invalid_argument("MarginalPoseSandwiches: one cluster per residual block expected");
+  }
+  std::vector<double> residuals;
+  ceres::CRSMatrix J;
+  EvaluateJacobian(problem, blocks, residual_blocks, &residuals, &J);
+  // With clusters, SchurBlocks gathers the information of the rows without a nuisance block in
+  // P (its per-block scores are not used: the clusters here are the caller's).
+  const bool priors = unclustered != nullptr;
+  SchurBlocks s(problem, static_cast<int>(poses.size()), nuisance, J.num_cols, priors);
+  for (int row = 0; row < J.num_rows; ++row) s.AddRow(J, row, residuals[row], priors);
+  if (priors) *unclustered = s.P;
+  std::vector<Eigen::MatrixXd> K(nuisance.size());  // B_j D_j^-1
+  for (size_t j = 0; j < nuisance.size(); ++j) {
+    if (s.D[j].isZero(0.0) && s.B[j].isZero(0.0)) continue;  // in no residual block
+    const Eigen::MatrixXd D_inverse = InverseOrEmpty(s.D[j]);
+    if (D_inverse.size() == 0) return {};
+    K[j] = s.B[j] * D_inverse;
+    s.A -= K[j] * s.B[j].transpose();
+  }
+  const Eigen::MatrixXd covariance = InverseOrEmpty(s.A);
+  if (covariance.size() == 0) return covariance;
+  const auto count = [](const std::vector<int>& of) {
+    return of.empty() ? 0 : *std::max_element(of.begin(), of.end()) + 1;
+  };
+  Eigen::MatrixXd fine = Eigen::MatrixXd::Zero(s.p, count(clusters.fine));
+  Eigen::MatrixXd coarse = Eigen::MatrixXd::Zero(s.p, count(clusters.coarse));
+  int row = 0;
+  for (size_t b = 0; b < residual_blocks.size(); ++b) {
+    const int rows = problem->GetCostFunctionForResidualBlock(residual_blocks[b])->num_residuals();
+    for (const int end = row + rows; row < end; ++row) {
+      if (clusters.fine[b] < 0 && clusters.coarse[b] < 0) continue;
+      const int j = s.Cluster(J, row);
+      Eigen::VectorXd score = Eigen::VectorXd::Zero(s.p);
+      for (int a = J.rows[row]; a < J.rows[row + 1]; ++a) {
+        const double v = J.values[a] * residuals[row];
+        if (J.cols[a] < s.p) {
+          score(J.cols[a]) += v;
+        } else {
+          score -= K[j].col(J.cols[a] - s.start[j]) * v;
+        }
+      }
+      if (clusters.fine[b] >= 0) fine.col(clusters.fine[b]) += score;
+      if (clusters.coarse[b] >= 0) coarse.col(clusters.coarse[b]) += score;
+    }
+  }
+  sandwiches->fine = covariance * fine * fine.transpose() * covariance;
+  sandwiches->coarse = covariance * coarse * coarse.transpose() * covariance;
+  return covariance;
+}
+
+std::array<int64_t, 3> CellOf(const Vec3& world, double edge_m) {
+  const Vec3 floor = ((world / edge_m).array() + 0.5).floor();
+  return {static_cast<int64_t>(floor.x()), static_cast<int64_t>(floor.y()),
+          static_cast<int64_t>(floor.z())};
+}
+
 Eigen::MatrixXd CovarianceAtLeast(const Eigen::MatrixXd& model, const Eigen::MatrixXd& other) {
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> m(model);
   if (!(m.eigenvalues().minCoeff() > 0.0)) {
@@ -303,18 +372,12 @@ class ClusterScores {
     if (c >= 0) by_point_.row(i).segment<6>(c) += score.transpose();
   }
 
-  /// Adds the points' scores to the cubes of `edge` (world frame) that hold them. The grid is
-  /// offset by half a cube, so that the leveled floor (y = 0) and surfaces at round coordinates
-  /// lie inside cubes: a surface on a cube's face would put each of its points on the side its
-  /// noise sends it, and so cluster the noise by its sign.
+  /// Adds the points' scores to the cubes of `edge` (world frame, CellOf) that hold them.
   void AddToCells(double edge, CellScores* cells) const {
     for (Eigen::Index i = 0; i < by_point_.rows(); ++i) {
       if (by_point_.row(i).isZero(0.0)) continue;
-      const Vec3 cell = (view_.T_world_camera * view_.level->points[i] / edge).array() + 0.5;
-      const Vec3 floor = cell.array().floor();
-      const std::array<int64_t, 3> key = {static_cast<int64_t>(floor.x()),
-                                          static_cast<int64_t>(floor.y()),
-                                          static_cast<int64_t>(floor.z())};
+      const std::array<int64_t, 3> key =
+          CellOf(view_.T_world_camera * view_.level->points[i], edge);
       const auto [it, added] = cells->try_emplace(key, Eigen::VectorXd::Zero(by_point_.cols()));
       it->second += by_point_.row(i).transpose();
     }

@@ -7,6 +7,8 @@
 #include <ceres/problem.h>
 
 #include <Eigen/Core>
+#include <array>
+#include <cstdint>
 #include <vector>
 
 #include "options/refine_options.h"
@@ -94,6 +96,35 @@ struct ClusterSandwiches {
 /// (rotation, translation), sqrt(trace of `coarse` / trace of `fine`) over its 3 x 3 block,
 /// at least 1; 1 where `fine`'s trace is 0.
 SigmaInflation InflationOf(const ClusterSandwiches& sandwiches, int column);
+
+/// Clusters of the residual blocks of a problem, per block in ceres::Problem::GetResidualBlocks'
+/// order: the index of its fine and of its coarse cluster (ClusterSandwiches), -1 for a block in
+/// none (a prior, taken as modelled).
+struct BlockClusters {
+  std::vector<int> fine;
+  std::vector<int> coarse;
+};
+
+/// MarginalPoseCovariance's covariance C of `poses` (`nuisance` marginalised, the same
+/// conditions), and in `sandwiches` its cluster-robust sandwiches C (sum_g s_g s_g^T) C over the
+/// fine and over the coarse clusters of `clusters`, s_g = sum over the rows of cluster g of
+/// (J_p - B_j D_j^-1 J_j)^T r (the row's score for the poses, its nuisance block j eliminated):
+/// InflationOf gives each pose's design effect. With `unclustered` (not null): the information
+/// J_p^T J_p of the residual blocks without a nuisance block (priors). Clusters finer than a
+/// nuisance block's residual blocks come from splitting its residual blocks (e.g. the surface
+/// bundle's plane clusters by where their pixels are), which leaves J^T J and C as they are.
+/// Sandwiches empty when C is; std::invalid_argument unless `clusters` has one entry per residual
+/// block.
+Eigen::MatrixXd MarginalPoseSandwiches(ceres::Problem* problem, const std::vector<double*>& poses,
+                                       const std::vector<double*>& nuisance,
+                                       const BlockClusters& clusters, ClusterSandwiches* sandwiches,
+                                       Eigen::MatrixXd* unclustered = nullptr);
+
+/// The cube of edge `edge_m` (world frame) that holds `world`, of a grid offset by half a cube,
+/// so that the leveled floor (y = 0) and surfaces at round coordinates lie inside cubes: a
+/// surface on a cube's face would put each of its points on the side its noise sends it, and so
+/// cluster the noise by its sign.
+std::array<int64_t, 3> CellOf(const Vec3& world, double edge_m);
 
 /// The correspondences of one pair direction between two views.
 struct MatchedViews {
