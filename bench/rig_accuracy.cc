@@ -133,6 +133,51 @@ class BiasSplit {
   std::map<std::tuple<int, std::string, std::string>, Draws> draws_;
 };
 
+/// The surface bundle's depth models (icp.depth_model) against the simulated miscalibration:
+/// a line per camera, and the offsets' error in pixels of disparity over the runs.
+class DepthModelTally {
+ public:
+  void Observe(const rigfit::RefineResult& result, const rigfit::SimulatedRig& rig,
+               const rigfit::SimOptions& sim) {
+    for (size_t i = 0; i < result.cameras.size(); ++i) {
+      const rigfit::DepthModelEstimate& d = result.cameras[i].depth_model;
+      if (!(d.offset_prior_sigma > 0.0)) continue;
+      const std::vector<int>& wrong = sim.miscalibrated_cameras;
+      const bool miscalibrated =
+          sim.disparity_offset_px != 0.0 &&
+          (wrong.empty() ? i != 0 : std::count(wrong.begin(), wrong.end(), int(i)) > 0);
+      const double truth = miscalibrated ? -sim.disparity_offset_px : 0.0;  // the correction
+      const double px = rig.capture.cameras[i].intrinsics.fx * sim.stereo_baseline_m;
+      std::printf(
+          "       depth model %s: %s, scale %.4f, offset %.3f px (1-sigma %.3f, truth "
+          "%.3f), correlation with the pose %.2f\n",
+          result.cameras[i].serial.c_str(), d.solved ? "solved" : "not observable", d.scale,
+          d.offset * px, d.offset_sigma * px, truth, d.pose_correlation);
+      (miscalibrated ? wrong_ : right_).Add(d.offset * px - truth);
+      unobservable_ += d.solved ? 0 : 1;
+    }
+  }
+  void Print() const {
+    if (right_.n + wrong_.n == 0) return;
+    std::printf(
+        "depth model offsets against the truth, px: miscalibrated cameras mean %.3f RMS "
+        "%.3f (%d), the others mean %.3f RMS %.3f (%d); not observable: %d\n",
+        wrong_.Mean(), wrong_.Rms(), wrong_.n, right_.Mean(), right_.Rms(), right_.n,
+        unobservable_);
+  }
+
+ private:
+  struct Errors {
+    double sum = 0.0, sum2 = 0.0;
+    int n = 0;
+    void Add(double e) { sum += e, sum2 += e * e, ++n; }
+    double Mean() const { return n > 0 ? sum / n : 0.0; }
+    double Rms() const { return n > 0 ? std::sqrt(sum2 / n) : 0.0; }
+  };
+  Errors right_, wrong_;
+  int unobservable_ = 0;
+};
+
 /// The surface bundle's segmentation against the simulator's truth (--segmentation): which of
 /// the bound's pixels (every band pixel at the true pose on a face two cameras see,
 /// analysis/crlb.h RigFacePixels) the bundle's last round used, on the right face or not,
@@ -508,6 +553,7 @@ int main(int argc, char** argv) {
   int few_surfaces = 0;
   BiasSplit bias;
   SegmentationDiagnostic diagnostic;
+  DepthModelTally depth_models;
   // Every seed's draws in turn: run k is draw k % noise_draws of seed first_seed + k / noise_draws.
   const int runs = seeds * noise_draws;
   for (int run = 0; run < runs; ++run) {
@@ -538,6 +584,7 @@ int main(int argc, char** argv) {
                 r.times.preprocessing_s, r.times.registration_s + r.times.pose_graph_s,
                 r.success ? "ok" : r.message.c_str());
     failures += r.success ? 0 : 1;
+    depth_models.Observe(r, rig, sim);
     worse_rotation += after.rms_rotation_rad > before.rms_rotation_rad ? 1 : 0;
     worse_translation += after.rms_translation_m > before.rms_translation_m ? 1 : 0;
     int weak = 0;
@@ -670,6 +717,7 @@ int main(int argc, char** argv) {
       runs, unit, std::sqrt(sum_r2 / pairs) * kRadToDeg, std::sqrt(sum_t2 / pairs) * 1e3,
       worst_t * 1e3, std::sqrt(sum_tilt2 / cameras) * kRadToDeg, failures);
   std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, runs);
+  depth_models.Print();
   std::printf(
       "runs ending worse than their start: %d in RMS rotation, %d in RMS translation, of %d\n",
       worse_rotation, worse_translation, runs);

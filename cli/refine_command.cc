@@ -208,6 +208,24 @@ std::string CameraTable(const RefineResult& result, const RefineOptions& options
   return table.text();
 }
 
+/// A camera's depth model (icp.depth_model) for the surface bundle's table: empty when it had
+/// none (the option off, the reference, a points camera).
+std::string DepthModelText(const DepthModelEstimate& d) {
+  if (!(d.offset_prior_sigma > 0.0)) return "";
+  if (!d.solved) return "depth model not observable";
+  std::string text = "depth model ";
+  if (d.scale_prior_sigma > 0.0) {
+    text += "scale " + Fixed(d.scale, 4) + "+-" + Fixed(d.scale_sigma, 4) + ", ";
+  }
+  if (d.offset_px != 0.0) {
+    const double per_px = d.offset_px / d.offset;
+    return text + "offset " + Fixed(d.offset_px, 3) + "+-" + Fixed(d.offset_sigma * per_px, 3) +
+           " px";
+  }
+  return text + "offset " + Fixed(d.offset * 1e3, 3) + "+-" + Fixed(d.offset_sigma * 1e3, 3) +
+         " 1/km";
+}
+
 /// The pairs' table and, when it ran, the surface bundle's.
 std::string RegistrationTables(const RefineResult& result) {
   // Pairwise ICP moves b onto a; the joint mode moves both.
@@ -231,10 +249,13 @@ std::string RegistrationTables(const RefineResult& result) {
   TextTable surface_table({{35, Align::kLeft, ""}, {22}, {18}, {0, Align::kLeft, "  "}});
   surface_table.AddRow({"camera", "plane thickness (sigma)", "noise correlation"});
   for (const CameraReport& c : result.cameras) {
+    std::string notes = DepthModelText(c.depth_model);
+    if (c.surface_fallback)
+      notes += (notes.empty() ? "" : "; ") + std::string("kept its joint pose");
     surface_table.AddRow(
         {c.serial,
          Fixed(c.surface_thickness_before, 2) + " -> " + Fixed(c.surface_thickness_after, 2),
-         Fixed(c.surface_noise_correlation, 1), c.surface_fallback ? "kept its joint pose" : ""});
+         Fixed(c.surface_noise_correlation, 1), notes});
   }
   return text + surface_table.text();
 }

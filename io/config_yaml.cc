@@ -38,6 +38,10 @@ const EnumNames<RegistrationMethod> kMethodNames = {
 const EnumNames<DepthNoiseModel> kNoiseModelNames = {
     {DepthNoiseModel::kGaussianDepth, "gaussian_depth"},
     {DepthNoiseModel::kDisparity, "disparity"}};
+const EnumNames<CameraDepthModel> kDepthModelNames = {
+    {CameraDepthModel::kNone, "none"},
+    {CameraDepthModel::kOffset, "offset"},
+    {CameraDepthModel::kScaleOffset, "scale_offset"}};
 const EnumNames<RobustLoss> kLossNames = {{RobustLoss::kHuber, "huber"},
                                           {RobustLoss::kCauchy, "cauchy"},
                                           {RobustLoss::kTukey, "tukey"},
@@ -47,10 +51,12 @@ const EnumNames<RefineMode>& NamesOf(const RefineMode*) { return kModeNames; }
 const EnumNames<RegistrationMethod>& NamesOf(const RegistrationMethod*) { return kMethodNames; }
 const EnumNames<RobustLoss>& NamesOf(const RobustLoss*) { return kLossNames; }
 const EnumNames<DepthNoiseModel>& NamesOf(const DepthNoiseModel*) { return kNoiseModelNames; }
+const EnumNames<CameraDepthModel>& NamesOf(const CameraDepthModel*) { return kDepthModelNames; }
 
-using FieldRef = std::variant<bool*, int*, double*, std::uint64_t*, std::string*,
-                              std::vector<double>*, std::vector<int>*, RefineMode*,
-                              RegistrationMethod*, RobustLoss*, DepthNoiseModel*>;
+using FieldRef =
+    std::variant<bool*, int*, double*, std::uint64_t*, std::string*, std::vector<double>*,
+                 std::vector<int>*, RefineMode*, RegistrationMethod*, RobustLoss*, DepthNoiseModel*,
+                 CameraDepthModel*>;
 
 struct Field {
   std::string name;
@@ -140,6 +146,14 @@ std::vector<Section> Schema(RefineOptions& o) {
             "(disparity)."},
            {"surface_rounds", &i.surface_rounds,
             "Surface bundle: rounds of plane segmentation and solve (>= 1)."},
+           {"depth_model", &i.depth_model,
+            "Surface bundle: per-camera depth model estimated with the poses: none, offset "
+            "(inverse depth) or scale_offset."},
+           {"depth_scale_sigma", &i.depth_scale_sigma,
+            "Surface bundle: prior 1-sigma of a camera's depth scale about 1 (> 0)."},
+           {"depth_offset_sigma_px", &i.depth_offset_sigma_px,
+            "Surface bundle: prior 1-sigma of a camera's depth offset about 0, in pixels of "
+            "disparity (> 0)."},
            {"robust_loss", &i.robust_loss, "huber, cauchy, tukey or none."},
            {"robust_loss_scale", &i.robust_loss_scale,
             "Robust loss scale on whitened residuals, in standard deviations (> 0)."},

@@ -74,6 +74,13 @@ void CheckIcp(const IcpOptions& o, ProblemList& p) {
             "icp.depth_noise_model", "gaussian_depth or disparity",
             static_cast<int>(o.depth_noise_model));
   p.Require(o.surface_rounds >= 1, "icp.surface_rounds", ">= 1", o.surface_rounds);
+  p.Require(o.depth_model == CameraDepthModel::kNone ||
+                o.depth_model == CameraDepthModel::kOffset ||
+                o.depth_model == CameraDepthModel::kScaleOffset,
+            "icp.depth_model", "none, offset or scale_offset", static_cast<int>(o.depth_model));
+  p.Require(Positive(o.depth_scale_sigma), "icp.depth_scale_sigma", "> 0", o.depth_scale_sigma);
+  p.Require(Positive(o.depth_offset_sigma_px), "icp.depth_offset_sigma_px", "> 0",
+            o.depth_offset_sigma_px);
   p.Require(o.robust_loss == RobustLoss::kHuber || o.robust_loss == RobustLoss::kCauchy ||
                 o.robust_loss == RobustLoss::kTukey || o.robust_loss == RobustLoss::kNone,
             "icp.robust_loss", "huber, cauchy, tukey or none", static_cast<int>(o.robust_loss));

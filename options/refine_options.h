@@ -14,6 +14,9 @@ enum class RegistrationMethod { kPointToPlane, kGicp, kSurfaceBundle };
 /// How a depth camera's noise behaves (the surface bundle's inverse-depth residual): Gaussian
 /// in depth (rigfit's simulator, many SDK depth maps) or Gaussian in disparity (raw stereo).
 enum class DepthNoiseModel { kGaussianDepth, kDisparity };
+/// Surface bundle: the per-camera depth model estimated with the poses (docs/residuals.md,
+/// "Depth model"): none, an offset in inverse depth, or a scale and an offset.
+enum class CameraDepthModel { kNone, kOffset, kScaleOffset };
 enum class RobustLoss { kHuber, kCauchy, kTukey, kNone };
 
 /// Ground leveling: RANSAC floor per camera, pose corrected so the floor is y = 0, +Y up.
@@ -102,6 +105,16 @@ struct IcpOptions {
   DepthNoiseModel depth_noise_model = DepthNoiseModel::kGaussianDepth;
   /// Surface bundle: rounds of segmentation and solve after the joint point-to-plane start.
   int surface_rounds = 3;
+  /// Surface bundle: each free depth camera's measured inverse depth read as alpha w + beta,
+  /// alpha and beta estimated with the poses (the reference's held at 1 and 0), with priors of
+  /// 1-sigma depth_scale_sigma (alpha about 1) and depth_offset_sigma_px of disparity (beta
+  /// about 0; through fx and the camera's baseline_m, without one the scale prior's effect at
+  /// the camera's mean inverse depth). A camera whose scene cannot tell its model apart from
+  /// its pose keeps 1 and 0 (reported). Off by default: it measured worse on stereo rigs
+  /// (docs/benchmarks.md).
+  CameraDepthModel depth_model = CameraDepthModel::kNone;
+  double depth_scale_sigma = 0.01;
+  double depth_offset_sigma_px = 0.2;
   /// Surface bundle: keep its last round's planes and pixels in RefineResult::surface
   /// (SurfaceBundleReport::plane_list, terms, points) for a caller that looks inside it
   /// (bench/rig_accuracy --segmentation, the reports' 3-D view of the planes). The refinement is

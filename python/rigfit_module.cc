@@ -206,6 +206,23 @@ RefineOptions OptionsOf(const std::string& command, const std::string& config_ya
 }
 
 /// The per-camera reports of a run (rig/refine.h CameraReport), covariance as numpy.
+/// A camera's surface bundle depth model (rigfit.DepthModel's fields); None when it had none.
+py::object DepthModelDict(const DepthModelEstimate& e) {
+  if (!(e.offset_prior_sigma > 0.0)) return py::none();
+  py::dict d;
+  d["solved"] = e.solved;
+  d["observable"] = e.observable;
+  d["scale"] = e.scale;
+  d["offset"] = e.offset;
+  d["offset_px"] = e.offset_px;
+  d["scale_sigma"] = e.scale_sigma;
+  d["offset_sigma"] = e.offset_sigma;
+  d["scale_prior_sigma"] = e.scale_prior_sigma;
+  d["offset_prior_sigma"] = e.offset_prior_sigma;
+  d["pose_correlation"] = e.pose_correlation;
+  return d;
+}
+
 py::list CameraReports(const RefineResult& result) {
   py::list out;
   for (const CameraReport& c : result.cameras) {
@@ -258,6 +275,7 @@ py::list CameraReports(const RefineResult& result) {
       weak.append(wd);
     }
     d["weak_directions"] = weak;
+    d["depth_model"] = DepthModelDict(c.depth_model);
     out.append(d);
   }
   return out;

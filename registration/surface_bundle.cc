@@ -2,6 +2,7 @@
 
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/manifold.h>
+#include <ceres/normal_prior.h>
 #include <ceres/ordered_groups.h>
 #include <ceres/product_manifold.h>
 #include <ceres/solver.h>
@@ -30,6 +31,9 @@ namespace rigfit {
 namespace {
 
 using PoseBlock = std::array<double, kPoseAmbientSize>;
+/// A camera's depth model [alpha, beta] (residuals/plane_cluster.h).
+using DepthBlock = std::array<double, kDepthModelSize>;
+constexpr DepthBlock kNoDepthModel = {1.0, 0.0};
 
 /// Model error of the segmentation per round, in voxels: the joint start is
 /// about a centimetre off; each solve sharpens the surfaces, so the next round
@@ -212,6 +216,7 @@ std::vector<double> NoiseCorrelation(const std::vector<ClusterTerm>& terms,
                                      const std::vector<SurfaceCamera>& cameras,
                                      const std::vector<PoseBlock>& poses,
                                      const std::vector<PlaneBlock>& planes,
+                                     const std::vector<DepthBlock>& depth,
                                      const IcpOptions& options) {
   std::vector<double> squared_sums(cameras.size(), 0.0);
   std::vector<int> pixels(cameras.size(), 0);
@@ -227,7 +232,9 @@ std::vector<double> NoiseCorrelation(const std::vector<ClusterTerm>& terms,
       const Vec3& p = camera.points[i];
       const Vec3 a = p / p.z();
       Vec4 b;
-      b << a, InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model);
+      b << a,
+          depth[t.camera][0] * InverseDepth(p.z(), camera.depth_noise, options.depth_noise_model) +
+              depth[t.camera][1];
       const double r = b.dot(plane_camera) / plane_camera(3) /
                        InverseDepthSigma(camera.depth_noise, p.z(), options.min_noise_m);
       tile_sums[TileOf(camera, p)] += r;
@@ -463,14 +470,17 @@ void DropUnfixedCameras(const std::vector<SurfaceCamera>& cameras, const std::ve
   *planes = std::move(used);
 }
 
-/// Squared whitened residual of every term at the blocks.
+/// Squared whitened residual of every term at the blocks (the depth models' applied).
 std::vector<double> TermCosts(const std::vector<ClusterTerm>& terms,
                               const std::vector<SurfaceCamera>& cameras,
                               const std::vector<PoseBlock>& poses,
-                              const std::vector<PlaneBlock>& planes) {
+                              const std::vector<PlaneBlock>& planes,
+                              const std::vector<DepthBlock>& depth) {
   std::vector<double> costs;
   for (const ClusterTerm& t : terms) {
-    const PlaneClusterCost cost(t.cluster.SquareRoot(), cameras[t.camera].ray_model);
+    const DepthBlock& model = depth[t.camera];
+    const PlaneClusterCost cost(DepthModelMatrix(model[0], model[1]) * t.cluster.SquareRoot(),
+                                cameras[t.camera].ray_model);
     const double* parameters[] = {poses[t.camera].data(), planes[t.plane].x.data()};
     Vec4 r;
     cost.Evaluate(parameters, r.data(), nullptr);
@@ -550,6 +560,25 @@ class BundleSolver {
   /// are not tied (PlaneSupport); zero for the others.
   std::vector<Mat6> UntiedPriors() const;
   bool Free(size_t c) const { return cameras_[c].free && !result_.fallback[c]; }
+  /// Its depth model is a parameter block of the problem (IcpOptions::depth_model).
+  bool DepthSolved(size_t c) const {
+    return options_.depth_model != CameraDepthModel::kNone && Free(c) && cameras_[c].ray_model &&
+           !depth_held_[c];
+  }
+  void AddDepthModels(ceres::ParameterBlockOrdering* ordering);
+  /// The prior 1-sigma of camera c's [alpha, beta].
+  Eigen::Vector2d DepthPriorSigma(size_t c) const;
+  /// The depth models into result_.depth_model, their 1-sigma from the last solve's problem;
+  /// true when a solved one is not observable.
+  bool MeasureDepthModels();
+  /// The depth models that are not observable held at scale 1, offset 0, and the last solve
+  /// (with the start's `priors`) done again.
+  void HoldUnobservableDepthModels(const std::vector<Mat6>& priors);
+  /// The cameras with their points at the depth their current models give (in `storage`), or
+  /// the cameras as given when every model is at scale 1, offset 0.
+  const std::vector<SurfaceCamera>& CorrectedCameras(std::vector<SurfaceCamera>* storage) const;
+  /// The last solve again with `priors`, then the statistics; false when Ceres fails.
+  bool Resolve(const std::vector<Mat6>& priors);
 
   const std::vector<SurfaceCamera>& cameras_;
   const IcpOptions& options_;
@@ -575,6 +604,9 @@ class BundleSolver {
   std::vector<Mat6> planes_covariance_;
   std::vector<bool> fixed_;
   std::vector<bool> untied_;  ///< fixed but not tied (PlaneSupport)
+  std::vector<DepthBlock> depth_;
+  std::vector<bool> depth_held_;  ///< not observable: held at kNoDepthModel
+  ceres::SubsetManifold offset_manifold_{kDepthModelSize, {0}};  // icp.depth_model offset
   // The correction of the world that LevelReference applied to the reference:
   // the start's poses, which the joint solve found against the reference's
   // leveled pose, move with it where the start holds a direction (a camera that
@@ -595,8 +627,11 @@ BundleSolver::BundleSolver(const std::vector<SurfaceCamera>& cameras, const IcpO
       correlation_(cameras.size(), 1.0),
       measured_(cameras.size(), 1.0),
       planes_covariance_(cameras.size(), Mat6::Zero()),
-      untied_(cameras.size(), false) {
+      untied_(cameras.size(), false),
+      depth_(cameras.size(), kNoDepthModel),
+      depth_held_(cameras.size(), false) {
   result_.fallback.assign(n_, false);
+  result_.depth_model.assign(n_, DepthModelEstimate{});
   result_.leveled.assign(n_, false);
   result_.covariance.assign(n_, Mat6::Zero());
   result_.sigma_inflation.assign(n_, SigmaInflation{});
@@ -650,9 +685,17 @@ bool BundleSolver::SolveOnce(const std::vector<Mat6>& priors) {
   priors_ = priors;
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   AddPoseAndPlaneBlocks(problem_.get(), ordering.get());
+  AddDepthModels(ordering.get());
   for (const ClusterTerm& t : terms_) {
-    problem_->AddResidualBlock(PlaneClusterCost::Create(t.cluster, cameras_[t.camera].ray_model),
-                               nullptr, blocks_[t.camera].data(), planes_[t.plane].x.data());
+    double* pose = blocks_[t.camera].data();
+    double* plane = planes_[t.plane].x.data();
+    if (DepthSolved(t.camera)) {
+      problem_->AddResidualBlock(PlaneClusterDepthCost::Create(t.cluster), nullptr, pose, plane,
+                                 depth_[t.camera].data());
+    } else {
+      problem_->AddResidualBlock(PlaneClusterCost::Create(t.cluster, cameras_[t.camera].ray_model),
+                                 nullptr, pose, plane);
+    }
   }
   AddPriors(problem_.get(), priors);
   ceres::Solver::Options solver_options;
@@ -671,7 +714,13 @@ bool BundleSolver::SolveOnce(const std::vector<Mat6>& priors) {
 }
 
 BundleSolver::Next BundleSolver::Round(int round, int rounds) {
-  const MergedCloud cloud = Merge(cameras_, poses_);
+  // The segmentation and the pixels' assignment see each camera's depth through its current
+  // depth model (gated on the measured depth, a miscalibrated camera kept only the pixels that
+  // agreed with no correction); the clusters hold the measured depth, which the residual
+  // corrects.
+  std::vector<SurfaceCamera> corrected;
+  const std::vector<SurfaceCamera>& seen = CorrectedCameras(&corrected);
+  const MergedCloud cloud = Merge(seen, poses_);
   PlaneSegmentationOptions segmentation;
   segmentation.voxel_size = options_.voxel_size;
   segmentation.min_noise_m = options_.min_noise_m;
@@ -690,17 +739,18 @@ BundleSolver::Next BundleSolver::Round(int round, int rounds) {
   for (const SegmentedPlane& s : segmented) {
     planes_.push_back({Vec4(s.normal.x(), s.normal.y(), s.normal.z(), s.offset), s.floor});
   }
-  terms_ = Clusters(cameras_, cloud, segmented);
-  PredictedHeightWindow(cameras_, poses_, planes_, segmentation, &terms_);
+  terms_ = Clusters(seen, cloud, segmented);
+  PredictedHeightWindow(seen, poses_, planes_, segmentation, &terms_);
   // The last round's pixels by their rays, from the segmentation at the poses
   // of the previous rounds' solves.
   if (round == rounds - 1) {
-    AssignByRays(cameras_, poses_, planes_, segmentation, num_threads_, &terms_);
+    AssignByRays(seen, poses_, planes_, segmentation, num_threads_, &terms_);
   }
   correlation_ = measured_;
   FillClusters(cameras_, options_, correlation_, &terms_);
   if (round == 0) {
-    result_.thickness_before = Thickness(terms_, TermCosts(terms_, cameras_, blocks_, planes_), n_);
+    result_.thickness_before =
+        Thickness(terms_, TermCosts(terms_, cameras_, blocks_, planes_, depth_), n_);
   }
   const PlaneSupport support = PlanesFixPose(terms_, planes_, cameras_);
   fixed_ = support.fixed;
@@ -722,7 +772,7 @@ BundleSolver::Next BundleSolver::Round(int round, int rounds) {
   }
   gauge_ = LevelReference(cameras_, terms_, planes_, &blocks_, &result_.leveled) * gauge_;
   for (size_t c = 0; c < n_; ++c) poses_[c] = PoseFromParameters(blocks_[c].data());
-  measured_ = NoiseCorrelation(terms_, cameras_, blocks_, planes_, options_);
+  measured_ = NoiseCorrelation(terms_, cameras_, blocks_, planes_, depth_, options_);
   int pixels = 0;
   for (const ClusterTerm& t : terms_) pixels += t.cluster.Count();
   result_.planes = static_cast<int>(planes_.size());
@@ -747,7 +797,7 @@ void BundleSolver::LogRound(int round, int pixels) const {
 void BundleSolver::Statistics() {
   // Each pixel's own squared whitened residual, without the correlation's
   // weight.
-  std::vector<double> costs = TermCosts(terms_, cameras_, blocks_, planes_);
+  std::vector<double> costs = TermCosts(terms_, cameras_, blocks_, planes_, depth_);
   for (size_t k = 0; k < terms_.size(); ++k) costs[k] *= correlation_[terms_[k].camera];
   result_.thickness_after = Thickness(terms_, costs, n_);
   std::vector<SurfaceOrientations> orientations(n_);
@@ -772,6 +822,9 @@ void BundleSolver::Statistics() {
     free_cameras.push_back(c);
   }
   for (PlaneBlock& plane : planes_) plane_blocks.push_back(plane.x.data());
+  for (size_t c = 0; c < n_; ++c) {
+    if (DepthSolved(c)) free_poses.push_back(depth_[c].data());  // marginalised with the planes
+  }
   // The noise model's covariance, scaled by the residuals' spread, raised where
   // the planes' residuals scatter more than it says (the cluster-robust
   // covariance: each plane's model error and wrong pixels, which the noise
@@ -818,6 +871,11 @@ Eigen::MatrixXd BundleSolver::PixelSandwiches(const std::vector<double*>& free_p
                                               const std::vector<double*>& plane_blocks,
                                               ClusterSandwiches* sandwiches,
                                               Eigen::MatrixXd* priors) {
+  // A camera's depth model is not in the split problem: with one, the reported covariance
+  // stays the planes' (Statistics; docs/uncertainty.md).
+  for (size_t c = 0; c < n_; ++c) {
+    if (DepthSolved(c)) return {};
+  }
   // The terms split: one atom per (term, cube, tile), its cube's cluster.
   std::vector<ClusterTerm> atoms;
   BlockClusters clusters;
@@ -880,6 +938,9 @@ bool BundleSolver::StartPriors(std::vector<Mat6>* priors) const {
       ++held;
       continue;
     }
+    // The start measured a camera with a depth model through its uncorrected depth: held by
+    // it, a camera 0.1 px off kept 57 % of its offset (white noise, seed 0; -4 % without).
+    if (DepthSolved(c)) continue;
     int directions = 0;
     (*priors)[c] =
         WeakDirectionPrior(cameras_[c].start_covariance, planes_covariance_[c], &directions);
@@ -907,14 +968,142 @@ SurfaceBundleResult BundleSolver::Run() {
   // camera's pose less well than the start does, the start enters as a prior
   // with its covariance, and the last round is solved again.
   std::vector<Mat6> priors;
-  if (!result_.covariance_ok || !StartPriors(&priors)) return result_;
+  if (result_.covariance_ok && StartPriors(&priors) && !Resolve(priors)) return result_;
+  if (options_.depth_model != CameraDepthModel::kNone) {
+    HoldUnobservableDepthModels(priors.empty() ? UntiedPriors() : priors);
+  }
+  return result_;
+}
+
+bool BundleSolver::Resolve(const std::vector<Mat6>& priors) {
   if (!SolveOnce(priors)) {
     result_.message = "surface bundle: " + summary_.message;
-    return result_;
+    return false;
   }
   for (size_t c = 0; c < n_; ++c) result_.poses[c] = PoseFromParameters(blocks_[c].data());
   Statistics();
-  return result_;
+  return true;
+}
+
+const std::vector<SurfaceCamera>& BundleSolver::CorrectedCameras(
+    std::vector<SurfaceCamera>* storage) const {
+  if (std::all_of(depth_.begin(), depth_.end(),
+                  [](const DepthBlock& d) { return d == kNoDepthModel; })) {
+    return cameras_;
+  }
+  *storage = cameras_;
+  for (size_t c = 0; c < n_; ++c) {
+    // On its ray, at the depth 1 / (alpha / z + beta).
+    for (Vec3& p : (*storage)[c].points) p /= depth_[c][0] + depth_[c][1] * p.z();
+  }
+  return *storage;
+}
+
+void BundleSolver::AddDepthModels(ceres::ParameterBlockOrdering* ordering) {
+  for (size_t c = 0; c < n_; ++c) {
+    if (!DepthSolved(c)) continue;
+    // An offset alone: alpha stays 1.
+    if (options_.depth_model == CameraDepthModel::kOffset) depth_[c][0] = 1.0;
+    problem_->AddParameterBlock(
+        depth_[c].data(), kDepthModelSize,
+        options_.depth_model == CameraDepthModel::kOffset ? &offset_manifold_ : nullptr);
+    ordering->AddElementToGroup(depth_[c].data(), 1);
+    const Eigen::Vector2d sigma = DepthPriorSigma(c);
+    problem_->AddResidualBlock(
+        new ceres::NormalPrior(sigma.cwiseInverse().asDiagonal().toDenseMatrix(),
+                               Eigen::Vector2d(kNoDepthModel[0], kNoDepthModel[1])),
+        nullptr, depth_[c].data());
+  }
+}
+
+Eigen::Vector2d BundleSolver::DepthPriorSigma(size_t c) const {
+  const SurfaceCamera& camera = cameras_[c];
+  double offset = 0.0;
+  if (camera.baseline_m > 0.0 && camera.pixel_angle > 0.0) {
+    // A disparity offset delta (px) is delta / (fx baseline) in inverse depth.
+    offset = options_.depth_offset_sigma_px * camera.pixel_angle / camera.baseline_m;
+  } else {
+    // The scale prior's effect at the camera's mean inverse depth.
+    double sum = 0.0;
+    for (const Vec3& p : camera.points) sum += 1.0 / p.z();
+    offset = options_.depth_scale_sigma * sum / std::max<size_t>(camera.points.size(), 1);
+  }
+  return {options_.depth_scale_sigma, offset};
+}
+
+bool BundleSolver::MeasureDepthModels() {
+  std::vector<double*> blocks, plane_blocks;
+  std::vector<int> pose_column(n_, -1);
+  for (size_t c = 0; c < n_; ++c) {
+    if (!Free(c)) continue;
+    pose_column[c] = 6 * static_cast<int>(blocks.size());
+    blocks.push_back(blocks_[c].data());
+  }
+  std::vector<int> depth_column(n_, -1);
+  int column = 6 * static_cast<int>(blocks.size());
+  for (size_t c = 0; c < n_; ++c) {
+    if (!DepthSolved(c)) continue;
+    depth_column[c] = column;
+    column += problem_->ParameterBlockTangentSize(depth_[c].data());
+    blocks.push_back(depth_[c].data());
+  }
+  for (PlaneBlock& plane : planes_) plane_blocks.push_back(plane.x.data());
+  // The noise model's information with the priors': what the data add to the prior.
+  const Eigen::MatrixXd covariance = MarginalPoseCovariance(problem_.get(), blocks, plane_blocks);
+  const bool scale = options_.depth_model == CameraDepthModel::kScaleOffset;
+  bool unobservable = false;
+  for (size_t c = 0; c < n_; ++c) {
+    DepthModelEstimate& e = result_.depth_model[c];
+    e = DepthModelEstimate{};
+    if (!cameras_[c].free || !cameras_[c].ray_model) continue;
+    const Eigen::Vector2d prior = DepthPriorSigma(c);
+    e.scale_prior_sigma = scale ? prior(0) : 0.0;
+    e.offset_prior_sigma = prior(1);
+    if (!DepthSolved(c)) continue;
+    e.solved = true;
+    e.scale = depth_[c][0];
+    e.offset = depth_[c][1];
+    if (cameras_[c].baseline_m > 0.0 && cameras_[c].pixel_angle > 0.0) {
+      e.offset_px = e.offset * cameras_[c].baseline_m / cameras_[c].pixel_angle;
+    }
+    e.observable = covariance.size() > 0;
+    // The tangent of [alpha, beta]: both, or beta alone.
+    for (int k = 0; covariance.size() > 0 && k < (scale ? 2 : 1); ++k) {
+      const int j = depth_column[c] + k;
+      const double sigma = std::sqrt(covariance(j, j));
+      const bool is_scale = scale && k == 0;
+      (is_scale ? e.scale_sigma : e.offset_sigma) = sigma;
+      e.observable =
+          e.observable && sigma <= kDepthObservableSigmaRatio * (is_scale ? prior(0) : prior(1));
+      for (int i = pose_column[c]; i < pose_column[c] + 6; ++i) {
+        e.pose_correlation =
+            std::max(e.pose_correlation,
+                     std::abs(covariance(i, j)) / std::sqrt(covariance(i, i) * covariance(j, j)));
+      }
+    }
+    unobservable = unobservable || !e.observable;
+  }
+  return unobservable;
+}
+
+void BundleSolver::HoldUnobservableDepthModels(const std::vector<Mat6>& priors) {
+  if (!result_.usable || problem_ == nullptr || !MeasureDepthModels()) return;
+  for (size_t c = 0; c < n_; ++c) {
+    if (!DepthSolved(c) || result_.depth_model[c].observable) continue;
+    depth_held_[c] = true;
+    depth_[c] = kNoDepthModel;
+  }
+  const std::vector<DepthModelEstimate> measured = result_.depth_model;
+  if (!Resolve(priors)) return;
+  MeasureDepthModels();
+  // The held ones as they were measured, at scale 1 and offset 0.
+  for (size_t c = 0; c < n_; ++c) {
+    if (!depth_held_[c]) continue;
+    result_.depth_model[c] = measured[c];
+    result_.depth_model[c].solved = false;
+    result_.depth_model[c].scale = 1.0;
+    result_.depth_model[c].offset = result_.depth_model[c].offset_px = 0.0;
+  }
 }
 
 }  // namespace

@@ -35,6 +35,9 @@ struct SurfaceCamera {
   /// The angle of one pixel (1 / fx, radians) for the noise's spatial correlation
   /// (SurfaceBundleResult::noise_correlation); 0: not measured (each pixel independent).
   double pixel_angle = 0.0;
+  /// A stereo camera's baseline (m; 0: unknown): its depth model's offset prior is in pixels of
+  /// disparity through it and pixel_angle (IcpOptions::depth_offset_sigma_px).
+  double baseline_m = 0.0;
   bool floor_leveled = false;  ///< its floor was leveled to y = 0 (the floor is then known)
   bool free = false;           ///< estimated (connected, not the reference)
   /// The near-floor band (world heights at the leveled pose, region.band_below and
@@ -52,6 +55,32 @@ struct SurfaceCamera {
   /// itself does not (its weight stays the noise model's).
   SigmaInflation start_inflation;
 };
+
+/// A camera's depth model (IcpOptions::depth_model): its measured inverse depth w read as
+/// scale * w + offset.
+struct DepthModelEstimate {
+  /// Solved for with the poses (a free depth camera that its planes fix, icp.depth_model on).
+  bool solved = false;
+  /// Its scene tells the model apart from its pose: each estimated parameter's 1-sigma (planes
+  /// and poses marginalised) at most kDepthObservableSigmaRatio of its prior's. Otherwise it
+  /// was held at scale 1, offset 0 and the poses solved again.
+  bool observable = false;
+  double scale = 1.0;
+  double offset = 0.0;     ///< in inverse depth, 1/m
+  double offset_px = 0.0;  ///< offset * fx * baseline_m: the disparity offset (0: no baseline)
+  /// The 1-sigma of scale and offset from the data and the prior (0: held), and the prior's.
+  double scale_sigma = 0.0;
+  double offset_sigma = 0.0;
+  double scale_prior_sigma = 0.0;
+  double offset_prior_sigma = 0.0;
+  /// The largest |correlation| of the estimated parameters with the camera's six pose
+  /// directions.
+  double pose_correlation = 0.0;
+};
+
+/// The largest ratio of a depth model parameter's 1-sigma to its prior's for the model to count
+/// as observable: the data hold at least 3 times the prior's information about it.
+constexpr double kDepthObservableSigmaRatio = 0.5;
 
 /// One camera's pixels (indices into SurfaceCamera::points) on one plane.
 struct SurfaceTerm {
@@ -95,6 +124,9 @@ struct SurfaceBundleResult {
   /// 1 / noise_correlation of a pixel, so that the covariance is not that many times too
   /// optimistic and a camera with correlated noise weighs what its data are worth.
   std::vector<double> noise_correlation;
+  /// Per camera: its depth model (scale 1, offset 0 and not solved when icp.depth_model is none,
+  /// for the reference, points cameras and cameras that fell back).
+  std::vector<DepthModelEstimate> depth_model;
   int planes = 0;  ///< in the last round
   /// The last round's planes (world, n^T x + d = 0) and, per (camera, plane), the indices
   /// into that camera's SurfaceCamera::points of the pixels it used: for diagnostics

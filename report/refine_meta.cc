@@ -131,6 +131,19 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options,
                              {"after", c.surface_thickness_after},
                              {"noise_correlation", c.surface_noise_correlation},
                              {"kept_joint_pose", c.surface_fallback}};
+      const DepthModelEstimate& d = c.depth_model;
+      if (d.offset_prior_sigma > 0.0) {  // a free depth camera, icp.depth_model on
+        thickness[c.serial]["depth_model"] = {{"solved", d.solved},
+                                              {"observable", d.observable},
+                                              {"scale", d.scale},
+                                              {"offset", d.offset},
+                                              {"offset_px", d.offset_px},
+                                              {"scale_sigma", d.scale_sigma},
+                                              {"offset_sigma", d.offset_sigma},
+                                              {"scale_prior_sigma", d.scale_prior_sigma},
+                                              {"offset_prior_sigma", d.offset_prior_sigma},
+                                              {"pose_correlation", d.pose_correlation}};
+      }
     }
     meta["surface_bundle"] = {{"planes", sb.planes},
                               {"pixels", sb.pixels},

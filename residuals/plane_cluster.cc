@@ -24,8 +24,19 @@ Mat4 PlaneCluster::SquareRoot() const {
   return eigen.eigenvectors() * root.asDiagonal();
 }
 
-bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residuals,
-                                double** jacobians) const {
+Mat4 DepthModelMatrix(double alpha, double beta) {
+  Mat4 D = Mat4::Identity();
+  D(3, 2) = beta;
+  D(3, 3) = alpha;
+  return D;
+}
+
+namespace {
+
+/// r = scale L^T pi_c for the pose and plane blocks, and their Jacobians (the header's
+/// derivation); scale = 1 / d_c with the ray model.
+void EvaluateCluster(const Mat4& L, bool ray_model, double const* const* parameters,
+                     double* residuals, double** jacobians) {
   const double* pose = parameters[0];
   const Eigen::Quaterniond q(pose[3], pose[0], pose[1], pose[2]);
   const Eigen::Map<const Vec3> t(pose + 4);
@@ -35,16 +46,16 @@ bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residua
   Vec4 pi;
   pi.head<3>() = q_inverse * n;
   pi(3) = n.dot(t) + d;
-  const double scale = ray_model_ ? 1.0 / pi(3) : 1.0;
+  const double scale = ray_model ? 1.0 / pi(3) : 1.0;
   Eigen::Map<Vec4> r(residuals);
-  r = scale * (L_.transpose() * pi);
-  if (jacobians == nullptr) return true;
+  r = scale * (L.transpose() * pi);
+  if (jacobians == nullptr) return;
 
   // dr = scale (L^T d pi - [ray model] r d(d_c)) for a block with d pi / dx = dpi.
   const auto chain = [&](const auto& dpi, double* out, int columns) {
     Eigen::Map<Eigen::Matrix<double, 4, Eigen::Dynamic, Eigen::RowMajor>> J(out, 4, columns);
-    J = scale * (L_.transpose() * dpi);
-    if (ray_model_) J -= scale * r * dpi.row(3);
+    J = scale * (L.transpose() * dpi);
+    if (ray_model) J -= scale * r * dpi.row(3);
   };
   if (jacobians[0] != nullptr) {
     Eigen::Matrix<double, 4, kPoseAmbientSize> dpi = Eigen::Matrix<double, 4, 7>::Zero();
@@ -59,6 +70,26 @@ bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residua
     dpi(3, 3) = 1.0;
     chain(dpi, jacobians[1], 4);
   }
+}
+
+}  // namespace
+
+bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residuals,
+                                double** jacobians) const {
+  EvaluateCluster(L_, ray_model_, parameters, residuals, jacobians);
+  return true;
+}
+
+bool PlaneClusterDepthCost::Evaluate(double const* const* parameters, double* residuals,
+                                     double** jacobians) const {
+  const double* depth = parameters[2];
+  // r = (D L)^T pi_c / d_c: the cluster residual with L' = D L.
+  EvaluateCluster(DepthModelMatrix(depth[0], depth[1]) * L_, true, parameters, residuals,
+                  jacobians);
+  if (jacobians == nullptr || jacobians[2] == nullptr) return true;
+  Eigen::Map<Eigen::Matrix<double, 4, kDepthModelSize, Eigen::RowMajor>> J(jacobians[2]);
+  J.col(0) = L_.row(3).transpose();  // L^T e_4
+  J.col(1) = L_.row(2).transpose();  // L^T e_3
   return true;
 }
 

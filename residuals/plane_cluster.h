@@ -25,6 +25,13 @@
 //   d pi_c/d[n; d] = [R^T 0; t^T 1],
 //   dr = (L^T d pi_c - r d(d_c)) / d_c   (ray model; d(d_c) the last row of d pi_c),
 //   dr = L^T d pi_c                        (points cameras).
+//
+// A depth camera's depth model (icp.depth_model, docs/residuals.md "Depth model"): its measured
+// inverse depth read as w' = alpha w + beta. As a_z = 1, b' = [a; alpha w + beta] = D b with D
+// the identity but for its last row [0 0 beta alpha], so the cluster's moment becomes D M D^T
+// and the residual r = L^T D^T pi_c / d_c, D^T pi_c = [n_c; alpha d_c] + beta d_c e_3 (one more
+// parameter block [alpha, beta]); its Jacobians are those above with L' = D L, and
+//   dr/dalpha = L^T e_4,   dr/dbeta = L^T e_3.
 #pragma once
 
 #include <ceres/autodiff_cost_function.h>
@@ -39,6 +46,12 @@ namespace rigfit {
 
 using Mat4 = Eigen::Matrix4d;
 using Vec4 = Eigen::Vector4d;
+
+/// The depth model's parameter block [alpha, beta] (scale; offset in inverse depth, 1/m).
+inline constexpr int kDepthModelSize = 2;
+
+/// D with [a; alpha w + beta] = D [a; w] for a ray a (a_z = 1) and its inverse depth w.
+Mat4 DepthModelMatrix(double alpha, double beta);
 
 /// The pixels of one camera on one plane, summed: M = sum_i b_i b_i^T / sigma_i^2.
 class PlaneCluster {
@@ -102,6 +115,51 @@ class PlaneClusterCost final : public ceres::SizedCostFunction<4, kPoseAmbientSi
  private:
   Mat4 L_;
   bool ray_model_;
+};
+
+/// The cluster residual with the camera's depth model, as a templated functor: the
+/// automatic-differentiation reference for PlaneClusterDepthCost (depth cameras only).
+struct PlaneClusterDepthFunctor {
+  Mat4 L;
+
+  template <typename T>
+  bool operator()(const T* pose, const T* plane, const T* depth, T* residual) const {
+    using Vec3T = Eigen::Matrix<T, 3, 1>;
+    const Eigen::Quaternion<T> q(pose[3], pose[0], pose[1], pose[2]);
+    const Eigen::Map<const Vec3T> t(pose + 4);
+    const Eigen::Map<const Vec3T> n(plane);
+    const T d_c = n.dot(t) + plane[3];
+    Eigen::Matrix<T, 4, 1> pi;  // D^T pi_c
+    pi.template head<3>() = q.conjugate() * n;
+    pi(2) += depth[1] * d_c;
+    pi(3) = depth[0] * d_c;
+    const Eigen::Matrix<T, 4, 1> s = L.transpose().cast<T>() * pi;
+    for (int k = 0; k < 4; ++k) residual[k] = s(k) / d_c;
+    return true;
+  }
+
+  static ceres::CostFunction* CreateAutoDiff(const Mat4& L) {
+    return new ceres::AutoDiffCostFunction<PlaneClusterDepthFunctor, 4, kPoseAmbientSize, 4,
+                                           kDepthModelSize>(new PlaneClusterDepthFunctor{L});
+  }
+};
+
+/// Analytic plane-cluster cost of a depth camera with its depth model: 4 residuals, parameter
+/// blocks (T_world_camera, [n; d], [alpha, beta]).
+class PlaneClusterDepthCost final
+    : public ceres::SizedCostFunction<4, kPoseAmbientSize, 4, kDepthModelSize> {
+ public:
+  explicit PlaneClusterDepthCost(const Mat4& L) : L_(L) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+  static ceres::CostFunction* Create(const PlaneCluster& cluster) {
+    return new PlaneClusterDepthCost(cluster.SquareRoot());
+  }
+
+ private:
+  Mat4 L_;
 };
 
 }  // namespace rigfit

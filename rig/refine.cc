@@ -132,6 +132,31 @@ std::optional<std::vector<Pose>> RegisterPairwise(const std::vector<Registration
   return graph.poses;
 }
 
+/// Says whether a free depth camera's depth model was observable: warned when it was not
+/// (held at scale 1, offset 0), logged when it was.
+void WarnDepthModel(const CameraReport& camera, const SurfaceCamera& surface, const Log& log,
+                    RefineResult* result) {
+  if (!surface.free || !surface.ray_model) return;
+  const DepthModelEstimate& e = camera.depth_model;
+  const std::string name = "camera " + camera.serial + ": depth model ";
+  if (e.solved) {
+    log.Info(name + "scale " + Fixed(e.scale, 4) + " +- " + Fixed(e.scale_sigma, 4) + ", offset " +
+             Fixed(e.offset * 1e3, 3) + " +- " + Fixed(e.offset_sigma * 1e3, 3) + " 1/km" +
+             (e.offset_px != 0.0 ? " (" + Fixed(e.offset_px, 3) + " px)" : ""));
+    return;
+  }
+  const std::string why =
+      e.offset_prior_sigma == 0.0 || camera.surface_fallback
+          ? "its planes do not fix its pose"
+          : "its scene does not tell it apart from its pose (1-sigma " +
+                (e.scale_prior_sigma > 0.0
+                     ? Fixed(e.scale_sigma / e.scale_prior_sigma, 2) + " of the prior's in scale, "
+                     : std::string()) +
+                Fixed(e.offset_sigma / e.offset_prior_sigma, 2) +
+                " in offset; correlation with the pose " + Fixed(e.pose_correlation, 2) + ")";
+  Warn(result, log, name + "not observable: " + why + "; held at scale 1, offset 0");
+}
+
 /// Joint mode: one problem over every camera. Returns refined poses.
 /// The surface bundle after the joint point-to-plane solve: joint's poses, covariance and
 /// connectivity in `joint` are replaced where it refined a camera.
@@ -172,6 +197,9 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     camera.surface_thickness_after = bundle.thickness_after[i];
     camera.surface_fallback = bundle.fallback[i];
     camera.surface_noise_correlation = bundle.noise_correlation[i];
+    camera.depth_model = bundle.depth_model[i];
+    if (options.depth_model != CameraDepthModel::kNone)
+      WarnDepthModel(camera, surfaces[i], log, result);
     if (bundle.leveled[i]) {
       // The reference, leveled again on the bundle's floor (its yaw and centre held).
       joint->poses[i] = bundle.poses[i];
@@ -421,6 +449,7 @@ std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture,
         surfaces[i].depth_noise = depth_noise[i];
         surfaces[i].ray_model = camera.HasDepth();
         if (camera.HasDepth()) surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
+        surfaces[i].baseline_m = camera.baseline_m;
         surfaces[i].floor_leveled = floor_leveled[i];
         if (band.band_height > 0.0) {
           surfaces[i].band_bottom = -band.band_below;

@@ -64,6 +64,9 @@ struct CameraReport {
   /// Surface bundle, the reference: its tilt leveled again on the bundle's floor (its yaw and
   /// centre held).
   bool surface_leveled = false;
+  /// Surface bundle with icp.depth_model: the camera's depth model and whether its scene could
+  /// tell it apart from its pose (not solved: scale 1, offset 0).
+  DepthModelEstimate depth_model;
 };
 
 /// What the surface bundle did (method surface_bundle).

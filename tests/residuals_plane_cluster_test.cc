@@ -138,5 +138,69 @@ TEST(PlaneCluster, ResidualVanishesOnThePlane) {
   EXPECT_LT(r.norm(), 1e-6);
 }
 
+TEST(PlaneClusterDepth, AnalyticJacobianEqualsAutodiffAndFiniteDifferences) {
+  std::mt19937 rng(6);
+  std::normal_distribution<double> noise(0.0, 0.003);
+  const PoseManifold pose_manifold;
+  const ceres::ProductManifold<ceres::SphereManifold<3>, ceres::EuclideanManifold<1>>
+      plane_manifold;
+  ceres::NumericDiffOptions numeric;  // the pole at d_c = 0, as above
+  numeric.ridders_relative_initial_step_size = 1e-5;
+  // The model at rest, a 2 % scale with an offset of 0.3 px at f = 500 px and 0.12 m, and a
+  // far one.
+  const std::vector<Eigen::Vector2d> models = {{1.0, 0.0}, {1.02, -0.005}, {0.9, 0.05}};
+  for (const testing::NamedPose& pose : TestPoses(30)) {
+    const WorldPlane P = PlaneInFrontOf(pose.T, rng);
+    // The plane being estimated: tilted from the true one, through a point 2.4 m ahead (a tilt
+    // about the world origin would move it by metres at 100 m, up to the pole).
+    const Vec3 n = (P.n + Vec3(0.01, 0.02, -0.01)).normalized();
+    const Vec3 ahead = pose.T.translation() + 2.4 * pose.T.linear().col(2);
+    const WorldPlane Q{n, -n.dot(ahead)};
+    PlaneCluster cluster;
+    for (const Vec3& p : PointsOnPlane(pose.T, P, 50, rng)) {
+      cluster.AddRay(p, 1.0 / p.z() + noise(rng), 0.0025);
+    }
+    const std::unique_ptr<ceres::CostFunction> analytic(PlaneClusterDepthCost::Create(cluster));
+    const std::unique_ptr<ceres::CostFunction> autodiff(
+        PlaneClusterDepthFunctor::CreateAutoDiff(cluster.SquareRoot()));
+    const testing::PoseBlock x = ToBlock(pose.T);
+    const Vec4 plane(Q.n.x(), Q.n.y(), Q.n.z(), Q.d);
+    for (const Eigen::Vector2d& model : models) {
+      SCOPED_TRACE(pose.name + ", model " + std::to_string(model(0)) + " " +
+                   std::to_string(model(1)));
+      const std::vector<const double*> parameters = {x.data(), plane.data(), model.data()};
+      ExpectAnalyticMatchesAutodiff(*analytic, *autodiff, parameters);
+      ExpectGradientCheckPasses(*analytic, parameters, {&pose_manifold, &plane_manifold, nullptr},
+                                numeric);
+    }
+  }
+}
+
+TEST(PlaneClusterDepth, EqualsTheClusterOfTheCorrectedInverseDepths) {
+  // The model read into the residual equals the plain cluster of w' = alpha w + beta, per pixel.
+  std::mt19937 rng(8);
+  std::normal_distribution<double> noise(0.0, 0.002);
+  const Pose T = testing::MakePose(Vec3(0.2, 0.4, -0.1), Vec3(0.5, 1.2, -1.0));
+  const WorldPlane P = PlaneInFrontOf(T, rng);
+  const Eigen::Vector2d model(1.015, -0.004);
+  PlaneCluster measured, corrected;
+  for (const Vec3& p : PointsOnPlane(T, P, 200, rng)) {
+    const double w = 1.0 / p.z() + noise(rng);
+    measured.AddRay(p, w, 0.0025);
+    corrected.AddRay(p, model(0) * w + model(1), 0.0025);
+  }
+  const std::unique_ptr<ceres::CostFunction> with_model(PlaneClusterDepthCost::Create(measured));
+  const std::unique_ptr<ceres::CostFunction> plain(PlaneClusterCost::Create(corrected, true));
+  const testing::PoseBlock x = ToBlock(T);
+  const Vec4 plane(P.n.x(), P.n.y(), P.n.z(), P.d + 0.03);
+  const std::vector<const double*> with_parameters = {x.data(), plane.data(), model.data()};
+  const std::vector<const double*> parameters = {x.data(), plane.data()};
+  Vec4 r_model, r_plain;
+  ASSERT_TRUE(with_model->Evaluate(with_parameters.data(), r_model.data(), nullptr));
+  ASSERT_TRUE(plain->Evaluate(parameters.data(), r_plain.data(), nullptr));
+  // The square roots differ by a rotation; the cost does not.
+  EXPECT_NEAR(r_model.squaredNorm() / r_plain.squaredNorm(), 1.0, kClusterTolerance);
+}
+
 }  // namespace
 }  // namespace rigfit

@@ -390,5 +390,93 @@ TEST(SurfaceBundle, ACameraIsFixedOnlyByPlanesTiedToTheReference) {
   }
 }
 
+/// `camera`'s points as a depth camera whose inverse depth reads scale * w + offset: on the ray
+/// of each point, at depth 1 / (scale / z + offset).
+void Miscalibrate(double scale, double offset, SurfaceCamera* camera) {
+  for (Vec3& p : camera->points) p *= 1.0 / (scale + offset * p.z());
+}
+
+/// Three cameras of the room of ACameraIsFixedOnlyByPlanesTiedToTheReference, the last one
+/// seeing `last` with its inverse depth read as `scale` w + 0.004 (a disparity offset of
+/// 0.24 px at fx 500 px and a 0.12 m baseline), the free ones started 4 mm and 0.1 deg off,
+/// refined with the depth model `model`.
+SurfaceBundleResult RefineWithDepthModel(const std::vector<Patch>& last, CameraDepthModel model,
+                                         double scale) {
+  const Patch floor{Vec3(-2, 0, 1), Vec3(4, 0, 0), Vec3(0, 0, 4)};
+  const Patch a{Vec3(-2, 0, 5), Vec3(4, 0, 0), Vec3(0, 1.5, 0)};  // facing Z
+  const Patch c{Vec3(2, 0, 1), Vec3(0, 0, 4), Vec3(0, 1.5, 0)};   // facing X
+  const Patch d{Vec3(-2, 0, 1), Vec3(0, 0, 4), Vec3(0, 1.5, 0)};  // facing X
+  std::vector<SurfaceCamera> cameras = {CameraSeeing(0.0, {floor, a, c, d}, false),
+                                        CameraSeeing(0.5, {floor, a, c, d}, true),
+                                        CameraSeeing(-0.5, last, true)};
+  for (SurfaceCamera& camera : cameras) {
+    camera.pixel_angle = 1.0 / 500.0;
+    camera.baseline_m = 0.12;
+    if (!camera.free) continue;
+    Vec6 offset;
+    offset << 0.001, -0.0015, 0.002, 0.003, -0.002, 0.004;  // rad, m
+    camera.T_world_camera = PosePlus(camera.T_world_camera, offset);
+  }
+  Miscalibrate(scale, 0.004, &cameras[2]);
+  IcpOptions options;
+  options.depth_model = model;
+  return RegisterSurfaceBundle(cameras, options, 1, Log{});
+}
+
+TEST(SurfaceBundleDepthModel, RecoversAScaleAndOffsetTheSceneTellsApartFromThePose) {
+  // The room's floor and three walls at 1 to 5 m: the offset tilts each plane by its distance,
+  // which no pose does. Noise-free points: the truth up to the priors' pull; the clean camera
+  // stays at 1 and 0.
+  const Patch floor{Vec3(-2, 0, 1), Vec3(4, 0, 0), Vec3(0, 0, 4)};
+  const Patch a{Vec3(-2, 0, 5), Vec3(4, 0, 0), Vec3(0, 1.5, 0)};
+  const Patch c{Vec3(2, 0, 1), Vec3(0, 0, 4), Vec3(0, 1.5, 0)};
+  const Patch d{Vec3(-2, 0, 1), Vec3(0, 0, 4), Vec3(0, 1.5, 0)};
+  for (const CameraDepthModel model : {CameraDepthModel::kOffset, CameraDepthModel::kScaleOffset}) {
+    SCOPED_TRACE(static_cast<int>(model));
+    const double scale = model == CameraDepthModel::kScaleOffset ? 0.99 : 1.0;
+    const SurfaceBundleResult result = RefineWithDepthModel({floor, a, c, d}, model, scale);
+    ASSERT_TRUE(result.usable) << result.message;
+    EXPECT_FALSE(result.depth_model[0].solved);  // the reference
+    for (const int i : {1, 2}) {
+      SCOPED_TRACE(i);
+      const DepthModelEstimate& e = result.depth_model[i];
+      EXPECT_TRUE(e.solved);
+      EXPECT_TRUE(e.observable);
+      EXPECT_LT(e.offset_sigma, kDepthObservableSigmaRatio * e.offset_prior_sigma);
+      // 0.2 px of disparity at fx 500 px and 0.12 m.
+      EXPECT_NEAR(e.offset_prior_sigma, 0.2 / 500.0 / 0.12, 1e-12);
+      EXPECT_NEAR(e.offset_px, e.offset * 500.0 * 0.12, 1e-9);
+    }
+    const DepthModelEstimate& clean = result.depth_model[1];
+    const DepthModelEstimate& wrong = result.depth_model[2];
+    // Measured: offset -0.003932 (offset alone; 1-sigma 0.00034), scale 1.010081 and offset
+    // -0.004030 (both; 1-sigma 0.00022 and 0.00010); the clean camera 1.000000 / 0.000030 and
+    // 0.999987 / 0.000007.
+    const double offset_tolerance = model == CameraDepthModel::kScaleOffset ? 3e-5 : 1.5e-4;
+    EXPECT_NEAR(wrong.scale, 1.0 / scale, 5e-5);
+    EXPECT_NEAR(wrong.offset, -0.004 / scale, offset_tolerance);
+    EXPECT_NEAR(clean.scale, 1.0, 3e-5);
+    EXPECT_NEAR(clean.offset, 0.0, 6e-5);
+  }
+}
+
+TEST(SurfaceBundleDepthModel, AFloorOnlyViewIsNotObservable) {
+  // A camera that sees the floor alone: its planes do not fix its pose, and one plane cannot
+  // tell a depth model from the camera's height and tilt. It keeps its start pose and scale 1,
+  // offset 0, and is reported as not observable.
+  const Patch floor{Vec3(-2, 0, 1), Vec3(4, 0, 0), Vec3(0, 0, 4)};
+  const SurfaceBundleResult result =
+      RefineWithDepthModel({floor}, CameraDepthModel::kScaleOffset, 0.99);
+  ASSERT_TRUE(result.usable) << result.message;
+  EXPECT_TRUE(result.fallback[2]);
+  const DepthModelEstimate& e = result.depth_model[2];
+  EXPECT_FALSE(e.solved);
+  EXPECT_FALSE(e.observable);
+  EXPECT_EQ(e.scale, 1.0);
+  EXPECT_EQ(e.offset, 0.0);
+  EXPECT_GT(e.offset_prior_sigma, 0.0);  // it was asked for
+  EXPECT_TRUE(result.depth_model[1].solved);
+}
+
 }  // namespace
 }  // namespace rigfit

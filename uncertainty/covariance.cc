@@ -99,7 +99,12 @@ struct SchurBlocks {
 
 SchurBlocks::SchurBlocks(ceres::Problem* problem, int num_poses,
                          const std::vector<double*>& nuisance, int num_cols, bool clusters)
-    : p(6 * num_poses), start(nuisance.size() + 1, 6 * num_poses), block_of(num_cols - p) {
+    : p(num_cols), block_of(num_cols) {
+  // The pose columns come first: every column that no nuisance block holds.
+  for (double* block : nuisance) p -= problem->ParameterBlockTangentSize(block);
+  if (p < num_poses) throw std::logic_error("MarginalPoseCovariance: a pose block without columns");
+  start.assign(nuisance.size() + 1, p);
+  block_of.resize(num_cols - p);
   for (size_t j = 0; j < nuisance.size(); ++j) {
     start[j + 1] = start[j] + problem->ParameterBlockTangentSize(nuisance[j]);
     std::fill(block_of.begin() + (start[j] - p), block_of.begin() + (start[j + 1] - p), j);

@@ -37,8 +37,9 @@ void EvaluateJacobian(ceres::Problem* problem, const std::vector<double*>& block
                       const std::vector<ceres::ResidualBlockId>& residual_blocks,
                       std::vector<double>* residuals, ceres::CRSMatrix* J);
 
-/// Covariance of the pose blocks `poses` (PoseManifold tangents, 6 each, in the order given)
-/// with the blocks `nuisance` marginalised (their own manifolds' tangents), from every
+/// Covariance of the pose blocks `poses` (PoseManifold tangents, 6 each, in the order given; a
+/// block of another tangent size, e.g. a surface bundle camera's depth model, takes its own
+/// columns) with the blocks `nuisance` marginalised (their own manifolds' tangents), from every
 /// residual block of the problem, whose residuals are whitened (no scale, loss functions not
 /// applied): the inverse of the Schur complement A - sum_j B_j D_j^-1 B_j^T of J^T J. No
 /// residual block may hold two nuisance blocks (their information is then block diagonal, as

@@ -33,7 +33,7 @@ if TYPE_CHECKING:  # numpy is needed by the arrays, not by the import
     import numpy as np
 
 __all__ = ["defaults", "refine", "RefineResult", "CameraReport", "PoseSigma", "SigmaInflation",
-           "WeakDirection", "PairReport", "compare", "CompareResult", "CompareRun", "evaluate", "RigErrors",
+           "WeakDirection", "DepthModel", "PairReport", "compare", "CompareResult", "CompareRun", "evaluate", "RigErrors",
            "PairError", "CameraTilt", "ErrorSummary", "RmsMax", "read_capture", "write_capture",
            "read_extrinsics", "write_extrinsics", "simulate", "SimulatedRig", "open_sequence",
            "Sequence", "Frame", "track", "TrackResult", "TrackedFrame", "TrackTimings", "slam",
@@ -120,6 +120,26 @@ class SigmaInflation:
 
 
 @dataclass
+class DepthModel:
+    """A camera's depth model in the surface bundle (``icp.depth_model``; ``_meta``'s
+    ``surface_bundle.thickness.<serial>.depth_model``): its inverse depth w read as
+    ``scale * w + offset`` (offset in 1/m; ``offset_px`` in pixels of disparity with a baseline),
+    whether it was solved and observable (not observable: held at 1 and 0), the 1-sigma of
+    each and of its prior, and its largest correlation with the camera's pose."""
+
+    solved: bool
+    observable: bool
+    scale: float
+    offset: float
+    offset_px: float
+    scale_sigma: float
+    offset_sigma: float
+    scale_prior_sigma: float
+    offset_prior_sigma: float
+    pose_correlation: float
+
+
+@dataclass
 class WeakDirection:
     """A direction of a camera's pose that the data fixes poorly (``_meta``'s
     ``weak_directions``): which, its information against the best-constrained direction's, and
@@ -139,7 +159,8 @@ class CameraReport:
     None; ``sigma`` its 1-sigma read-off and ``sigma_inflation`` how much the residuals raised
     it above the noise model's. ``surfaces`` is the number of distinct surface orientations the
     joint pose rests on, ``few_surfaces`` whether they are too few for the 1-sigma to show one
-    surface's bias (0 and False outside joint mode). ``delta_*`` is the registration change
+    surface's bias (0 and False outside joint mode). ``depth_model``: its surface bundle depth
+    model with ``icp.depth_model`` on (None for the reference, points cameras, or off). ``delta_*`` is the registration change
     (refined against leveled), ``own_*`` the change against the rig that the safety bounds apply
     to.
     """
@@ -163,6 +184,7 @@ class CameraReport:
     surfaces: int
     few_surfaces: bool
     weak_directions: List[WeakDirection]
+    depth_model: Optional[DepthModel]
 
 
 @dataclass
@@ -212,6 +234,7 @@ def _camera_report(raw: Dict[str, Any]) -> CameraReport:
     raw["sigma_inflation"] = (None if raw["sigma_inflation"] is None
                               else SigmaInflation(**raw["sigma_inflation"]))
     raw["weak_directions"] = [WeakDirection(**w) for w in raw["weak_directions"]]
+    raw["depth_model"] = None if raw["depth_model"] is None else DepthModel(**raw["depth_model"])
     return CameraReport(**raw)
 
 

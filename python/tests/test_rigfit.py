@@ -286,6 +286,21 @@ def test_camera_and_pair_reports_match_meta(rig):
             m["serial_a"], m["serial_b"], m["fitness"], m["accepted"])
 
 
+def test_depth_model_matches_meta(rig):
+    # icp.depth_model through the config: every free depth camera's model, as _meta has it.
+    d, _ = rig
+    result = rigfit.refine(rigfit.read_capture(d / "capture.h5"),
+                           rigfit.read_extrinsics(d / "init.json"),
+                           config={"icp": {"method": "surface_bundle", "depth_model": "offset"}})
+    meta = result.meta["icp_refined"]["surface_bundle"]["thickness"]
+    for c in result.cameras:
+        if c.reference:
+            assert c.depth_model is None
+            continue
+        assert dataclasses.asdict(c.depth_model) == meta[c.serial]["depth_model"]
+        assert c.depth_model.scale == 1.0  # offset alone
+
+
 def test_evaluate_equals_cli(rig, tmp_path):
     d, _ = rig
     out = tmp_path / "errors.json"
