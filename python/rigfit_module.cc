@@ -205,7 +205,6 @@ RefineOptions OptionsOf(const std::string& command, const std::string& config_ya
   return options;
 }
 
-/// The per-camera reports of a run (rig/refine.h CameraReport), covariance as numpy.
 /// A camera's surface bundle depth model (rigfit.DepthModel's fields); None when it had none.
 py::object DepthModelDict(const DepthModelEstimate& e) {
   if (!(e.offset_prior_sigma > 0.0)) return py::none();
@@ -223,6 +222,7 @@ py::object DepthModelDict(const DepthModelEstimate& e) {
   return d;
 }
 
+/// The per-camera reports of a run (rig/refine.h CameraReport), covariance as numpy.
 py::list CameraReports(const RefineResult& result) {
   py::list out;
   for (const CameraReport& c : result.cameras) {

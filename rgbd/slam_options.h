@@ -13,8 +13,8 @@ namespace rigfit {
 
 /// Checks, after ApplyTrackingSettings: fuse_distance > 0 and fuse_angle in (0, 180]
 /// (options.fusion's gates), cover_radius >= 0, dormant_frames >= 0, model_weight >= 1,
-/// model_recent >= 0 (options.render) and halve >= 0 when set (options.halvings). Throws SettingError
-/// (core/setting_error.h) on a bad value.
+/// model_recent >= 0 (options.render) and halve >= 0 when set (options.halvings). Throws
+/// SettingError (core/setting_error.h) on a bad value.
 void CheckSlamSettings(const SlamOptions& options);
 
 }  // namespace rigfit
