@@ -66,6 +66,20 @@ Json SigmaJson(const PoseSigma& s) {
 /// `value`, or null when it was not measured.
 Json NumberOrNull(bool measured, double value) { return measured ? Json(value) : Json(); }
 
+/// A camera's surface-bundle depth model, as estimated and as judged observable.
+Json DepthModelMeta(const DepthModelEstimate& d) {
+  return {{"solved", d.solved},
+          {"observable", d.observable},
+          {"scale", d.scale},
+          {"offset", d.offset},
+          {"offset_px", d.offset_px},
+          {"scale_sigma", d.scale_sigma},
+          {"offset_sigma", d.offset_sigma},
+          {"scale_prior_sigma", d.scale_prior_sigma},
+          {"offset_prior_sigma", d.offset_prior_sigma},
+          {"pose_correlation", d.pose_correlation}};
+}
+
 Json IcpMeta(const RefineResult& result, const RefineOptions& options,
              const std::vector<std::string>& warnings, const RefineMetaFlags& flags) {
   const auto [mode, method] = ModeAndMethodNames(result);
@@ -131,18 +145,8 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options,
                              {"after", c.surface_thickness_after},
                              {"noise_correlation", c.surface_noise_correlation},
                              {"kept_joint_pose", c.surface_fallback}};
-      const DepthModelEstimate& d = c.depth_model;
-      if (d.offset_prior_sigma > 0.0) {  // a free depth camera, icp.depth_model on
-        thickness[c.serial]["depth_model"] = {{"solved", d.solved},
-                                              {"observable", d.observable},
-                                              {"scale", d.scale},
-                                              {"offset", d.offset},
-                                              {"offset_px", d.offset_px},
-                                              {"scale_sigma", d.scale_sigma},
-                                              {"offset_sigma", d.offset_sigma},
-                                              {"scale_prior_sigma", d.scale_prior_sigma},
-                                              {"offset_prior_sigma", d.offset_prior_sigma},
-                                              {"pose_correlation", d.pose_correlation}};
+      if (c.depth_model.offset_prior_sigma > 0.0) {  // a free depth camera, icp.depth_model on
+        thickness[c.serial]["depth_model"] = DepthModelMeta(c.depth_model);
       }
     }
     meta["surface_bundle"] = {{"planes", sb.planes},

@@ -341,9 +341,9 @@ LoopClosureOptions LoopClosureOptionsOf(const OdometryOptions& options) {
   return o;
 }
 
-LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options) {
+LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options, const SlamResult& run) {
   LoopClosureOptions o = LoopClosureOptionsOfLoop(options);
-  o.halvings = options.halvings.value_or(0);
+  o.halvings = run.halvings;
   return o;
 }
 
@@ -369,8 +369,7 @@ LoopClosureResult CloseSlamLoops(const RgbdSequence& sequence, const SlamOptions
     frames.push_back(f.index);
     usable.push_back(f.track.success && !f.diverged);
   }
-  LoopClosureOptions o = LoopClosureOptionsOf(options);
-  o.halvings = result->halvings;  // as the run halved its frames
+  const LoopClosureOptions o = LoopClosureOptionsOf(options, *result);
   LoopClosureResult closed = CloseLoops(sequence, frames, result->trajectory,
                                         SelectKeyframes(result->trajectory, usable, o), o, log);
   if (closed.applied) {

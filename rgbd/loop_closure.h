@@ -140,9 +140,9 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
                              const LoopClosureOptions& options, const Log& log = {});
 
 /// The loop-closure settings of a run of RunOdometry / RunSlam (their frame and ICP options;
-/// SLAM's halvings as set, 0 when unset: CloseSlamLoops takes the run's, SlamResult::halvings).
+/// SLAM's frames halved as the run halved them, SlamResult::halvings).
 LoopClosureOptions LoopClosureOptionsOf(const OdometryOptions& options);
-LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options);
+LoopClosureOptions LoopClosureOptionsOf(const SlamOptions& options, const SlamResult& run);
 
 /// Closes the loops of an odometry run over its own keyframes and corrects its trajectory.
 LoopClosureResult CloseOdometryLoops(const RgbdSequence& sequence, const OdometryOptions& options,
