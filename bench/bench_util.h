@@ -10,6 +10,8 @@
 #include <string>
 
 #include "core/evaluate.h"
+#include "io/config_yaml.h"
+#include "options/refine_options.h"
 
 namespace rigfit::bench {
 
@@ -63,5 +65,13 @@ struct ErrorSummary {
     return cells;
   }
 };
+
+/// The benchmarks' --method: point_to_plane or gicp (icp.method, the surface bundle off), or
+/// surface_bundle (point_to_plane, then the surface bundle: icp.surface_bundle on).
+inline void SetMethod(const std::string& method, IcpOptions* icp) {
+  icp->surface_bundle = method == "surface_bundle";
+  icp->method =
+      icp->surface_bundle ? RegistrationMethod::kPointToPlane : RegistrationMethodNamed(method);
+}
 
 }  // namespace rigfit::bench

@@ -193,7 +193,7 @@ int main(int argc, char** argv) {
   }
 
   RefineOptions options = LoadConfig(config);
-  options.icp.method = RegistrationMethodNamed(method);
+  bench::SetMethod(method, &options.icp);
   std::printf(
       "%zu scans, method %s, config %s, every start pose perturbed by %.2f deg and %.1f mm "
       "(random axis and direction)\n\n",

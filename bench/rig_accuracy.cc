@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "analysis/crlb.h"
+#include "bench/bench_util.h"
 #include "core/evaluate.h"
 #include "core/format.h"
 #include "core/geometry.h"
@@ -523,7 +524,7 @@ int main(int argc, char** argv) {
   if (!config.empty()) options = LoadConfig(config);
   options.icp.mode = mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
   if (edge_margin_px > 0) options.region.edge_margin_px = edge_margin_px;
-  options.icp.method = RegistrationMethodNamed(method);
+  bench::SetMethod(method, &options.icp);
   options.icp.keep_surface_diagnostics = segmentation;
 
   std::printf("mode %s, method %s, %d cameras %dx%d, noise %g, perturbation %g deg %g m%s\n",

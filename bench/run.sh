@@ -192,9 +192,9 @@ run_accuracy() {
 # One speed case: `runs` whole-process runs of rigfit refine; appends one row of medians.
 speed_case() {
   local capture_dir="$1" mode="$2" runs="$3" table="$4" label="$5"
-  local tsv load args=(--mode "$mode")
+  local tsv load args=(--mode "$mode" --no-surface-bundle)
   # "surface_bundle": the joint mode with the surface bundle.
-  [ "$mode" = surface_bundle ] && args=(--mode joint --method surface_bundle)
+  [ "$mode" = surface_bundle ] && args=(--mode joint --surface-bundle)
   tsv="$out/raw/speed-$(basename "$capture_dir")-$mode.tsv"
   load="$(load1)"
   : >"$tsv"
@@ -248,7 +248,7 @@ run_speed() {
     echo "(default config, 2 threads) under \`/usr/bin/time -f \"%e %M\"\` on \`rigfit simulate --seed 0\` captures"
     echo "(default noise and perturbation). Wall time and peak RSS of the whole process; stage times from"
     echo "\`_meta.icp_refined.timings_s\` (correspondences and solve are the joint mode's part of registration;"
-    echo "pose graph is the pairwise mode's; mode surface_bundle is \`--mode joint --method surface_bundle\`)."
+    echo "pose graph is the pairwise mode's; mode surface_bundle is \`--mode joint --surface-bundle\`, the others \`--no-surface-bundle\`)."
     echo "Each cell is the median over the runs. The machine is"
     echo "shared with other engineers' jobs while measuring: the load average column says how busy it was."
     echo

@@ -83,8 +83,8 @@ int main(int argc, char** argv) {
     RigErrors errors[3] = {EvaluateRig(init, gt)};
     for (int m = 0; m < 2; ++m) {
       options.icp.mode = m == 0 ? RefineMode::kJoint : RefineMode::kPairwise;
-      options.icp.method = m == 0 || method != "surface_bundle" ? RegistrationMethodNamed(method)
-                                                                : RegistrationMethod::kPointToPlane;
+      bench::SetMethod(m == 0 || method != "surface_bundle" ? method : "point_to_plane",
+                       &options.icp);
       const auto start = std::chrono::steady_clock::now();
       const RefineResult result = Refine(capture, init, options);
       // The wall time on stderr, so that the tables stay as they are.

@@ -100,9 +100,9 @@ Command AddCompareCommand(CLI::App& app) {
       "compare",
       "Run the three ways to refine a rig on the same capture and initial extrinsics and print "
       "them side by side: pairwise (pairwise ICP + pose graph) and joint (joint registration), "
-      "both with icp.method point_to_plane, or gicp when the config sets it, and "
-      "surface_bundle (joint point_to_plane, then the surface bundle), whatever icp.method "
-      "says. Shows each camera's change and (with --gt) its error, the joint 1-sigma, the "
+      "both without the surface bundle, and surface_bundle (joint registration, then the "
+      "surface bundle); all with the config's icp.method (point_to_plane or gicp). Shows each "
+      "camera's change and (with --gt) its error, the joint 1-sigma, the "
       "surface bundle's plane thickness before and after, each pair's residual RMSE and "
       "inlier fraction before and after, wall time and peak memory, and which run did best. "
       "Writes no extrinsics. Exit codes: 0 done; 2 bad input or usage (nothing written); 1 "
@@ -115,8 +115,8 @@ Command AddCompareCommand(CLI::App& app) {
                   "Ground-truth extrinsics (JSON): adds each run's gauge-free errors");
   sub->add_option(
       "--config", a.config_path,
-      "Options (YAML, docs/config.md); icp.mode is ignored (the three runs set it), icp.method "
-      "sets the pairwise and joint runs' method when it is gicp");
+      "Options (YAML, docs/config.md); icp.mode and icp.surface_bundle are ignored (the three "
+      "runs set them)");
   sub->add_option("--json", a.json_path,
                   "Also write the comparison to this JSON file (replaced atomically; must not "
                   "be an input)");

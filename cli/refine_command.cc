@@ -47,8 +47,10 @@ struct RefineArgs {
   std::string method;
   double voxel_size = 0.0;
   std::string reference;
+  bool surface_bundle = false;
   CLI::Option* mode_option = nullptr;
   CLI::Option* method_option = nullptr;
+  CLI::Option* surface_bundle_option = nullptr;
   CLI::Option* voxel_size_option = nullptr;
   CLI::Option* reference_option = nullptr;
   bool no_ground = false;
@@ -104,6 +106,7 @@ RefineOptions EffectiveOptions(const RefineArgs& a) {
   if (a.method_option->count() > 0) {
     options.icp.method = RegistrationMethodNamed(a.method);
   }
+  if (a.surface_bundle_option->count() > 0) options.icp.surface_bundle = a.surface_bundle;
   if (a.voxel_size_option->count() > 0) options.icp.voxel_size = a.voxel_size;
   if (a.reference_option->count() > 0) options.icp.reference = a.reference;
   if (a.no_ground) options.ground.enabled = false;
@@ -303,8 +306,7 @@ int RunRefine(const RefineArgs& a) {
   RefineOptions options = EffectiveOptions(a);
   // The report's 3-D view draws the surface bundle's planes: the solver copies them out (the
   // poses are the same either way).
-  options.icp.keep_surface_diagnostics =
-      !a.report_dir.empty() && options.icp.method == RegistrationMethod::kSurfaceBundle;
+  options.icp.keep_surface_diagnostics = !a.report_dir.empty() && options.icp.surface_bundle;
   log.Info("loading " + a.capture_path + " and " + a.extrinsics_path);
   const RigCapture capture = ReadCaptureGuarded(a.capture_path);
   const ExtrinsicsDocument initial = ReadExtrinsics(a.extrinsics_path);
@@ -391,12 +393,25 @@ Command AddRefineCommand(CLI::App& app) {
                       "ICP + pose graph); overrides icp.mode (default " +
                           defaults["mode"].get<std::string>() + ")")
           ->check(CLI::IsMember({"joint", "pairwise"}));
-  a.method_option = sub->add_option("--method", a.method,
-                                    "Residual: point_to_plane, gicp or surface_bundle; overrides "
-                                    "icp.method "
-                                    "(default " +
-                                        defaults["method"].get<std::string>() + ")")
-                        ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));
+  a.method_option =
+      sub->add_option("--method", a.method,
+                      "Registration residual: point_to_plane or gicp; overrides icp.method "
+                      "(default " +
+                          defaults["method"].get<std::string>() + ")")
+          ->check(CLI::Validator(
+              [](const std::string& v) {
+                if (v == "point_to_plane" || v == "gicp") return std::string();
+                return "must be point_to_plane or gicp, got '" + v + "'" +
+                       (v == "surface_bundle" ? " (the surface bundle is a stage of its own now: "
+                                                "--surface-bundle)"
+                                              : "");
+              },
+              "point_to_plane|gicp", "method"));
+  a.surface_bundle_option = sub->add_flag(
+      "--surface-bundle,!--no-surface-bundle", a.surface_bundle,
+      "After the registration, refine every camera and the planes they see in one problem (the "
+      "surface bundle); overrides icp.surface_bundle (default " +
+          defaults["surface_bundle"].dump() + ")");
   a.voxel_size_option =
       sub->add_option("--voxel-size", a.voxel_size,
                       "Finest voxel size in metres (> 0); overrides icp.voxel_size (default " +

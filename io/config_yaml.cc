@@ -11,6 +11,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <type_traits>
 #include <utility>
 #include <variant>
 
@@ -32,9 +33,11 @@ using EnumNames = std::vector<std::pair<E, std::string>>;
 const EnumNames<RefineMode> kModeNames = {{RefineMode::kJoint, "joint"},
                                           {RefineMode::kPairwise, "pairwise"}};
 const EnumNames<RegistrationMethod> kMethodNames = {
-    {RegistrationMethod::kPointToPlane, "point_to_plane"},
-    {RegistrationMethod::kGicp, "gicp"},
-    {RegistrationMethod::kSurfaceBundle, "surface_bundle"}};
+    {RegistrationMethod::kPointToPlane, "point_to_plane"}, {RegistrationMethod::kGicp, "gicp"}};
+/// What an earlier value of icp.method is now: the surface bundle became a stage of its own.
+constexpr const char* kSurfaceBundleMoved =
+    "the surface bundle is no longer a method but the stage after registration: set "
+    "icp.surface_bundle: true and keep icp.method point_to_plane or gicp";
 const EnumNames<DepthNoiseModel> kNoiseModelNames = {
     {DepthNoiseModel::kGaussianDepth, "gaussian_depth"},
     {DepthNoiseModel::kDisparity, "disparity"}};
@@ -112,9 +115,10 @@ std::vector<Section> Schema(RefineOptions& o) {
        "Registration refinement.",
        {
            {"mode", &i.mode, "joint (one problem) or pairwise (pairwise ICP + pose graph)."},
-           {"method", &i.method,
-            "point_to_plane, gicp or surface_bundle (joint mode: planes estimated with the "
-            "poses)."},
+           {"method", &i.method, "Registration residual: point_to_plane or gicp."},
+           {"surface_bundle", &i.surface_bundle,
+            "After the registration, the surface bundle: every camera and the planes they see in "
+            "one problem (true/false)."},
            {"voxel_size", &i.voxel_size, "Finest voxel size in metres (> 0)."},
            {"scales", &i.scales,
             "Voxel size multipliers, coarse to fine (positive, strictly decreasing)."},
@@ -476,6 +480,9 @@ class ConfigParser {
       }
       if (near.empty() && IsNearMiss(node.Scalar(), name)) near = " (did you mean '" + name + "'?)";
     }
+    if (std::is_same_v<E, RegistrationMethod> && node.Scalar() == "surface_bundle") {
+      near = " (" + std::string(kSurfaceBundleMoved) + ")";
+    }
     Error(mark, key, "unknown value '" + node.Scalar() + "'; valid: " + valid + near);
   }
 
@@ -598,7 +605,8 @@ RegistrationMethod RegistrationMethodNamed(const std::string& name) {
     if (method_name == name) return method;
     valid.push_back(method_name);
   }
-  throw InputError("unknown method '" + name + "' (valid: " + Join(valid) + ")");
+  throw InputError("unknown method '" + name + "' (valid: " + Join(valid) + ")" +
+                   (name == "surface_bundle" ? std::string("; ") + kSurfaceBundleMoved : ""));
 }
 
 std::string RegistrationMethodName(RegistrationMethod method) { return YamlValue(&method); }

@@ -28,8 +28,8 @@ std::string ConfigToYaml(const RefineOptions& options);
 /// config strings), e.g. for the config echo in the output's _meta.
 nlohmann::json ConfigToJson(const RefineOptions& options);
 
-/// The method of a config name (point_to_plane, gicp, surface_bundle), as icp.method reads it;
-/// InputError listing the valid names for another.
+/// The method of a config name (point_to_plane, gicp), as icp.method reads it; InputError listing
+/// the valid names for another (for surface_bundle, saying where the surface bundle went).
 RegistrationMethod RegistrationMethodNamed(const std::string& name);
 
 /// The config name of a method (icp.method), the inverse of RegistrationMethodNamed (as the

@@ -60,15 +60,8 @@ void CheckRegion(const RegionOptions& r, ProblemList& p) {
 void CheckIcp(const IcpOptions& o, ProblemList& p) {
   p.Require(o.mode == RefineMode::kJoint || o.mode == RefineMode::kPairwise, "icp.mode",
             "joint or pairwise", static_cast<int>(o.mode));
-  p.Require(o.method == RegistrationMethod::kPointToPlane ||
-                o.method == RegistrationMethod::kGicp ||
-                o.method == RegistrationMethod::kSurfaceBundle,
-            "icp.method", "point_to_plane, gicp or surface_bundle", static_cast<int>(o.method));
-  if (o.method == RegistrationMethod::kSurfaceBundle && o.mode == RefineMode::kPairwise) {
-    p.Add(
-        "icp.method surface_bundle needs icp.mode joint (it estimates every camera and the "
-        "planes in one problem)");
-  }
+  p.Require(o.method == RegistrationMethod::kPointToPlane || o.method == RegistrationMethod::kGicp,
+            "icp.method", "point_to_plane or gicp", static_cast<int>(o.method));
   p.Require(o.depth_noise_model == DepthNoiseModel::kGaussianDepth ||
                 o.depth_noise_model == DepthNoiseModel::kDisparity,
             "icp.depth_noise_model", "gaussian_depth or disparity",

@@ -10,7 +10,8 @@
 namespace rigfit {
 
 enum class RefineMode { kJoint, kPairwise };
-enum class RegistrationMethod { kPointToPlane, kGicp, kSurfaceBundle };
+/// The residual of the registration (joint or pairwise): point-to-plane or GICP.
+enum class RegistrationMethod { kPointToPlane, kGicp };
 /// How a depth camera's noise behaves (the surface bundle's inverse-depth residual): Gaussian
 /// in depth (rigfit's simulator, many SDK depth maps) or Gaussian in disparity (raw stereo).
 enum class DepthNoiseModel { kGaussianDepth, kDisparity };
@@ -59,6 +60,10 @@ struct RegionOptions {
 struct IcpOptions {
   RefineMode mode = RefineMode::kJoint;
   RegistrationMethod method = RegistrationMethod::kPointToPlane;
+  /// The stage after the registration (joint or pairwise): the surface bundle refines every
+  /// camera and the planar surfaces they see in one problem, starting from the registered
+  /// poses (registration/surface_bundle.h, docs/residuals.md "Surface bundle").
+  bool surface_bundle = false;
   /// Finest voxel size; the scales multiply it, coarse to fine.
   double voxel_size = 0.02;
   std::vector<double> scales = {4.0, 2.0, 1.0};
@@ -99,7 +104,7 @@ struct IcpOptions {
   /// instead of letting the weak data move them. Off by default: on the bare simulated
   /// room it kept more of the start error than it prevented (docs/benchmarks.md).
   bool hold_weak_directions = false;
-  /// Surface bundle (method surface_bundle): the depth cameras' noise model. With noise
+  /// Surface bundle (surface_bundle true): the depth cameras' noise model. With noise
   /// Gaussian in depth the inverse depth 1/z is biased by k^2 z, which the residual removes;
   /// with disparity noise it is not (docs/residuals.md, "Surface bundle").
   DepthNoiseModel depth_noise_model = DepthNoiseModel::kGaussianDepth;

@@ -136,6 +136,7 @@ RigCapture CaptureOf(const py::dict& cameras) {
 struct RefineKeywords {
   std::optional<std::string> mode;
   std::optional<std::string> method;
+  std::optional<bool> surface_bundle;
   std::optional<double> voxel_size;
   std::optional<std::string> reference;
   bool no_ground = false;
@@ -145,14 +146,16 @@ struct RefineKeywords {
 
 const KeywordTable<RefineKeywords>& RefineTable() {
   using K = RefineKeywords;
-  static const KeywordTable<K> table = KeywordTable<K>("refine")
-                                           .Add("mode", [](K& k) { return &k.mode; })
-                                           .Add("method", [](K& k) { return &k.method; })
-                                           .Add("voxel_size", [](K& k) { return &k.voxel_size; })
-                                           .Add("reference", [](K& k) { return &k.reference; })
-                                           .Add("no_ground", [](K& k) { return &k.no_ground; })
-                                           .Add("no_icp", [](K& k) { return &k.no_icp; })
-                                           .Add("threads", [](K& k) { return &k.threads; });
+  static const KeywordTable<K> table =
+      KeywordTable<K>("refine")
+          .Add("mode", [](K& k) { return &k.mode; })
+          .Add("method", [](K& k) { return &k.method; })
+          .Add("surface_bundle", [](K& k) { return &k.surface_bundle; })
+          .Add("voxel_size", [](K& k) { return &k.voxel_size; })
+          .Add("reference", [](K& k) { return &k.reference; })
+          .Add("no_ground", [](K& k) { return &k.no_ground; })
+          .Add("no_icp", [](K& k) { return &k.no_icp; })
+          .Add("threads", [](K& k) { return &k.threads; });
   return table;
 }
 
@@ -193,6 +196,7 @@ RefineOptions OptionsOf(const std::string& command, const std::string& config_ya
     options.icp.mode = *k.mode == "joint" ? RefineMode::kJoint : RefineMode::kPairwise;
   }
   if (k.method) options.icp.method = RegistrationMethodNamed(*k.method);
+  if (k.surface_bundle) options.icp.surface_bundle = *k.surface_bundle;
   if (k.voxel_size) options.icp.voxel_size = *k.voxel_size;
   if (k.reference) options.icp.reference = *k.reference;
   if (k.no_ground) options.ground.enabled = false;

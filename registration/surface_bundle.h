@@ -1,4 +1,4 @@
-// The surface bundle (icp.method surface_bundle): the poses of every camera AND the planar
+// The surface bundle (icp.surface_bundle): the poses of every camera AND the planar
 // surfaces they see are the unknowns of one Ceres problem, every valid pixel of the band
 // entering once through a residual exact for noise along the viewing ray
 // (residuals/plane_cluster.h, docs/residuals.md "Surface bundle"). It starts from the joint

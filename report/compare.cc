@@ -353,6 +353,7 @@ Json RunJson(const CompareResult& c, const CompareRun& run) {
   options.icp.mode = run.mode;
   Json out = {{"mode", ConfigToJson(options)["icp"]["mode"]},
               {"method", RegistrationMethodName(run.method)},
+              {"surface_bundle", run.surface_bundle},
               {"success", run.success},
               {"message", run.message},
               {"warnings", run.warnings},
@@ -362,7 +363,7 @@ Json RunJson(const CompareResult& c, const CompareRun& run) {
               {"cameras", cameras},
               {"fit", FitJson(run.fit, c.pair_serials)},
               {"errors", c.has_gt ? RigErrorsSummaryJson(run.errors) : Json()}};
-  if (run.method == RegistrationMethod::kSurfaceBundle) {
+  if (run.surface_bundle) {
     const SurfaceBundleReport& sb = run.surface;
     out["surface"] = {{"ran", sb.ran},
                       {"planes", sb.planes},
@@ -414,9 +415,9 @@ std::string CompareText(const CompareResult& c, const CompareSources& sources) {
           c.reference.c_str());
   Appendf(&text,
           "Three runs: pairwise (pairwise ICP + pose graph, %s), joint (joint registration, "
-          "%s), surface_bundle (joint point_to_plane, then the surface bundle). All start from "
-          "the same leveled poses; \"change\" is each run's move from there%s.\n",
-          method.c_str(), method.c_str(),
+          "%s), surface_bundle (joint registration, %s, then the surface bundle). All start "
+          "from the same leveled poses; \"change\" is each run's move from there%s.\n",
+          method.c_str(), method.c_str(), method.c_str(),
           c.has_gt ? ", \"error\" the camera's pose relative to the reference against the truth "
                      "(and its tilt)"
                    : "");

@@ -20,17 +20,17 @@ constexpr double kEvenFraction = 0.05;
 /// The most decimals a number of the verdict is written with.
 constexpr int kMaxVerdictDigits = 6;
 
-/// Runs Refine once, as `rigfit refine` would with icp.mode `mode` and icp.method `method`.
-/// Its peak resident memory is the process's high-water mark, reset before the run
-/// (core/peak_memory.h): the capture already loaded counts in it, memory an earlier run freed
-/// does not.
-CompareRun RunOne(const std::string& name, RefineMode mode, RegistrationMethod method,
-                  const RigCapture& capture, const PoseMap& initial, RefineOptions options,
-                  const Log& log) {
+/// Runs Refine once, as `rigfit refine` would with `options` (whose icp.mode and
+/// icp.surface_bundle the caller set for this run). Its peak resident memory is the process's
+/// high-water mark, reset before the run (core/peak_memory.h): the capture already loaded counts in
+/// it, memory an earlier run freed does not.
+CompareRun RunOne(const std::string& name, const RigCapture& capture, const PoseMap& initial,
+                  RefineOptions options, const Log& log) {
   CompareRun run;
   run.name = name;
-  run.mode = options.icp.mode = mode;
-  run.method = options.icp.method = method;
+  run.mode = options.icp.mode;
+  run.method = options.icp.method;
+  run.surface_bundle = options.icp.surface_bundle;
   const Log run_log{[&log, name](LogLevel level, const std::string& message) {
     if (log.sink) log.sink(level, name + ": " + message);
   }};
@@ -229,17 +229,22 @@ CompareResult Compare(const RigCapture& capture, const PoseMap& initial,
                       const RefineOptions& options, const PoseMap* gt, const Log& log) {
   CheckCompareInput(capture, gt, {});
   CompareResult c;
-  c.method = options.icp.method == RegistrationMethod::kSurfaceBundle
-                 ? RegistrationMethod::kPointToPlane
-                 : options.icp.method;
+  c.method = options.icp.method;
   for (const CameraCapture& camera : capture.cameras) c.serials.push_back(camera.serial);
   c.initial = initial;
   c.baseline_rss_mb = CurrentRssMb();
+  // The three runs: each sets icp.mode and icp.surface_bundle, the rest is the caller's.
+  const auto run_options = [&options](RefineMode mode, bool surface_bundle) {
+    RefineOptions o = options;
+    o.icp.mode = mode;
+    o.icp.surface_bundle = surface_bundle;
+    return o;
+  };
   c.runs.push_back(
-      RunOne("pairwise", RefineMode::kPairwise, c.method, capture, initial, options, log));
-  c.runs.push_back(RunOne("joint", RefineMode::kJoint, c.method, capture, initial, options, log));
-  c.runs.push_back(RunOne("surface_bundle", RefineMode::kJoint, RegistrationMethod::kSurfaceBundle,
-                          capture, initial, options, log));
+      RunOne("pairwise", capture, initial, run_options(RefineMode::kPairwise, false), log));
+  c.runs.push_back(RunOne("joint", capture, initial, run_options(RefineMode::kJoint, false), log));
+  c.runs.push_back(
+      RunOne("surface_bundle", capture, initial, run_options(RefineMode::kJoint, true), log));
 
   // The shared start: leveling alone, as every run ran it.
   RefineOptions leveling_only = options;

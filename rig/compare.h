@@ -34,7 +34,8 @@ struct CompareRun {
   std::string name;
   RefineMode mode = RefineMode::kJoint;
   RegistrationMethod method = RegistrationMethod::kPointToPlane;
-  bool success = false;  ///< false: the refinement was not applied (output = leveled)
+  bool surface_bundle = false;  ///< the surface bundle ran after the registration
+  bool success = false;         ///< false: the refinement was not applied (output = leveled)
   std::string message;
   std::vector<std::string> warnings;
   PoseMap output;  ///< what `rigfit refine` would write: refined, or leveled when not applied
@@ -49,8 +50,7 @@ struct CompareRun {
 
 /// What Compare measured.
 struct CompareResult {
-  /// The method of the pairwise and joint runs: icp.method when point_to_plane or gicp,
-  /// point_to_plane when it is surface_bundle (which needs joint mode: the third run).
+  /// The registration residual of every run (icp.method).
   RegistrationMethod method = RegistrationMethod::kPointToPlane;
   std::string reference;
   std::vector<std::string> serials;  ///< the capture's cameras, in capture order
@@ -68,8 +68,8 @@ struct CompareResult {
 };
 
 /// Runs the three refinements of `capture` from `initial`, each with `options` but icp.mode
-/// and icp.method, which each run sets: pairwise and joint with the configured method, or
-/// point_to_plane when it is surface_bundle, then joint with surface_bundle. `gt` (may be
+/// and icp.surface_bundle, which each run sets: pairwise and joint without the surface bundle,
+/// then joint with it; all with the configured icp.method. `gt` (may be
 /// null) adds the gauge-free errors; it must hold every camera of the capture. Progress goes
 /// to `log`, each run's prefixed with its name; options.threads threads. Throws InputError on
 /// inputs that do not match (CheckCompareInput, then Refine's CheckRefineInput), never on bad

@@ -88,49 +88,18 @@ int ReferenceIndex(const RigCapture& capture, const std::string& reference) {
   return 0;
 }
 
-/// Pairwise mode: ICP per candidate pair, then the pose graph. Returns refined poses.
-std::optional<std::vector<Pose>> RegisterPairwise(const std::vector<RegistrationCamera>& cameras,
-                                                  const std::vector<Pose>& leveled,
-                                                  const std::vector<CandidatePair>& candidates,
-                                                  int reference, const IcpOptions& options,
-                                                  int num_threads, const Log& log,
-                                                  RefineResult* result) {
-  std::vector<PoseGraphEdge> edges;
-  for (const CandidatePair& pair : candidates) {
-    PairReport& report = result->pairs.emplace_back();
-    report.serial_a = result->cameras[pair.a].serial;
-    report.serial_b = result->cameras[pair.b].serial;
-    report.overlap_area_m2 = pair.overlap_area_m2;
-    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": ICP");
-    const auto start = std::chrono::steady_clock::now();
-    const PairwiseResult icp =
-        RegisterPair(cameras[pair.b], cameras[pair.a], options, num_threads, log);
-    result->times.registration_s += SecondsSince(start);
-    report.fitness = icp.fitness;
-    report.rmse_before_m = icp.rmse_before_m;
-    report.rmse_after_m = icp.rmse_after_m;
-    report.correspondences = icp.correspondences;
-    report.iterations = icp.iterations;
-    report.accepted = icp.accepted;
-    report.message = icp.message;
-    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": fitness " +
-             Fixed(icp.fitness, 3) + ", RMSE " + Fixed(icp.rmse_before_m * 1e3, 2) + " -> " +
-             Fixed(icp.rmse_after_m * 1e3, 2) + " mm, " + std::to_string(icp.iterations) +
-             " iterations" + (icp.accepted ? "" : ", rejected: " + icp.message));
-    if (!icp.accepted) continue;
-    edges.push_back({pair.a, pair.b, icp.T_target_source,
-                     EdgeInformationFromTangentInformation(icp.information, leveled[pair.a])});
-  }
-  const auto start = std::chrono::steady_clock::now();
-  const PoseGraphResult graph = OptimizePoseGraph(leveled, edges, reference);
-  result->times.pose_graph_s = SecondsSince(start);
-  for (size_t i = 0; i < leveled.size(); ++i) result->cameras[i].connected = graph.connected[i];
-  if (!graph.usable) {
-    result->message = "pose graph: " + graph.message;
-    return std::nullopt;
-  }
-  return graph.poses;
-}
+/// What the registration stages (joint or pairwise, then the surface bundle) work on.
+struct RegistrationInputs {
+  const std::vector<RegistrationCamera>& cameras;
+  const std::vector<CandidatePair>& candidates;
+  const std::vector<Pose>& leveled;
+  int reference = 0;
+  const IcpOptions& options;
+  /// The surface bundle's cameras (icp.surface_bundle), empty without it.
+  const std::vector<SurfaceCamera>& surfaces;
+  int num_threads = 1;
+  const Log& log;
+};
 
 /// Says whether a free depth camera's depth model was observable: warned when it was not
 /// (held at scale 1, offset 0), logged when it was.
@@ -157,14 +126,16 @@ void WarnDepthModel(const CameraReport& camera, const SurfaceCamera& surface, co
   Warn(result, log, name + "not observable: " + why + "; held at scale 1, offset 0");
 }
 
-/// Joint mode: one problem over every camera. Returns refined poses.
-/// The surface bundle after the joint point-to-plane solve: joint's poses, covariance and
-/// connectivity in `joint` are replaced where it refined a camera.
-void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const IcpOptions& options,
-                    int num_threads, const Log& log, JointResult* joint, RefineResult* result) {
+/// The surface bundle after the registration (`joint`: the joint solve's result, or the pose
+/// graph's poses without a covariance): joint's poses, covariance, inflation and surfaces are
+/// replaced where it refined a camera.
+void RefineSurfaces(const RegistrationInputs& in, JointResult* joint, RefineResult* result) {
+  const IcpOptions& options = in.options;
+  const Log& log = in.log;
+  std::vector<SurfaceCamera> surfaces = in.surfaces;
   for (size_t i = 0; i < surfaces.size(); ++i) {
     surfaces[i].T_world_camera = joint->poses[i];
-    surfaces[i].free = joint->connected[i] && static_cast<int>(i) != reference;
+    surfaces[i].free = joint->connected[i] && static_cast<int>(i) != in.reference;
     // The start's information is the noise model's: the inflation (uncertainty/inflation.h)
     // widens the reported 1-sigma, not the prior that holds the bundle at the joint pose.
     if (joint->covariance_ok) {
@@ -177,7 +148,7 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
     // its pixels would pull the planes.
     if (!joint->connected[i]) surfaces[i].points.clear();
   }
-  const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, num_threads, log);
+  const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, in.num_threads, log);
   if (!bundle.usable) {
     Warn(result, log, bundle.message + "; the joint point-to-plane poses stand");
     return;
@@ -238,6 +209,77 @@ void RefineSurfaces(std::vector<SurfaceCamera> surfaces, int reference, const Ic
   }
 }
 
+/// The surface bundle after the pose graph (which gives no covariance: the bundle starts
+/// without a prior); each camera it refined reports the bundle's covariance, inflation and
+/// surfaces. Returns the poses.
+std::vector<Pose> PairwiseSurfaces(const RegistrationInputs& in, const PoseGraphResult& graph,
+                                   RefineResult* result) {
+  const size_t n = graph.poses.size();
+  JointResult start;
+  start.poses = graph.poses;
+  start.connected = graph.connected;
+  start.covariance.assign(n, Mat6::Zero());
+  start.covariance_ok = true;  // zero: none, for the start and for the cameras not refined
+  start.sigma_inflation.assign(n, SigmaInflation{});
+  start.surfaces.assign(n, 0);
+  const auto started = std::chrono::steady_clock::now();
+  RefineSurfaces(in, &start, result);
+  result->times.registration_s += SecondsSince(started);
+  for (size_t i = 0; i < n; ++i) {
+    CameraReport& report = result->cameras[i];
+    if (start.covariance[i].isZero(0.0)) continue;
+    report.has_covariance = true;
+    report.covariance = start.covariance[i];
+    report.sigma_inflation = start.sigma_inflation[i];
+    report.surfaces = start.surfaces[i];
+    report.few_surfaces = start.surfaces[i] < kFewSurfaceOrientations;
+  }
+  return start.poses;
+}
+
+/// Pairwise mode: ICP per candidate pair, then the pose graph, then the surface bundle when
+/// asked for. Returns refined poses.
+std::optional<std::vector<Pose>> RegisterPairwise(const RegistrationInputs& in,
+                                                  RefineResult* result) {
+  const auto& [cameras, candidates, leveled, reference, options, surfaces, num_threads, log] = in;
+  std::vector<PoseGraphEdge> edges;
+  for (const CandidatePair& pair : candidates) {
+    PairReport& report = result->pairs.emplace_back();
+    report.serial_a = result->cameras[pair.a].serial;
+    report.serial_b = result->cameras[pair.b].serial;
+    report.overlap_area_m2 = pair.overlap_area_m2;
+    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": ICP");
+    const auto start = std::chrono::steady_clock::now();
+    const PairwiseResult icp =
+        RegisterPair(cameras[pair.b], cameras[pair.a], options, num_threads, log);
+    result->times.registration_s += SecondsSince(start);
+    report.fitness = icp.fitness;
+    report.rmse_before_m = icp.rmse_before_m;
+    report.rmse_after_m = icp.rmse_after_m;
+    report.correspondences = icp.correspondences;
+    report.iterations = icp.iterations;
+    report.accepted = icp.accepted;
+    report.message = icp.message;
+    log.Info("pair " + report.serial_a + " <- " + report.serial_b + ": fitness " +
+             Fixed(icp.fitness, 3) + ", RMSE " + Fixed(icp.rmse_before_m * 1e3, 2) + " -> " +
+             Fixed(icp.rmse_after_m * 1e3, 2) + " mm, " + std::to_string(icp.iterations) +
+             " iterations" + (icp.accepted ? "" : ", rejected: " + icp.message));
+    if (!icp.accepted) continue;
+    edges.push_back({pair.a, pair.b, icp.T_target_source,
+                     EdgeInformationFromTangentInformation(icp.information, leveled[pair.a])});
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const PoseGraphResult graph = OptimizePoseGraph(leveled, edges, reference);
+  result->times.pose_graph_s = SecondsSince(start);
+  for (size_t i = 0; i < leveled.size(); ++i) result->cameras[i].connected = graph.connected[i];
+  if (!graph.usable) {
+    result->message = "pose graph: " + graph.message;
+    return std::nullopt;
+  }
+  if (surfaces.empty()) return graph.poses;
+  return PairwiseSurfaces(in, graph, result);
+}
+
 /// The joint solve's per-camera results into the report: connectivity, covariance and weak
 /// directions (each warned).
 void ReportJointCameras(const JointResult& joint, const IcpOptions& options, const Log& log,
@@ -285,12 +327,9 @@ void ReportJointPairs(const std::vector<CandidatePair>& candidates, const JointR
   }
 }
 
-std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<RegistrationCamera>& cameras,
-                                                    const std::vector<CandidatePair>& candidates,
-                                                    int reference, const IcpOptions& options,
-                                                    const std::vector<SurfaceCamera>* surfaces,
-                                                    int num_threads, const Log& log,
+std::optional<std::vector<Pose>> RegisterAllJointly(const RegistrationInputs& in,
                                                     RefineResult* result) {
+  const auto& [cameras, candidates, leveled, reference, options, surfaces, num_threads, log] = in;
   const size_t finest = options.scales.size() - 1;
   const double coarsest_voxel = options.scales.front() * options.voxel_size;
   // The finest views of a pair at the given poses: (b, a), b the source.
@@ -320,14 +359,8 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const std::vector<Registrati
       /*min_per_thread=*/1);
   log.Info("joint: " + std::to_string(cameras.size()) + " cameras, " +
            std::to_string(candidates.size()) + " pairs");
-  // The surface bundle starts from the joint point-to-plane solve.
-  IcpOptions joint_options = options;
-  if (surfaces != nullptr) joint_options.method = RegistrationMethod::kPointToPlane;
-  JointResult joint =
-      RegisterJoint(cameras, candidates, reference, joint_options, num_threads, log);
-  if (surfaces != nullptr && joint.usable) {
-    RefineSurfaces(*surfaces, reference, options, num_threads, log, &joint, result);
-  }
+  JointResult joint = RegisterJoint(cameras, candidates, reference, options, num_threads, log);
+  if (!surfaces.empty() && joint.usable) RefineSurfaces(in, &joint, result);
   result->times.correspondences_s = joint.correspondences_s;
   result->times.solve_s = joint.solve_s;
   log.Info("joint: " + std::to_string(joint.iterations) + " iterations, correspondences " +
@@ -717,19 +750,16 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   const PreparedRig prepared = Preprocess(capture, points, leveled, floor_leveled, depth_noise,
                                           options, num_threads, log, &result);
   const std::vector<SurfaceCamera> surfaces =
-      options.icp.mode == RefineMode::kJoint &&
-              options.icp.method == RegistrationMethod::kSurfaceBundle
-          ? SurfaceCameras(capture, leveled, floor_leveled, depth_noise, options.region,
-                           num_threads)
-          : std::vector<SurfaceCamera>{};
+      options.icp.surface_bundle ? SurfaceCameras(capture, leveled, floor_leveled, depth_noise,
+                                                  options.region, num_threads)
+                                 : std::vector<SurfaceCamera>{};
   const std::vector<RegistrationCamera> cameras = RegistrationCameras(
       capture, prepared.pyramids, leveled, depth_noise, options.icp, log, result);
-  const std::optional<std::vector<Pose>> registered =
-      options.icp.mode == RefineMode::kJoint
-          ? RegisterAllJointly(cameras, prepared.candidates, reference, options.icp,
-                               surfaces.empty() ? nullptr : &surfaces, num_threads, log, &result)
-          : RegisterPairwise(cameras, leveled, prepared.candidates, reference, options.icp,
-                             num_threads, log, &result);
+  const RegistrationInputs inputs{cameras,  prepared.candidates, leveled, reference, options.icp,
+                                  surfaces, num_threads,         log};
+  const std::optional<std::vector<Pose>> registered = options.icp.mode == RefineMode::kJoint
+                                                          ? RegisterAllJointly(inputs, &result)
+                                                          : RegisterPairwise(inputs, &result);
   if (!registered) {
     for (CameraReport& report : result.cameras) {
       if (!report.reference) report.message = "registration failed: " + result.message;

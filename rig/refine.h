@@ -69,7 +69,7 @@ struct CameraReport {
   DepthModelEstimate depth_model;
 };
 
-/// What the surface bundle did (method surface_bundle).
+/// What the surface bundle did (icp.surface_bundle).
 struct SurfaceBundleReport {
   bool ran = false;
   int planes = 0;

@@ -64,8 +64,8 @@ TEST_F(CliCompareTest, ThreeRunsSideBySideAndJointAgreesWithEvaluate) {
     const Json& m = compare["modes"][run];
     EXPECT_EQ(m["success"], true) << m["message"];
     EXPECT_EQ(m["mode"], run == std::string("pairwise") ? "pairwise" : "joint");
-    EXPECT_EQ(m["method"],
-              run == std::string("surface_bundle") ? "surface_bundle" : "point_to_plane");
+    EXPECT_EQ(m["method"], "point_to_plane");
+    EXPECT_EQ(m["surface_bundle"], run == std::string("surface_bundle"));
     EXPECT_EQ(m["cameras"].size(), 3u);
     EXPECT_GT(m["wall_s"].get<double>(), 0.0);
     EXPECT_GT(m["peak_rss_mb"].get<double>(), 0.0);
@@ -164,10 +164,17 @@ TEST_F(CliCompareTest, ReportHoldsTheComparisonAndA3dViewOfEveryRun) {
   EXPECT_NE(bad.err.find("--report"), std::string::npos) << bad.err;
 }
 
-TEST_F(CliCompareTest, SurfaceBundleConfigRunsPairwiseAndJointWithPointToPlane) {
-  // icp.method surface_bundle needs joint mode: the pairwise run once failed validation. The
-  // pairwise and joint runs now use point_to_plane; the third run is the surface bundle.
-  std::ofstream(Scratch("surface.yaml")) << "icp:\n  method: surface_bundle\n";
+TEST_F(CliCompareTest, TheRunsSetTheSurfaceBundleWhateverTheConfigSays) {
+  // The surface bundle was once icp.method surface_bundle: such a config is refused, saying where
+  // it went.
+  std::ofstream(Scratch("old.yaml")) << "icp:\n  method: surface_bundle\n";
+  const RunResult old = RunRigfit({"compare", "--capture", Rig("capture.h5"), "--extrinsics",
+                                   Rig("init.json"), "--config", Scratch("old.yaml"), "--quiet"},
+                                  root_);
+  EXPECT_EQ(old.exit_code, 2) << Describe(old);
+  EXPECT_NE(old.err.find("set icp.surface_bundle: true"), std::string::npos) << old.err;
+  // icp.surface_bundle on: the pairwise and joint runs still run without it.
+  std::ofstream(Scratch("surface.yaml")) << "icp:\n  surface_bundle: true\n";
   const RunResult r =
       RunRigfit({"compare", "--capture", Rig("capture.h5"), "--extrinsics", Rig("init.json"),
                  "--config", Scratch("surface.yaml"), "--json", Scratch("surface.json"), "--quiet"},
@@ -180,9 +187,10 @@ TEST_F(CliCompareTest, SurfaceBundleConfigRunsPairwiseAndJointWithPointToPlane) 
   for (const char* run : kRuns) {
     EXPECT_EQ(compare["modes"][run]["success"], true) << run << compare["modes"][run]["message"];
   }
-  EXPECT_EQ(compare["modes"]["pairwise"]["method"], "point_to_plane");
-  EXPECT_EQ(compare["modes"]["joint"]["method"], "point_to_plane");
-  EXPECT_EQ(compare["modes"]["surface_bundle"]["method"], "surface_bundle");
+  for (const char* run : kRuns) {
+    EXPECT_EQ(compare["modes"][run]["method"], "point_to_plane") << run;
+    EXPECT_EQ(compare["modes"][run]["surface_bundle"], run == std::string("surface_bundle")) << run;
+  }
 }
 
 TEST_F(CliCompareTest, JsonOntoAnInputIsRefused) {

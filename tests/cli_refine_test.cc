@@ -178,7 +178,7 @@ TEST_F(CliRefineTest, TheReferenceIsHeldOrLeveledOnTheBundlesFloor) {
   EXPECT_NE(held.out.find("reference (held fixed)"), std::string::npos) << held.out;
   EXPECT_EQ(ReadExtrinsics(Out()).poses.at(reference).matrix(), leveled.at(reference).matrix());
 
-  const RunResult bundle = Refine({"--method", "surface_bundle"});
+  const RunResult bundle = Refine({"--surface-bundle"});
   ASSERT_EQ(bundle.exit_code, 0) << Describe(bundle);
   EXPECT_NE(bundle.out.find("reference (yaw and centre held, tilt from the floor)"),
             std::string::npos)
@@ -332,6 +332,11 @@ TEST_F(CliRefineTest, UnknownReferenceIsBadInput) {
 
 TEST_F(CliRefineTest, UnknownMethodIsAUsageError) {
   ExpectBadInput(Refine({"--method", "icp"}), "--method");
+}
+
+TEST_F(CliRefineTest, TheSurfaceBundleAsAMethodSaysWhereItWent) {
+  // It was --method surface_bundle until the residual and the stage became two settings.
+  ExpectBadInput(Refine({"--method", "surface_bundle"}), "--surface-bundle");
 }
 
 TEST_F(CliRefineTest, QuietAndVerboseExcludeEachOther) {

@@ -47,7 +47,8 @@ RefineOptions NonDefaultOptions() {
   o.region.edge_jump = 0.08;
   o.icp.mode = RefineMode::kPairwise;
   o.icp.method = RegistrationMethod::kGicp;
-  o.icp.voxel_size = 0.1 + 0.2;  // 0.30000000000000004: needs 17 digits
+  o.icp.surface_bundle = !IcpOptions{}.surface_bundle;  // the other value than the default
+  o.icp.voxel_size = 0.1 + 0.2;                         // 0.30000000000000004: needs 17 digits
   o.icp.scales = {8.0, 1.0 / 3.0};
   o.icp.max_iterations = {5, 7};
   o.icp.max_correspondence_distance_factor = 2.5;

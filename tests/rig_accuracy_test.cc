@@ -24,6 +24,7 @@ struct MethodCase {
   const char* name;
   RefineMode mode;
   RegistrationMethod method;
+  bool surface_bundle;  ///< icp.surface_bundle
   /// Measured on SimulatedNoisyRig() at b97677b (RMS over the camera pairs): rotation (deg),
   /// translation (mm).
   double rotation_deg;
@@ -53,6 +54,7 @@ TEST_P(MethodAccuracy, WithinThirtyPercentOfTheMeasuredError) {
   RefineOptions options;
   options.icp.mode = c.mode;
   options.icp.method = c.method;
+  options.icp.surface_bundle = c.surface_bundle;
   const RefineResult r = Refine(rig.capture, rig.init, options);
   ASSERT_TRUE(r.success) << r.message;
   const RigErrors before = EvaluateRig(rig.init, rig.gt);
@@ -69,13 +71,15 @@ TEST_P(MethodAccuracy, WithinThirtyPercentOfTheMeasuredError) {
 INSTANTIATE_TEST_SUITE_P(
     Methods, MethodAccuracy,
     ::testing::Values(MethodCase{"JointPointToPlane", RefineMode::kJoint,
-                                 RegistrationMethod::kPointToPlane, 0.3695, 16.925},
-                      MethodCase{"JointGicp", RefineMode::kJoint, RegistrationMethod::kGicp, 0.2129,
-                                 12.018},
+                                 RegistrationMethod::kPointToPlane, false, 0.3695, 16.925},
+                      MethodCase{"JointGicp", RefineMode::kJoint, RegistrationMethod::kGicp, false,
+                                 0.2129, 12.018},
                       MethodCase{"SurfaceBundle", RefineMode::kJoint,
-                                 RegistrationMethod::kSurfaceBundle, 0.1422, 10.136},
+                                 RegistrationMethod::kPointToPlane, true, 0.1422, 10.136},
                       MethodCase{"PairwisePointToPlane", RefineMode::kPairwise,
-                                 RegistrationMethod::kPointToPlane, 0.2740, 24.563}),
+                                 RegistrationMethod::kPointToPlane, false, 0.2740, 24.563},
+                      MethodCase{"PairwiseSurfaceBundle", RefineMode::kPairwise,
+                                 RegistrationMethod::kPointToPlane, true, 0.1420, 10.770}),
     [](const auto& info) { return std::string(info.param.name); });
 
 }  // namespace

@@ -36,7 +36,7 @@ RefinedRig RefineSmallRig(SimOptions sim) {
   sim.height = 180;
   RefinedRig out{SimulateRig(sim), {}};
   RefineOptions options;
-  options.icp.method = RegistrationMethod::kSurfaceBundle;
+  options.icp.surface_bundle = true;
   out.result = Refine(out.rig.capture, out.rig.init, options);
   return out;
 }
@@ -49,7 +49,7 @@ TEST(SurfaceBundle, NoiseFreeRigsAreRecovered) {
     SCOPED_TRACE(cameras);
     const SimulatedRig rig = NoiseFreeRig(cameras);
     RefineOptions options;
-    options.icp.method = RegistrationMethod::kSurfaceBundle;
+    options.icp.surface_bundle = true;
     const RefineResult result = Refine(rig.capture, rig.init, options);
     ASSERT_TRUE(result.success) << result.message;
     ASSERT_TRUE(result.surface.ran);
@@ -178,7 +178,7 @@ TEST(SurfaceBundle, KeptDiagnosticsHoldEveryPixelOfTheLastRound) {
   // bench/rig_accuracy --segmentation reads the bundle's planes and pixels from the result.
   const SimulatedRig rig = NoiseFreeRig(3);
   RefineOptions options;
-  options.icp.method = RegistrationMethod::kSurfaceBundle;
+  options.icp.surface_bundle = true;
   const RefineResult plain = Refine(rig.capture, rig.init, options);
   options.icp.keep_surface_diagnostics = true;
   const RefineResult result = Refine(rig.capture, rig.init, options);
@@ -302,7 +302,7 @@ TEST(SurfaceBundle, SamePosesToTheLastBitFromRunToRunInOneProcess) {
   sim.height = 180;
   const SimulatedRig rig = SimulateRig(sim);
   RefineOptions options;
-  options.icp.method = RegistrationMethod::kSurfaceBundle;
+  options.icp.surface_bundle = true;
   RefineOptions one_thread = options;
   one_thread.threads = 1;
   const RefineResult reference = Refine(rig.capture, rig.init, one_thread);

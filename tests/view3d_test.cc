@@ -237,7 +237,7 @@ class SurfacePlanesView : public RigView {
     dir_ = new TempDir("rigfit_view3d_planes_test");
     const SimulatedRig rig = SimulateRig(SimOptions{});
     RefineOptions options;
-    options.icp.method = RegistrationMethod::kSurfaceBundle;
+    options.icp.surface_bundle = true;
     options.icp.keep_surface_diagnostics = true;
     options.threads = 2;
     result_ = new RefineResult(Refine(rig.capture, rig.init, options));

@@ -249,8 +249,9 @@ def refine(cameras: Cameras, extrinsics: Extrinsics, *, config: Config = None,
     returns this layout). ``extrinsics``: serial -> (4, 4) T_world_camera, one per camera.
     ``config`` (``--config``): a dict with the YAML's sections and keys (``{"icp":
     {"voxel_size": 0.03}}``), the path of a YAML file, or None for the defaults. The other
-    keywords are ``rigfit refine``'s flags: ``mode``, ``method``, ``voxel_size`` and
-    ``reference`` override the config (None: the config's); ``no_ground=True`` skips ground
+    keywords are ``rigfit refine``'s flags: ``mode``, ``method``, ``surface_bundle`` (True for
+    ``--surface-bundle``, False for ``--no-surface-bundle``), ``voxel_size`` and ``reference``
+    override the config (None: the config's); ``no_ground=True`` skips ground
     leveling, ``no_icp=True`` stops after it; ``threads`` (1 to 256).
 
     Raises ValueError on bad input (config, arrays, serials that do not match, keywords).
@@ -337,6 +338,7 @@ class CompareRun:
     name: str
     mode: str
     method: str
+    surface_bundle: bool
     success: bool
     message: str
     warnings: List[str]
@@ -378,7 +380,8 @@ def _compare_run(name: str, raw: Mapping[str, Any]) -> CompareRun:
     import numpy as np
     poses = {serial: np.array(c["T_world_camera"], dtype=np.float64)
              for serial, c in raw["cameras"].items()}
-    return CompareRun(name=name, mode=raw["mode"], method=raw["method"], success=raw["success"],
+    return CompareRun(name=name, mode=raw["mode"], method=raw["method"],
+                      surface_bundle=raw["surface_bundle"], success=raw["success"],
                       message=raw["message"], warnings=list(raw["warnings"]), extrinsics=poses,
                       errors=_summary(raw["errors"]), wall_s=raw["wall_s"],
                       peak_rss_mb=raw["peak_rss_mb"])
@@ -389,11 +392,11 @@ def compare(cameras: Cameras, extrinsics: Extrinsics, *, config: Config = None,
             gt: Optional[Extrinsics] = None, **options: Any) -> CompareResult:
     """Runs the three ways to refine a rig on the same input, as ``rigfit compare``.
 
-    pairwise (pairwise ICP + pose graph) and joint (joint registration), both with
-    point_to_plane or, when the config sets it, gicp; and surface_bundle (joint
-    point_to_plane, then the surface bundle). ``cameras``, ``extrinsics`` and ``config`` as
-    ``refine`` takes them (``icp.mode`` ignored; the reference and ground leveling come from the
-    config, as for the CLI); ``gt`` (``--gt``): serial -> (4, 4) true T_world_camera, one per
+    pairwise (pairwise ICP + pose graph) and joint (joint registration), both without the
+    surface bundle, and surface_bundle (joint registration, then the surface bundle); all with
+    the config's ``icp.method`` (point_to_plane or gicp). ``cameras``, ``extrinsics`` and
+    ``config`` as ``refine`` takes them (``icp.mode`` and ``icp.surface_bundle`` ignored; the
+    reference and ground leveling come from the config, as for the CLI); ``gt`` (``--gt``): serial -> (4, 4) true T_world_camera, one per
     camera, or None; adds each run's gauge-free errors and judges the runs by them.
     ``threads``: worker threads (1 to 256).
 

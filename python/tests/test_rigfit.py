@@ -215,13 +215,16 @@ def test_input_checks_raise_value_error(cameras, extrinsics, message):
 @pytest.mark.parametrize("kwargs, message", [
     ({"mode": "both"}, "mode must be joint or pairwise"),
     ({"method": "icp"}, "point_to_plane"),
+    ({"method": "surface_bundle"}, "set icp.surface_bundle: true"),
+    ({"surface_bundle": 1}, "refine: surface_bundle must be True or False"),
     ({"reference": "zz"}, "reference"),
     ({"threads": 0}, "threads must be in"),
     ({"voxel_size": 0.0}, "voxel_size"),
     ({"threads": 2.0}, "refine: threads must be an integer, got 2.0"),
     ({"no_ground": 1}, "refine: no_ground must be True or False"),
     ({"mode": 1}, "refine: mode must be a str"),
-    ({"treads": 2}, "refine: unknown keyword 'treads' \\(refine takes mode, method, voxel_size"),
+    ({"treads": 2},
+     "refine: unknown keyword 'treads' \\(refine takes mode, method, surface_bundle, voxel_size"),
     ({"level_ground": False}, "unknown keyword 'level_ground'"),
 ])
 def test_keyword_checks_raise_value_error(kwargs, message):
@@ -291,7 +294,7 @@ def test_depth_model_matches_meta(rig):
     d, _ = rig
     result = rigfit.refine(rigfit.read_capture(d / "capture.h5"),
                            rigfit.read_extrinsics(d / "init.json"),
-                           config={"icp": {"method": "surface_bundle", "depth_model": "offset"}})
+                           config={"icp": {"surface_bundle": True, "depth_model": "offset"}})
     meta = result.meta["icp_refined"]["surface_bundle"]["thickness"]
     for c in result.cameras:
         if c.reference:
