@@ -312,6 +312,7 @@ class JointProblem {
       total += result_.pair_correspondences[k];
     }
     result_.connected = ConnectedTo(reference_, n_, links);
+    stability_ = Stability(views_, pairs_, matches_, options_, num_threads_);
     const std::vector<std::vector<WeakDirection>> held = WeakDirections(hold_threshold_);
     if (options_.hold_weak_directions) result_.weak = held;
     for (size_t i = 0; i < n_; ++i) {
@@ -400,7 +401,7 @@ class JointProblem {
     if (problem_ == nullptr) return;
     const auto start = std::chrono::steady_clock::now();
     // Without holding, only the end matters: the analysis runs once, at the last
-    // iteration's correspondences and poses.
+    // iteration's correspondences and poses (stability_, of the last problem).
     if (!options_.hold_weak_directions) {
       result_.weak = WeakDirections(options_.degeneracy_threshold);
     }
@@ -432,14 +433,13 @@ class JointProblem {
     result_.covariance_s = SecondsSince(start);
   }
 
-  /// The directions below `threshold` of the connected cameras at the views' poses.
+  /// The directions below `threshold` of the connected cameras, from stability_ (the last
+  /// problem's views and correspondences).
   std::vector<std::vector<WeakDirection>> WeakDirections(double threshold) const {
-    const std::vector<StabilityAccumulator> stability =
-        Stability(views_, pairs_, matches_, options_, num_threads_);
     std::vector<std::vector<WeakDirection>> weak(n_);
     for (size_t i = 0; i < n_; ++i) {
       if (result_.connected[i]) {
-        weak[i] = stability[i].WeakDirections(views_[i].T_world_camera.translation(), threshold);
+        weak[i] = stability_[i].WeakDirections(views_[i].T_world_camera.translation(), threshold);
       }
     }
     return weak;
@@ -481,6 +481,8 @@ class JointProblem {
   std::vector<PoseBlock> start_blocks_;  ///< the problem's constant copy of initial_blocks_
   std::vector<CameraView> views_;
   std::vector<std::vector<Correspondence>> matches_;  ///< pair k: 2k a -> b, 2k + 1 b -> a
+  /// Per camera, the constraints of the last problem's correspondences at its views' poses.
+  std::vector<StabilityAccumulator> stability_;
   /// Pair k's overlap at the start of the first and of the finest scale (MeasureFitness).
   std::vector<double> fitness_;
   std::unique_ptr<ceres::Problem> problem_;

@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "core/geometry.h"
+#include "core/parallel.h"
 
 namespace rigfit {
 namespace {
@@ -51,11 +52,53 @@ struct Patch {
   Box box;
 };
 
+/// The patches whose boxes touch patch p's (within `margin`), bucketed by cells of the XZ plane
+/// over p's box: At(x) lists those whose box, grown by the margin, may hold x (a superset;
+/// the caller tests Box::Contains).
+class NeighbourGrid {
+ public:
+  NeighbourGrid(const std::vector<Patch>& patches, size_t p, double margin)
+      : min_(patches[p].box.min - Vec3::Constant(margin)) {
+    const Vec3 extent = patches[p].box.max - patches[p].box.min + Vec3::Constant(2.0 * margin);
+    cell_ = std::max({extent.x(), extent.z(), margin}) / kCells;
+    nx_ = std::clamp(static_cast<int>(std::ceil(extent.x() / cell_)), 1, kCells);
+    nz_ = std::clamp(static_cast<int>(std::ceil(extent.z() / cell_)), 1, kCells);
+    buckets_.resize(static_cast<size_t>(nx_) * nz_);
+    for (size_t q = 0; q < patches.size(); ++q) {
+      const Box& box = patches[q].box;
+      if (q == p || !patches[p].box.Touches(box, margin)) continue;
+      const int x0 = Index(box.min.x() - margin, min_.x(), nx_);
+      const int x1 = Index(box.max.x() + margin, min_.x(), nx_);
+      const int z0 = Index(box.min.z() - margin, min_.z(), nz_);
+      const int z1 = Index(box.max.z() + margin, min_.z(), nz_);
+      for (int x = x0; x <= x1; ++x) {
+        for (int z = z0; z <= z1; ++z)
+          buckets_[static_cast<size_t>(x) * nz_ + z].push_back(&patches[q]);
+      }
+    }
+  }
+  const std::vector<const Patch*>& At(const Vec3& x) const {
+    return buckets_[static_cast<size_t>(Index(x.x(), min_.x(), nx_)) * nz_ +
+                    Index(x.z(), min_.z(), nz_)];
+  }
+
+ private:
+  static constexpr int kCells = 32;  ///< along the box's longer horizontal side
+  int Index(double v, double origin, int n) const {
+    return std::clamp(static_cast<int>(std::floor((v - origin) / cell_)), 0, n - 1);
+  }
+  Vec3 min_;
+  double cell_ = 1.0;
+  int nx_ = 1;
+  int nz_ = 1;
+  std::vector<std::vector<const Patch*>> buckets_;
+};
+
 class Segmenter {
  public:
   Segmenter(const std::vector<SegmentPoint>& points, int num_cameras,
-            const PlaneSegmentationOptions& options)
-      : points_(points), num_cameras_(num_cameras), options_(options) {
+            const PlaneSegmentationOptions& options, int num_threads)
+      : points_(points), num_cameras_(num_cameras), options_(options), num_threads_(num_threads) {
     base_variance_ = BaseVariance(options);
     min_cell_ = options.min_cell_voxels * options.voxel_size;
   }
@@ -126,21 +169,22 @@ class Segmenter {
     return true;
   }
 
-  /// Whether some camera has min_points_per_camera of the points.
-  bool SeenByACamera(const std::vector<int>& indices) const {
+  /// Whether at least `cameras` cameras have min_points_per_camera of the points each.
+  bool SeenByCameras(const std::vector<int>& indices, int cameras) const {
     std::vector<int> count(num_cameras_, 0);
     for (const int i : indices) ++count[points_[i].camera];
-    return std::any_of(count.begin(), count.end(),
-                       [&](int c) { return c >= options_.min_points_per_camera; });
+    return std::count_if(count.begin(), count.end(),
+                         [&](int c) { return c >= options_.min_points_per_camera; }) >= cameras;
   }
 
   /// The octree below one cell: kept when planar, else split in eight while the children are
   /// at least the smallest cell.
-  void Split(const std::vector<int>& indices, const Vec3& corner, double size) {
-    if (!SeenByACamera(indices)) return;  // splitting cannot add points
+  void Split(const std::vector<int>& indices, const Vec3& corner, double size,
+             std::vector<Patch>* cells) const {
+    if (!SeenByCameras(indices, 1)) return;  // splitting cannot add points
     const PlaneFit fit = Fit(indices);
     if (Planar(fit)) {
-      Patch& patch = cells_.emplace_back();
+      Patch& patch = cells->emplace_back();
       patch.fit = fit;
       patch.points = indices;
       patch.box.min = corner;
@@ -159,7 +203,7 @@ class Segmenter {
     for (int c = 0; c < 8; ++c) {
       const Vec3 child(c & 1 ? middle.x() : corner.x(), c & 2 ? middle.y() : corner.y(),
                        c & 4 ? middle.z() : corner.z());
-      Split(children[c], child, half);
+      Split(children[c], child, half, cells);
     }
   }
 
@@ -189,8 +233,19 @@ class Segmenter {
              static_cast<long long>(cell.z())}]
           .push_back(i);
     }
-    for (const auto& [key, indices] : cells) {
-      Split(indices, origin + top * Vec3(key[0], key[1], key[2]), top);
+    // The top cells in parallel, their planar cells in the order of the top cells.
+    std::vector<std::pair<std::array<long long, 3>, std::vector<int>>> tops;
+    for (auto& [key, indices] : cells) tops.emplace_back(key, std::move(indices));
+    std::vector<std::vector<Patch>> found(tops.size());
+    ParallelFor(
+        static_cast<int>(tops.size()), num_threads_,
+        [&](int k) {
+          const std::array<long long, 3>& key = tops[k].first;
+          Split(tops[k].second, origin + top * Vec3(key[0], key[1], key[2]), top, &found[k]);
+        },
+        /*min_per_thread=*/1);
+    for (std::vector<Patch>& patches : found) {
+      for (Patch& patch : patches) cells_.push_back(std::move(patch));
     }
     // The floor joins the near-horizontal patches near y = 0 in JoinFloor; it is not merged
     // with its neighbours before (MergeCells skips it: floor_cell_).
@@ -271,59 +326,71 @@ class Segmenter {
     return out;
   }
 
-  /// Each patch keeps the points within gate_sigmas of its plane that neither fit a touching
+  /// Patch p keeps the points within gate_sigmas of its plane that neither fit a touching
   /// plane as well nor lie near its crease with it (NearCrease), and the cameras with enough
-  /// of them; patches seen by too few cameras go.
-  std::vector<SegmentedPlane> Assign(const std::vector<Patch>& patches) const {
+  /// of them; false when too few cameras see it (then `plane` is not to be used).
+  bool AssignPatch(const std::vector<Patch>& patches, size_t p, SegmentedPlane* plane) const {
+    // Seen by too few cameras before any point is left out: it goes.
+    if (!SeenByCameras(patches[p].points, options_.min_cameras)) return false;
     const double gate2 = options_.gate_sigmas * options_.gate_sigmas;
     const auto fits = [&](int i, const PlaneFit& fit) {
       const double r = fit.normal.dot(points_[i].world) + fit.offset;
       return r * r <= gate2 * Variance(i, fit.normal);
     };
+    const NeighbourGrid neighbours(patches, p, min_cell_);
+    const std::vector<int>& points = patches[p].points;
+    std::vector<char> keep(points.size(), 0);
+    // The points in parallel: the floor holds most of them.
+    ParallelFor(static_cast<int>(points.size()), num_threads_, [&](int k) {
+      const int i = points[k];
+      if (!fits(i, patches[p].fit)) return;
+      const std::vector<const Patch*>& near = neighbours.At(points_[i].world);
+      keep[k] = std::none_of(near.begin(), near.end(), [&](const Patch* q) {
+        return q->box.Contains(points_[i].world, min_cell_) &&
+               (fits(i, q->fit) || NearCrease(i, patches[p].fit, q->fit));
+      });
+    });
+    std::vector<int> kept;
+    std::vector<int> count(num_cameras_, 0);
+    for (size_t k = 0; k < points.size(); ++k) {
+      if (!keep[k]) continue;
+      kept.push_back(points[k]);
+      ++count[points_[points[k]].camera];
+    }
+    plane->normal = patches[p].fit.normal;
+    plane->offset = patches[p].fit.offset;
+    plane->floor = static_cast<int>(p) == floor_index_;
+    for (const int i : kept) {
+      if (count[points_[i].camera] >= options_.min_points_per_camera) plane->points.push_back(i);
+    }
+    const int cameras = static_cast<int>(std::count_if(
+        count.begin(), count.end(), [&](int c) { return c >= options_.min_points_per_camera; }));
+    return cameras >= options_.min_cameras;
+  }
+
+  /// Each patch's points (AssignPatch); patches seen by too few cameras go.
+  std::vector<SegmentedPlane> Assign(const std::vector<Patch>& patches) const {
     std::vector<SegmentedPlane> planes;
     for (size_t p = 0; p < patches.size(); ++p) {
-      std::vector<const Patch*> neighbours;
-      for (size_t q = 0; q < patches.size(); ++q) {
-        if (q != p && patches[p].box.Touches(patches[q].box, min_cell_)) {
-          neighbours.push_back(&patches[q]);
-        }
-      }
-      std::vector<int> kept;
-      std::vector<int> count(num_cameras_, 0);
-      for (const int i : patches[p].points) {
-        if (!fits(i, patches[p].fit)) continue;
-        const bool ambiguous =
-            std::any_of(neighbours.begin(), neighbours.end(), [&](const Patch* q) {
-              return q->box.Contains(points_[i].world, min_cell_) &&
-                     (fits(i, q->fit) || NearCrease(i, patches[p].fit, q->fit));
-            });
-        if (ambiguous) continue;
-        kept.push_back(i);
-        ++count[points_[i].camera];
-      }
       SegmentedPlane plane;
-      plane.normal = patches[p].fit.normal;
-      plane.offset = patches[p].fit.offset;
-      plane.floor = static_cast<int>(p) == floor_index_;
-      for (const int i : kept) {
-        if (count[points_[i].camera] >= options_.min_points_per_camera) plane.points.push_back(i);
-      }
-      const int cameras = static_cast<int>(std::count_if(
-          count.begin(), count.end(), [&](int c) { return c >= options_.min_points_per_camera; }));
-      if (cameras >= options_.min_cameras) planes.push_back(std::move(plane));
+      if (AssignPatch(patches, p, &plane)) planes.push_back(std::move(plane));
     }
     return planes;
   }
 
   std::vector<SegmentedPlane> Run() {
-    FindCells();
-    return Assign(JoinFloor(MergeCells()));
+    { FindCells(); }
+    std::vector<Patch> m;
+    { m = MergeCells(); }
+    { m = JoinFloor(std::move(m)); }
+    return Assign(m);
   }
 
  private:
   const std::vector<SegmentPoint>& points_;
   int num_cameras_;
   PlaneSegmentationOptions options_;
+  int num_threads_;
   double base_variance_ = 0.0;
   double min_cell_ = 0.0;
   std::vector<Patch> cells_;
@@ -343,8 +410,9 @@ double BaseVariance(const PlaneSegmentationOptions& options) {
 }
 
 std::vector<SegmentedPlane> SegmentPlanes(const std::vector<SegmentPoint>& points, int num_cameras,
-                                          const PlaneSegmentationOptions& options) {
-  return Segmenter(points, num_cameras, options).Run();
+                                          const PlaneSegmentationOptions& options,
+                                          int num_threads) {
+  return Segmenter(points, num_cameras, options, num_threads).Run();
 }
 
 }  // namespace rigfit

@@ -80,8 +80,10 @@ struct SegmentedPlane : PlanarFace {
   std::vector<int> points;  ///< indices into the segmented points, each in one plane at most
 };
 
-/// The planes of `points` (cameras numbered 0 .. num_cameras - 1). Deterministic.
+/// The planes of `points` (cameras numbered 0 .. num_cameras - 1). Deterministic: the result
+/// does not depend on num_threads.
 std::vector<SegmentedPlane> SegmentPlanes(const std::vector<SegmentPoint>& points, int num_cameras,
-                                          const PlaneSegmentationOptions& options);
+                                          const PlaneSegmentationOptions& options,
+                                          int num_threads = 1);
 
 }  // namespace rigfit

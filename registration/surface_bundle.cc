@@ -15,10 +15,12 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <unordered_map>
 #include <utility>
 
 #include "core/format.h"
 #include "core/geometry.h"
+#include "core/parallel.h"
 #include "prepare/correspondences.h"
 #include "registration/plane_segmentation.h"
 #include "registration/ray_membership.h"
@@ -143,29 +145,32 @@ struct MergedCloud {
   std::vector<std::pair<int, int>> source;  ///< (camera, point index)
 };
 
-MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses) {
+MergedCloud Merge(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
+                  int num_threads) {
   MergedCloud cloud;
-  size_t total = 0;
-  for (const SurfaceCamera& camera : cameras) total += camera.points.size();
-  cloud.points.reserve(total);
-  cloud.source.reserve(total);
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    const Pose& T = poses[c];
-    const SurfaceCamera& camera = cameras[c];
-    for (size_t i = 0; i < camera.points.size(); ++i) {
-      const Vec3& p = camera.points[i];
-      SegmentPoint s;
-      s.world = T * p;
-      s.camera = static_cast<int>(c);
-      if (camera.ray_model) {
-        s.ray_world = T.linear() * (p / p.z());
-        s.sigma_z = camera.depth_noise * p.z() * p.z();
-        s.depth = p.z();
-      }
-      cloud.points.push_back(s);
-      cloud.source.emplace_back(static_cast<int>(c), static_cast<int>(i));
-    }
-  }
+  std::vector<size_t> first(cameras.size() + 1, 0);  // each camera's first entry
+  for (size_t c = 0; c < cameras.size(); ++c) first[c + 1] = first[c] + cameras[c].points.size();
+  cloud.points.resize(first.back());
+  cloud.source.resize(first.back());
+  ParallelFor(
+      static_cast<int>(cameras.size()), num_threads,
+      [&](int c) {
+        const Pose& T = poses[c];
+        const SurfaceCamera& camera = cameras[c];
+        for (size_t i = 0; i < camera.points.size(); ++i) {
+          const Vec3& p = camera.points[i];
+          SegmentPoint& s = cloud.points[first[c] + i];
+          s.world = T * p;
+          s.camera = c;
+          if (camera.ray_model) {
+            s.ray_world = T.linear() * (p / p.z());
+            s.sigma_z = camera.depth_noise * p.z() * p.z();
+            s.depth = p.z();
+          }
+          cloud.source[first[c] + i] = {c, static_cast<int>(i)};
+        }
+      },
+      /*min_per_thread=*/1);
   return cloud;
 }
 
@@ -203,6 +208,17 @@ std::pair<long long, long long> TileOf(const SurfaceCamera& camera, const Vec3& 
   return {static_cast<long long>(std::floor(p.x() / p.z() / tile)),
           static_cast<long long>(std::floor(p.y() / p.z() / tile))};
 }
+
+/// A hash of integer keys (cells, tiles) for the lookups of PixelSandwiches, whose
+/// results do not depend on the maps' order.
+struct KeyHash {
+  template <size_t N>
+  size_t operator()(const std::array<int64_t, N>& key) const {
+    std::uint64_t h = 0;
+    for (const int64_t k : key) h = (h ^ static_cast<std::uint64_t>(k)) * 0x9E3779B97F4A7C15ull;
+    return static_cast<size_t>(h ^ (h >> 29));
+  }
+};
 
 /// Per camera, the noise correlation (SurfaceBundleResult::noise_correlation)
 /// at the blocks: the pixels of each term are grouped by image tile, and the
@@ -720,7 +736,7 @@ BundleSolver::Next BundleSolver::Round(int round, int rounds) {
   // corrects.
   std::vector<SurfaceCamera> corrected;
   const std::vector<SurfaceCamera>& seen = CorrectedCameras(&corrected);
-  const MergedCloud cloud = Merge(seen, poses_);
+  const MergedCloud cloud = Merge(seen, poses_, num_threads_);
   PlaneSegmentationOptions segmentation;
   segmentation.voxel_size = options_.voxel_size;
   segmentation.min_noise_m = options_.min_noise_m;
@@ -730,7 +746,7 @@ BundleSolver::Next BundleSolver::Round(int round, int rounds) {
   segmentation.model_sigma_voxels =
       kRoundModelVoxels[std::min<size_t>(round, kRoundModelVoxels.size() - 1)];
   const std::vector<SegmentedPlane> segmented =
-      SegmentPlanes(cloud.points, static_cast<int>(n_), segmentation);
+      SegmentPlanes(cloud.points, static_cast<int>(n_), segmentation, num_threads_);
   if (segmented.empty()) {
     result_.message = "surface bundle: no plane is seen by two cameras";
     return Next::kStop;
@@ -884,16 +900,16 @@ Eigen::MatrixXd BundleSolver::PixelSandwiches(const std::vector<double*>& free_p
     const SurfaceCamera& camera = cameras_[t.camera];
     const Pose T = PoseFromParameters(blocks_[t.camera].data());
     const bool tiles = camera.ray_model && camera.pixel_angle > 0.0;
-    std::map<std::array<int64_t, 3>, int> cube_of;
-    std::map<std::pair<std::array<int64_t, 3>, std::pair<long long, long long>>, int> atom_of;
+    std::unordered_map<std::array<int64_t, 3>, int, KeyHash> cube_of;
+    std::unordered_map<std::array<int64_t, 5>, int, KeyHash> atom_of;
     for (const int i : t.pixels) {
       const Vec3& p = camera.points[i];
       const std::array<int64_t, 3> cube = CellOf(T * p, kCovarianceCellM);
       const auto [cube_it, new_cube] = cube_of.try_emplace(cube, cubes);
       if (new_cube) ++cubes;
       const auto tile = tiles ? TileOf(camera, p) : std::pair<long long, long long>{0, 0};
-      const auto [atom_it, new_atom] =
-          atom_of.try_emplace({cube, tile}, static_cast<int>(atoms.size()));
+      const auto [atom_it, new_atom] = atom_of.try_emplace(
+          {cube[0], cube[1], cube[2], tile.first, tile.second}, static_cast<int>(atoms.size()));
       if (new_atom) {
         atoms.push_back({t.camera, t.plane, PlaneCluster{}, {}});
         clusters.fine.push_back(atom_it->second);
