@@ -89,6 +89,7 @@ class TrackingLoop {
   void Book(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     run_.recovered += step->recovered ? 1 : 0;
     run_.diverged += step->diverged ? 1 : 0;
+    NoteLonePlane(frame, *step);
     if (step->track.success) {
       failures_in_a_row_ = 0;
       run_.weak_frames += step->track.weak_directions > 0 ? 1 : 0;
@@ -113,6 +114,21 @@ class TrackingLoop {
     }
   }
 
+  /// Warns where a stretch of lone-plane views (TrackResult::lone_plane) starts and ends.
+  void NoteLonePlane(const RgbdFrame& frame, const TrackedStep& step) {
+    const bool lone = step.track.lone_plane;
+    if (lone && lone_plane_frames_ == 0) {
+      log_.Warning(FrameName(step, frame) +
+                   ": sees a lone plane: the turn about its normal and the slides along it are "
+                   "held at the prediction");
+    } else if (!lone && lone_plane_frames_ > 0) {
+      log_.Warning(FrameName(step, frame) + ": structure again after " +
+                   std::to_string(lone_plane_frames_) +
+                   " lone-plane frames (their pose along the plane is a prediction)");
+    }
+    lone_plane_frames_ = lone ? lone_plane_frames_ + 1 : 0;
+  }
+
   static std::string FrameName(const TrackedStep& step, const RgbdFrame& frame) {
     return "frame " + std::to_string(step.index) + " (" + frame.source + ")";
   }
@@ -127,6 +143,7 @@ class TrackingLoop {
   Pose predicted_ = Pose::Identity();
   double previous_timestamp_ = 0.0;
   int failures_in_a_row_ = 0;
+  int lone_plane_frames_ = 0;  // lone-plane frames in a row up to the last
 };
 
 }  // namespace
