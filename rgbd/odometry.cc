@@ -28,7 +28,8 @@ class KeyframeTarget : public TrackingTarget {
     tracked.track = step.track;
     tracked.recovered = step.recovered;
     tracked.diverged = step.diverged;
-    tracked.keyframe = step.first || step.restart || (step.track.success && NewKeyframe(step));
+    tracked.keyframe =
+        step.first || step.restart || step.relocalised || (step.track.success && NewKeyframe(step));
     if (tracked.keyframe) {
       reference_ = std::move(pyramid);
       T_world_reference_ = step.T_world_camera;

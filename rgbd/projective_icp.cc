@@ -327,6 +327,7 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
     last = AccumulateProjective(source.levels[0], target.levels[0], T, options.association,
                                 options.weighting, threads);
   }
+  if (result.lone_plane) result.plane_normal = n_target ? *n_target : T.linear() * *n_source;
   result.T_target_source = Reorthonormalized(T);
   result.correspondences = last.count;
   result.matched_ratio = static_cast<double>(last.count) / valid;

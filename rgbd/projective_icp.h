@@ -184,6 +184,7 @@ struct TrackResult {
   double conditioning = 0.0;
   double length_m = 1.0;    ///< the scale of the rotation: the source's mean depth
   bool lone_plane = false;  ///< the source or the target showed a lone plane (held its three)
+  Vec3 plane_normal = Vec3::Zero();  ///< that plane's unit normal in the target's axes
 };
 
 /// Coarse-to-fine projective ICP of `source` onto `target` from T_init (T_target_source):

@@ -5,6 +5,7 @@
 
 #include "core/errors.h"
 #include "core/stopwatch.h"
+#include "rgbd/loop_closure.h"
 
 namespace rigfit {
 namespace {
@@ -51,9 +52,11 @@ class TrackingLoop {
     } else {
       start = std::chrono::steady_clock::now();
       Track(frame, pyramid, &step);
-      run_.track_s += SecondsSince(start);
       Book(frame, pyramid, &step);
+      Relocalise(frame, pyramid, &step);
+      run_.track_s += SecondsSince(start);
     }
+    KeepAnchor(pyramid, step);
     velocity_ = first
                     ? Pose::Identity()
                     : NextVelocity(T_world_previous_, step.T_world_camera, target_->MotionOrigin(),
@@ -114,6 +117,70 @@ class TrackingLoop {
     }
   }
 
+  /// After a lone-plane stretch, relocalises the first frames with structure against the
+  /// anchors (rgbd/relocalise.h) until one succeeds: that frame takes the found pose, the
+  /// previous pose moves with it (the velocity stays), and the frames since the stretch began
+  /// are blended between their poses and the corrected ones (InterpolatedCorrections).
+  void Relocalise(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
+    const TrackResult& track = step->track;
+    if (!options_.guard.enabled || !options_.relocalise.enabled || !track.success) return;
+    if (track.lone_plane) {
+      plane_world_ = target_->MotionOrigin().linear() * track.plane_normal;
+      if (attempts_left_ == 0) stretch_from_ = static_cast<int>(run_.trajectory.poses.size()) - 1;
+      attempts_left_ = options_.relocalise.attempts;
+      return;
+    }
+    if (attempts_left_ == 0 || anchors_.empty()) return;
+    --attempts_left_;
+    const Relocalisation found =
+        rigfit::Relocalise(pyramid, step->T_world_camera, plane_world_, anchors_, track.rmse_m,
+                           options_.icp, options_.relocalise, options_.threads);
+    if (!found.success) return;
+    const Pose correction = found.T_world_camera * step->T_world_camera.inverse();
+    log_.Warning(FrameName(*step, frame) + ": relocalised against frame " +
+                 std::to_string(found.anchor_index) + " after the lone-plane stretch: moved " +
+                 std::to_string(correction.translation().norm()) + " m, turned " +
+                 std::to_string(LogSO3(correction.linear()).norm() * kRadToDeg) + " deg");
+    BlendSinceStretch(found.T_world_camera, step->T_world_camera);
+    T_world_previous_ = Reorthonormalized(correction * T_world_previous_);
+    step->T_world_camera = found.T_world_camera;
+    step->relocalised = true;
+    ++run_.relocalised;
+    attempts_left_ = 0;
+  }
+
+  /// Moves the trajectory's poses after stretch_from_ towards where the relocalised frame
+  /// (held at T_world_held, found at T_world_found) puts them, by their share of the way.
+  void BlendSinceStretch(const Pose& T_world_found, const Pose& T_world_held) {
+    std::vector<Pose>& poses = run_.trajectory.poses;
+    if (stretch_from_ < 0 || stretch_from_ >= static_cast<int>(poses.size())) return;
+    Trajectory since;
+    since.poses.assign(poses.begin() + stretch_from_, poses.end());
+    since.poses.push_back(T_world_held);
+    since.timestamps.assign(since.poses.size(), 0.0);
+    const int last = static_cast<int>(since.poses.size()) - 1;
+    const std::vector<Pose> corrections =
+        InterpolatedCorrections(since, {0, last}, {since.poses.front(), T_world_found});
+    for (int k = 1; k < last; ++k) {
+      poses[stretch_from_ + k] = Reorthonormalized(corrections[k] * poses[stretch_from_ + k]);
+    }
+  }
+
+  /// Keeps a copy of a well-tracked frame (no weak direction, no stretch pending) as an anchor.
+  void KeepAnchor(const FramePyramid& pyramid, const TrackedStep& step) {
+    if (!options_.guard.enabled || !options_.relocalise.enabled) return;
+    if (!step.first && (!step.track.success || step.track.weak_directions > 0)) return;
+    if (attempts_left_ > 0 || step.restart) return;
+    if (!anchors_.empty() &&
+        step.index - anchors_.back().index < options_.relocalise.anchor_spacing) {
+      return;
+    }
+    anchors_.push_back({pyramid, step.T_world_camera, step.index});
+    if (static_cast<int>(anchors_.size()) > std::max(1, options_.relocalise.anchors)) {
+      anchors_.erase(anchors_.begin());
+    }
+  }
+
   /// Warns where a stretch of lone-plane views (TrackResult::lone_plane) starts and ends.
   void NoteLonePlane(const RgbdFrame& frame, const TrackedStep& step) {
     const bool lone = step.track.lone_plane;
@@ -144,6 +211,12 @@ class TrackingLoop {
   double previous_timestamp_ = 0.0;
   int failures_in_a_row_ = 0;
   int lone_plane_frames_ = 0;  // lone-plane frames in a row up to the last
+  // Relocalisation: well-tracked frames, the last stretch's plane, the trajectory position of
+  // the frame before it, and the frames with structure still to try after it.
+  std::vector<Anchor> anchors_;
+  Vec3 plane_world_ = Vec3::UnitY();
+  int stretch_from_ = -1;
+  int attempts_left_ = 0;
 };
 
 }  // namespace

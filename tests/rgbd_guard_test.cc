@@ -14,6 +14,7 @@
 #include "rgbd/motion_guard.h"
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
+#include "rgbd/relocalise.h"
 #include "rgbd/slam.h"
 #include "sim/simulate_sequence.h"
 
@@ -160,6 +161,30 @@ TEST(RgbdGuard, ALonePlaneHoldsItsFreeDirectionsAgainstTheNoise) {
   o.lone_plane.plane = LonePlane::kNone;
   const FramePyramid room = BuildFramePyramid(SimulatedSequence(o).Frame(0), FrameOptions{});
   EXPECT_FALSE(LonePlaneNormal(room.levels.back(), LonePlaneOptions{}));
+}
+
+// After a stretch the held pose can be tens of degrees and decimetres off along the plane's
+// free directions; the search over them against an earlier frame finds the frame again.
+TEST(RgbdGuard, RelocalisationFindsAFrameTurnedAndSlidAlongTheFloor) {
+  SimSequenceOptions o = LonePlaneSequence(LonePlane::kNone, 320, 240, 6);
+  const SimulatedSequence sequence(o);
+  const RgbdFrame earlier = sequence.Frame(0);
+  const RgbdFrame later = sequence.Frame(5);
+  Anchor anchor{BuildFramePyramid(earlier, FrameOptions{}), *earlier.T_world_camera_gt, 0};
+  const Vec3 up(0.0, 1.0, 0.0);  // the floor's normal in the simulated world
+  const Pose truth = *later.T_world_camera_gt;
+  Pose held = truth;
+  held.linear() = ExpSO3(up * (25.0 * kDegToRad)) * truth.linear();
+  held.translation() += Vec3(0.3, 0.0, -0.2);
+  const Relocalisation found =
+      Relocalise(BuildFramePyramid(later, FrameOptions{}), held, up, {anchor}, 0.01,
+                 ProjectiveIcpOptions{}, RelocaliseOptions{}, 2);
+  ASSERT_TRUE(found.success);
+  EXPECT_EQ(found.anchor_index, 0);
+  const Pose error = truth.inverse() * found.T_world_camera;
+  // Measured: 0.38 mm and 0.005 deg (the start 25 deg and 0.36 m off).
+  EXPECT_LT(error.translation().norm(), 0.8e-3);
+  EXPECT_LT(LogSO3(error.linear()).norm() * kRadToDeg, 0.01);
 }
 
 // A sequence whose frame `corrupt` shows what frame `source` sees (a camera that jumps), with
