@@ -30,7 +30,8 @@ struct TrackingLoopOptions {
   FrameOptions frame;
   ProjectiveIcpOptions icp;
   MotionPrior prior = MotionPrior::kConstantVelocity;
-  /// Weak directions held, divergence detected and recovered (rgbd/motion_guard.h).
+  /// Weak directions held, divergence detected and recovered (rgbd/motion_guard.h); off, the
+  /// lone-plane hold (icp.lone_plane) and the relocalisation are off too.
   GuardOptions guard;
   /// After a lone-plane stretch, the frame searched for over the plane's free directions
   /// against the frames before it (rgbd/relocalise.h; with the guard only).
