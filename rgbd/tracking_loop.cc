@@ -120,7 +120,8 @@ class TrackingLoop {
   /// After a lone-plane stretch, relocalises the first frames with structure against the
   /// anchors (rgbd/relocalise.h) until one succeeds: that frame takes the found pose, the
   /// previous pose moves with it (the velocity stays), and the frames since the stretch began
-  /// are blended between their poses and the corrected ones (InterpolatedCorrections).
+  /// are blended between their poses and the corrected ones (InterpolatedCorrections), from
+  /// the anchor it was found against (the frames before the stretch may have drifted too).
   void Relocalise(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     const TrackResult& track = step->track;
     if (!options_.guard.enabled || !options_.relocalise.enabled || !track.success) return;
@@ -141,6 +142,9 @@ class TrackingLoop {
                  std::to_string(found.anchor_index) + " after the lone-plane stretch: moved " +
                  std::to_string(correction.translation().norm()) + " m, turned " +
                  std::to_string(LogSO3(correction.linear()).norm() * kRadToDeg) + " deg");
+    for (std::size_t a = 0; a < anchors_.size(); ++a) {
+      if (anchors_[a].index == found.anchor_index) stretch_from_ = anchor_positions_[a];
+    }
     BlendSinceStretch(found.T_world_camera, step->T_world_camera);
     T_world_previous_ = Reorthonormalized(correction * T_world_previous_);
     step->T_world_camera = found.T_world_camera;
@@ -176,8 +180,10 @@ class TrackingLoop {
       return;
     }
     anchors_.push_back({pyramid, step.T_world_camera, step.index});
+    anchor_positions_.push_back(static_cast<int>(run_.trajectory.poses.size()));
     if (static_cast<int>(anchors_.size()) > std::max(1, options_.relocalise.anchors)) {
       anchors_.erase(anchors_.begin());
+      anchor_positions_.erase(anchor_positions_.begin());
     }
   }
 
@@ -214,6 +220,7 @@ class TrackingLoop {
   // Relocalisation: well-tracked frames, the last stretch's plane, the trajectory position of
   // the frame before it, and the frames with structure still to try after it.
   std::vector<Anchor> anchors_;
+  std::vector<int> anchor_positions_;  // their positions in the trajectory
   Vec3 plane_world_ = Vec3::UnitY();
   int stretch_from_ = -1;
   int attempts_left_ = 0;
