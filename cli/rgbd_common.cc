@@ -109,9 +109,9 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
   }
   std::string text;
   Appendf(&text,
-          "degenerate views: %d frame(s) with weak directions held; divergence: %d frame(s) "
-          "recovered, %d diverged\n",
-          counts.weak_frames, counts.recovered, counts.diverged);
+          "degenerate views: %d frame(s) with weak directions held, %d relocalised after a lone "
+          "plane; divergence: %d frame(s) recovered, %d diverged\n",
+          counts.weak_frames, counts.relocalised, counts.recovered, counts.diverged);
   return text;
 }
 
@@ -120,9 +120,9 @@ std::vector<std::string> GuardMetadata(const std::string& command, const GuardCo
   std::string line;
   Appendf(&line,
           "rigfit %s: frames %d, failed %d, restarts %d, recovered %d, diverged %d, "
-          "weak-direction frames %d",
+          "weak-direction frames %d, relocalised %d",
           command.c_str(), counts.frames, counts.failures, counts.restarts, counts.recovered,
-          counts.diverged, counts.weak_frames);
+          counts.diverged, counts.weak_frames, counts.relocalised);
   lines.push_back(line);
   if (!counts.weak_names.empty()) lines.push_back("weak directions: " + WeakNamesText(counts));
   return lines;

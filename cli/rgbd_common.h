@@ -78,6 +78,7 @@ struct GuardCounts {
   int recovered = 0;
   int diverged = 0;
   int weak_frames = 0;
+  int relocalised = 0;                    ///< frames relocalised after a lone-plane stretch
   std::map<std::string, int> weak_names;  ///< WeakDirectionName -> frames held along it
 };
 
@@ -94,17 +95,19 @@ GuardCounts GuardCountsOf(const Result& result) {
                      result.recovered,
                      result.diverged,
                      result.weak_frames,
+                     result.relocalised,
                      {}};
   for (const auto& frame : result.frames) CountWeakDirections(frame.track, &counts);
   return counts;
 }
 
-/// The guard's line of the summary: "degenerate views: ...; divergence: R recovered, D
-/// diverged"; also warns (log) when frames had weak directions, naming them.
+/// The guard's line of the summary: "degenerate views: ..., L relocalised after a lone plane;
+/// divergence: R recovered, D diverged"; also warns (log) when frames had weak directions, naming
+/// them.
 std::string GuardSummaryText(const GuardCounts& counts, const Log& log);
 
 /// The '#' lines of the TUM output: "<command>: frames F, failed X, restarts S, recovered R,
-/// diverged D, weak-direction frames W" and, when any, the weak directions' counts.
+/// diverged D, weak-direction frames W, relocalised L" and, when any, the weak directions' counts.
 std::vector<std::string> GuardMetadata(const std::string& command, const GuardCounts& counts);
 
 /// The summary line of a loop closure: keyframes, candidates, accepted loops, whether the

@@ -303,6 +303,7 @@ py::dict RunToDict(const Result& result) {
   out["recovered"] = result.recovered;
   out["diverged"] = result.diverged;
   out["weak_frames"] = result.weak_frames;
+  out["relocalised"] = result.relocalised;
   return out;
 }
 

@@ -28,7 +28,8 @@ class KeyframeTarget : public TrackingTarget {
     tracked.track = step.track;
     tracked.recovered = step.recovered;
     tracked.diverged = step.diverged;
-    tracked.keyframe = step.first || step.restart || (step.track.success && NewKeyframe(step));
+    tracked.keyframe =
+        step.first || step.restart || step.relocalised || (step.track.success && NewKeyframe(step));
     if (tracked.keyframe) {
       reference_ = std::move(pyramid);
       T_world_reference_ = step.T_world_camera;
@@ -57,10 +58,12 @@ class KeyframeTarget : public TrackingTarget {
 
 OdometryResult RunOdometry(const RgbdSequence& sequence, const OdometryOptions& options,
                            const Log& log, const std::function<void(int, int)>& progress) {
-  KeyframeTarget target(options);
+  OdometryOptions run = options;
+  if (!run.guard.enabled) run.icp.lone_plane.min_share = 0.0;  // the behaviour before the guard
+  KeyframeTarget target(run);
   OdometryResult result;
   static_cast<TrackingRun&>(result) =
-      RunTracking(sequence, options, "odometry", &target, log, progress);
+      RunTracking(sequence, run, "odometry", &target, log, progress);
   result.frames = target.TakeFrames();
   return result;
 }

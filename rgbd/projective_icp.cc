@@ -5,6 +5,7 @@
 #include <ceres/solver.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 
 #include "core/parallel.h"
@@ -190,14 +191,18 @@ NormalEquations AccumulateProjective(const FrameLevel& source, const FrameLevel&
   return Sum(parts);
 }
 
-StepSolution SolveStep(const NormalEquations& equations, double length_m, double ratio) {
+StepSolution SolveStep(const NormalEquations& equations, double length_m, double ratio,
+                       const std::vector<Vec6>& held) {
   StepSolution solution;
   if (equations.count < 6) return solution;
-  // y = D x with D = diag(L, L, L, 1, 1, 1): H_y = D^-1 H D^-1, g_y = D^-1 g.
+  // y = D x with D = diag(L, L, L, 1, 1, 1): H_y = D^-1 H D^-1, g_y = D^-1 g; the held
+  // directions projected out, P = I - sum v v^T: H_y <- P H_y P, g_y <- P g_y.
   Vec6 d_inv;
   d_inv << 1.0 / length_m, 1.0 / length_m, 1.0 / length_m, 1.0, 1.0, 1.0;
-  const Mat6 H_y = d_inv.asDiagonal() * equations.H * d_inv.asDiagonal();
-  const Vec6 g_y = d_inv.asDiagonal() * equations.g;
+  Mat6 P = Mat6::Identity();
+  for (const Vec6& v : held) P -= v * v.transpose();
+  const Mat6 H_y = P * d_inv.asDiagonal() * equations.H * d_inv.asDiagonal() * P;
+  const Vec6 g_y = P * d_inv.asDiagonal() * equations.g;
   const Eigen::SelfAdjointEigenSolver<Mat6> eigen(H_y);
   const double largest = eigen.eigenvalues()(5);
   if (!(largest > 0.0)) return solution;
@@ -215,6 +220,51 @@ StepSolution SolveStep(const NormalEquations& equations, double length_m, double
   }
   solution.x = d_inv.asDiagonal() * y;
   return solution;
+}
+
+std::optional<Vec3> LonePlaneNormal(const FrameLevel& level, const LonePlaneOptions& options) {
+  const std::vector<int>& pixels = level.valid_pixels;
+  if (!(options.min_share > 0.0) || pixels.empty()) return std::nullopt;
+  const double min_cos = std::cos(options.max_angle_deg * kDegToRad);
+  Vec3 n = Vec3::Zero();
+  for (const int i : pixels) n += level.normals[i].cast<double>();
+  // Twice: the mean normal of the pixels near the last one in angle.
+  for (int pass = 0; pass < 2 && n.norm() > 0.0; ++pass) {
+    const Vec3 mean = n.normalized();
+    n.setZero();
+    for (const int i : pixels) {
+      const Vec3 n_i = level.normals[i].cast<double>();
+      if (n_i.dot(mean) > min_cos) n += n_i;
+    }
+  }
+  if (!(n.norm() > 0.0)) return std::nullopt;
+  n.normalize();
+  std::vector<double> offsets;
+  for (const int i : pixels) {
+    if (level.normals[i].cast<double>().dot(n) > min_cos) {
+      offsets.push_back(n.dot(level.vertices[i].cast<double>()));
+    }
+  }
+  const auto middle = offsets.begin() + offsets.size() / 2;
+  std::nth_element(offsets.begin(), middle, offsets.end());
+  const double offset = *middle;
+  std::size_t on_plane = 0;
+  for (const int i : pixels) {
+    on_plane += level.normals[i].cast<double>().dot(n) > min_cos &&
+                std::abs(n.dot(level.vertices[i].cast<double>()) - offset) < options.max_distance_m;
+  }
+  if (static_cast<double>(on_plane) < options.min_share * pixels.size()) return std::nullopt;
+  return n;
+}
+
+std::vector<Vec6> LonePlaneDirections(const Vec3& n) {
+  const Vec3 a = n.unitOrthogonal();
+  const Vec3 b = n.cross(a);
+  std::vector<Vec6> directions(3, Vec6::Zero());
+  directions[0].head<3>() = n;
+  directions[1].tail<3>() = a;
+  directions[2].tail<3>() = b;
+  return directions;
 }
 
 Pose ApplyLeftUpdate(const Vec6& x, const Pose& T) {
@@ -244,6 +294,11 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   const double length_m = depth_sum / valid;
   result.length_m = length_m;
 
+  // A lone plane in the target (its axes) or the source (turned into them at each step).
+  const std::optional<Vec3> n_target = LonePlaneNormal(target.levels.back(), options.lone_plane);
+  const std::optional<Vec3> n_source =
+      n_target ? std::nullopt : LonePlaneNormal(source.levels.back(), options.lone_plane);
+  result.lone_plane = n_target || n_source;
   Pose T = T_init;
   NormalEquations last;
   int last_level = -1;  // the level `last` was accumulated at
@@ -254,7 +309,10 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
       last = AccumulateProjective(source.levels[level], target.levels[level], T,
                                   options.association, options.weighting, threads);
       last_level = level;
-      const StepSolution step = SolveStep(last, length_m, options.weak_direction_ratio);
+      const std::vector<Vec6> held =
+          result.lone_plane ? LonePlaneDirections(n_target ? *n_target : T.linear() * *n_source)
+                            : std::vector<Vec6>{};
+      const StepSolution step = SolveStep(last, length_m, options.weak_direction_ratio, held);
       if (last.count < 6) break;
       T = ApplyLeftUpdate(step.x, T);
       ++result.iterations;
@@ -269,6 +327,7 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
     last = AccumulateProjective(source.levels[0], target.levels[0], T, options.association,
                                 options.weighting, threads);
   }
+  if (result.lone_plane) result.plane_normal = n_target ? *n_target : T.linear() * *n_source;
   result.T_target_source = Reorthonormalized(T);
   result.correspondences = last.count;
   result.matched_ratio = static_cast<double>(last.count) / valid;

@@ -17,6 +17,7 @@
 // and the Gauss-Newton step solves the 6x6 normal equations (sum A^T A) x = -sum A^T b.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -116,8 +117,30 @@ struct StepSolution {
 };
 
 /// Solves H x = -g in the span of the well-determined directions; the weak directions
-/// (above) get no step instead of a jump along them.
-StepSolution SolveStep(const NormalEquations& equations, double length_m, double ratio);
+/// (above) get no step instead of a jump along them. `held` (orthonormal, in the scaled space
+/// [length_m w; dt]) are weak whatever their eigenvalue: the solve is confined to their
+/// complement (a lone plane's free directions, LonePlaneDirections).
+StepSolution SolveStep(const NormalEquations& equations, double length_m, double ratio,
+                       const std::vector<Vec6>& held = {});
+
+/// When a frame sees a single plane and nothing else.
+struct LonePlaneOptions {
+  /// A frame is a lone plane when at least this share of its valid pixels lie within
+  /// max_distance_m of one plane with normals within max_angle_deg of its normal (0: never).
+  double min_share = 0.97;
+  double max_distance_m = 0.03;
+  double max_angle_deg = 15.0;
+};
+
+/// The unit normal (camera axes) of the plane that `level` shows alone, or nothing when it
+/// shows more (LonePlaneOptions). The plane is fitted to the mean normal of the pixels near it
+/// in angle, then its offset to their median distance along it.
+std::optional<Vec3> LonePlaneNormal(const FrameLevel& level, const LonePlaneOptions& options);
+
+/// The three directions a view of a lone plane with unit normal n does not fix, in the scaled
+/// space [length_m w; dt] of SolveStep: the rotation about n (a rotation about any axis along
+/// n maps every plane with normal n onto itself) and the two translations across n.
+std::vector<Vec6> LonePlaneDirections(const Vec3& n);
 
 /// [Exp(w) | dt] * T: the left-multiplied update of the linearisation above.
 Pose ApplyLeftUpdate(const Vec6& x, const Pose& T);
@@ -136,6 +159,11 @@ struct ProjectiveIcpOptions {
   /// Tracking fails when fewer than this share of the finest level's valid source pixels
   /// are matched at the end (the frames do not overlap, or the motion was too fast).
   double min_matched_ratio = 0.1;
+  /// A source or target that shows a lone plane holds its three free directions whatever
+  /// the eigenvalues say: a sensor's noise (disparity quantisation: the same bands in every
+  /// view of the plane) lifts two of them above weak_direction_ratio and pins them to the
+  /// target's pose (docs/rgbd.md, "Degenerate views and divergence").
+  LonePlaneOptions lone_plane;
 };
 
 struct TrackResult {
@@ -154,7 +182,9 @@ struct TrackResult {
   /// the target camera's axes) and that step's conditioning.
   std::vector<Vec6> weak;
   double conditioning = 0.0;
-  double length_m = 1.0;  ///< the scale of the rotation: the source's mean depth
+  double length_m = 1.0;    ///< the scale of the rotation: the source's mean depth
+  bool lone_plane = false;  ///< the source or the target showed a lone plane (held its three)
+  Vec3 plane_normal = Vec3::Zero();  ///< that plane's unit normal in the target's axes
 };
 
 /// Coarse-to-fine projective ICP of `source` onto `target` from T_init (T_target_source):

@@ -298,6 +298,7 @@ SlamResult RunSlam(const RgbdSequence& sequence, const SlamOptions& options, con
                      ? options.halvings.value_or(0)
                      : SlamHalvings(std::nullopt, sequence.Frame(options.first_frame).width);
   result.halvings = *run.halvings;
+  if (!run.guard.enabled) run.icp.lone_plane.min_share = 0.0;  // the behaviour before the guard
   ModelTarget target(run, log, &result);
   const auto frame_done = [&](int done, int total) {
     if (progress) progress(done, total, result.frames.back());

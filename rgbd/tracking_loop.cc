@@ -5,6 +5,7 @@
 
 #include "core/errors.h"
 #include "core/stopwatch.h"
+#include "rgbd/loop_closure.h"
 
 namespace rigfit {
 namespace {
@@ -51,9 +52,11 @@ class TrackingLoop {
     } else {
       start = std::chrono::steady_clock::now();
       Track(frame, pyramid, &step);
-      run_.track_s += SecondsSince(start);
       Book(frame, pyramid, &step);
+      Relocalise(frame, pyramid, &step);
+      run_.track_s += SecondsSince(start);
     }
+    KeepAnchor(pyramid, step);
     velocity_ = first
                     ? Pose::Identity()
                     : NextVelocity(T_world_previous_, step.T_world_camera, target_->MotionOrigin(),
@@ -89,6 +92,7 @@ class TrackingLoop {
   void Book(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     run_.recovered += step->recovered ? 1 : 0;
     run_.diverged += step->diverged ? 1 : 0;
+    NoteLonePlane(frame, *step);
     if (step->track.success) {
       failures_in_a_row_ = 0;
       run_.weak_frames += step->track.weak_directions > 0 ? 1 : 0;
@@ -113,6 +117,91 @@ class TrackingLoop {
     }
   }
 
+  /// After a lone-plane stretch, relocalises the first frames with structure against the
+  /// anchors (rgbd/relocalise.h) until one succeeds: that frame takes the found pose, the
+  /// previous pose moves with it (the velocity stays), and the frames since the stretch began
+  /// are blended between their poses and the corrected ones (InterpolatedCorrections), from
+  /// the anchor it was found against (the frames before the stretch may have drifted too).
+  void Relocalise(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
+    const TrackResult& track = step->track;
+    if (!options_.guard.enabled || !options_.relocalise.enabled || !track.success) return;
+    if (track.lone_plane) {
+      plane_world_ = target_->MotionOrigin().linear() * track.plane_normal;
+      if (attempts_left_ == 0) stretch_from_ = static_cast<int>(run_.trajectory.poses.size()) - 1;
+      attempts_left_ = options_.relocalise.attempts;
+      return;
+    }
+    if (attempts_left_ == 0 || anchors_.empty()) return;
+    --attempts_left_;
+    const Relocalisation found =
+        rigfit::Relocalise(pyramid, step->T_world_camera, plane_world_, anchors_, track.rmse_m,
+                           options_.icp, options_.relocalise, options_.threads);
+    if (!found.success) return;
+    const Pose correction = found.T_world_camera * step->T_world_camera.inverse();
+    log_.Warning(FrameName(*step, frame) + ": relocalised against frame " +
+                 std::to_string(found.anchor_index) + " after the lone-plane stretch: moved " +
+                 std::to_string(correction.translation().norm()) + " m, turned " +
+                 std::to_string(LogSO3(correction.linear()).norm() * kRadToDeg) + " deg");
+    for (std::size_t a = 0; a < anchors_.size(); ++a) {
+      if (anchors_[a].index == found.anchor_index) stretch_from_ = anchor_positions_[a];
+    }
+    BlendSinceStretch(found.T_world_camera, step->T_world_camera);
+    T_world_previous_ = Reorthonormalized(correction * T_world_previous_);
+    step->T_world_camera = found.T_world_camera;
+    step->relocalised = true;
+    ++run_.relocalised;
+    attempts_left_ = 0;
+  }
+
+  /// Moves the trajectory's poses after stretch_from_ towards where the relocalised frame
+  /// (held at T_world_held, found at T_world_found) puts them, by their share of the way.
+  void BlendSinceStretch(const Pose& T_world_found, const Pose& T_world_held) {
+    std::vector<Pose>& poses = run_.trajectory.poses;
+    if (stretch_from_ < 0 || stretch_from_ >= static_cast<int>(poses.size())) return;
+    Trajectory since;
+    since.poses.assign(poses.begin() + stretch_from_, poses.end());
+    since.poses.push_back(T_world_held);
+    since.timestamps.assign(since.poses.size(), 0.0);
+    const int last = static_cast<int>(since.poses.size()) - 1;
+    const std::vector<Pose> corrections =
+        InterpolatedCorrections(since, {0, last}, {since.poses.front(), T_world_found});
+    for (int k = 1; k < last; ++k) {
+      poses[stretch_from_ + k] = Reorthonormalized(corrections[k] * poses[stretch_from_ + k]);
+    }
+  }
+
+  /// Keeps a copy of a well-tracked frame (no weak direction, no stretch pending) as an anchor.
+  void KeepAnchor(const FramePyramid& pyramid, const TrackedStep& step) {
+    if (!options_.guard.enabled || !options_.relocalise.enabled) return;
+    if (!step.first && (!step.track.success || step.track.weak_directions > 0)) return;
+    if (attempts_left_ > 0 || step.restart) return;
+    if (!anchors_.empty() &&
+        step.index - anchors_.back().index < options_.relocalise.anchor_spacing) {
+      return;
+    }
+    anchors_.push_back({pyramid, step.T_world_camera, step.index});
+    anchor_positions_.push_back(static_cast<int>(run_.trajectory.poses.size()));
+    if (static_cast<int>(anchors_.size()) > std::max(1, options_.relocalise.anchors)) {
+      anchors_.erase(anchors_.begin());
+      anchor_positions_.erase(anchor_positions_.begin());
+    }
+  }
+
+  /// Warns where a stretch of lone-plane views (TrackResult::lone_plane) starts and ends.
+  void NoteLonePlane(const RgbdFrame& frame, const TrackedStep& step) {
+    const bool lone = step.track.lone_plane;
+    if (lone && lone_plane_frames_ == 0) {
+      log_.Warning(FrameName(step, frame) +
+                   ": sees a lone plane: the turn about its normal and the slides along it are "
+                   "held at the prediction");
+    } else if (!lone && lone_plane_frames_ > 0) {
+      log_.Warning(FrameName(step, frame) + ": structure again after " +
+                   std::to_string(lone_plane_frames_) +
+                   " lone-plane frames (their pose along the plane is a prediction)");
+    }
+    lone_plane_frames_ = lone ? lone_plane_frames_ + 1 : 0;
+  }
+
   static std::string FrameName(const TrackedStep& step, const RgbdFrame& frame) {
     return "frame " + std::to_string(step.index) + " (" + frame.source + ")";
   }
@@ -127,6 +216,14 @@ class TrackingLoop {
   Pose predicted_ = Pose::Identity();
   double previous_timestamp_ = 0.0;
   int failures_in_a_row_ = 0;
+  int lone_plane_frames_ = 0;  // lone-plane frames in a row up to the last
+  // Relocalisation: well-tracked frames, the last stretch's plane, the trajectory position of
+  // the frame before it, and the frames with structure still to try after it.
+  std::vector<Anchor> anchors_;
+  std::vector<int> anchor_positions_;  // their positions in the trajectory
+  Vec3 plane_world_ = Vec3::UnitY();
+  int stretch_from_ = -1;
+  int attempts_left_ = 0;
 };
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include "rgbd/frame.h"
 #include "rgbd/motion_guard.h"
 #include "rgbd/projective_icp.h"
+#include "rgbd/relocalise.h"
 
 namespace rigfit {
 
@@ -29,8 +30,12 @@ struct TrackingLoopOptions {
   FrameOptions frame;
   ProjectiveIcpOptions icp;
   MotionPrior prior = MotionPrior::kConstantVelocity;
-  /// Weak directions held, divergence detected and recovered (rgbd/motion_guard.h).
+  /// Weak directions held, divergence detected and recovered (rgbd/motion_guard.h); off, the
+  /// lone-plane hold (icp.lone_plane) and the relocalisation are off too.
   GuardOptions guard;
+  /// After a lone-plane stretch, the frame searched for over the plane's free directions
+  /// against the frames before it (rgbd/relocalise.h; with the guard only).
+  RelocaliseOptions relocalise;
   /// After this many failed frames in a row the track is lost and restarts from the current
   /// frame at its predicted pose (the odometry's next reference; SLAM's new map), counted in
   /// restarts.
@@ -50,6 +55,7 @@ struct TrackingRun {
   int recovered = 0;      ///< frames suspected of divergence and recovered (MotionGuard)
   int diverged = 0;       ///< frames declared diverged (counted in failures too)
   int weak_frames = 0;    ///< frames tracked with weak directions held
+  int relocalised = 0;    ///< frames relocalised after a lone-plane stretch (rgbd/relocalise.h)
   double load_s = 0.0;    ///< waiting for frames: the loading not overlapped with tracking
   double preprocess_s = 0.0;
   double track_s = 0.0;  ///< tracking (SLAM: rendering the model apart, SlamResult::render_s)
@@ -61,9 +67,10 @@ struct TrackedStep {
   bool first = false;  ///< the run's first frame: at its ground-truth pose or the identity
   TrackResult track;   ///< against the target (success for the first frame)
   Pose T_world_camera = Pose::Identity();
-  bool recovered = false;  ///< suspected of divergence, re-tracked from the last good pose
-  bool diverged = false;   ///< so was the re-track: kept the last good pose (a failure)
-  bool restart = false;    ///< the track was lost: the target restarts from this frame
+  bool recovered = false;    ///< suspected of divergence, re-tracked from the last good pose
+  bool diverged = false;     ///< so was the re-track: kept the last good pose (a failure)
+  bool restart = false;      ///< the track was lost: the target restarts from this frame
+  bool relocalised = false;  ///< its pose found anew after a lone-plane stretch
 };
 
 /// What a frame is tracked against, and what happens once its pose is known.

@@ -571,6 +571,7 @@ class TrackResult(Trajectory):
     recovered: int = 0  #: frames the motion guard re-tracked successfully
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
+    relocalised: int = 0  #: frames relocalised after a lone-plane stretch
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -662,6 +663,7 @@ class SlamResult(Trajectory):
     recovered: int = 0  #: frames the motion guard re-tracked successfully
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
+    relocalised: int = 0  #: frames relocalised after a lone-plane stretch
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -794,6 +796,7 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
         restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]),
         recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"],
+        relocalised=raw["relocalised"],
         loop_closure=raw["loop_closure"])
 
 
@@ -827,7 +830,7 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         frames=[SlamFrame(**f) for f in raw["frames"]], failures=raw["failures"],
         restarts=raw["restarts"], timings=SlamTimings(**raw["timings"]),
         map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
-        diverged=raw["diverged"], weak_frames=raw["weak_frames"],
+        diverged=raw["diverged"], weak_frames=raw["weak_frames"], relocalised=raw["relocalised"],
         loop_closure=raw["loop_closure"], halvings=raw["halvings"])
 
 
