@@ -495,8 +495,10 @@ std::vector<double> TermCosts(const std::vector<ClusterTerm>& terms,
   std::vector<double> costs;
   for (const ClusterTerm& t : terms) {
     const DepthBlock& model = depth[t.camera];
-    const PlaneClusterCost cost(DepthModelMatrix(model[0], model[1]) * t.cluster.SquareRoot(),
-                                cameras[t.camera].ray_model);
+    // In the measured inverse depth's sigma, as PlaneClusterDepthCost.
+    const PlaneClusterCost cost(
+        DepthModelMatrix(model[0], model[1]) * t.cluster.SquareRoot() / model[0],
+        cameras[t.camera].ray_model);
     const double* parameters[] = {poses[t.camera].data(), planes[t.plane].x.data()};
     Vec4 r;
     cost.Evaluate(parameters, r.data(), nullptr);

@@ -83,13 +83,23 @@ bool PlaneClusterCost::Evaluate(double const* const* parameters, double* residua
 bool PlaneClusterDepthCost::Evaluate(double const* const* parameters, double* residuals,
                                      double** jacobians) const {
   const double* depth = parameters[2];
-  // r = (D L)^T pi_c / d_c: the cluster residual with L' = D L.
-  EvaluateCluster(DepthModelMatrix(depth[0], depth[1]) * L_, true, parameters, residuals,
-                  jacobians);
-  if (jacobians == nullptr || jacobians[2] == nullptr) return true;
+  const double alpha = depth[0];
+  // r = (D L)^T pi_c / (alpha d_c): the cluster residual with L' = D L, in units of the
+  // measured inverse depth's sigma (alpha w + beta has alpha sigma_w).
+  EvaluateCluster(DepthModelMatrix(alpha, depth[1]) * L_, true, parameters, residuals, jacobians);
+  Eigen::Map<Vec4> r(residuals);
+  r /= alpha;
+  if (jacobians == nullptr) return true;
+  if (jacobians[0] != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 4, kPoseAmbientSize, Eigen::RowMajor>>(jacobians[0]) /= alpha;
+  }
+  if (jacobians[1] != nullptr) {
+    Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(jacobians[1]) /= alpha;
+  }
+  if (jacobians[2] == nullptr) return true;
   Eigen::Map<Eigen::Matrix<double, 4, kDepthModelSize, Eigen::RowMajor>> J(jacobians[2]);
-  J.col(0) = L_.row(3).transpose();  // L^T e_4
-  J.col(1) = L_.row(2).transpose();  // L^T e_3
+  J.col(0) = (L_.row(3).transpose() - r) / alpha;  // (L^T e_4 - r) / alpha
+  J.col(1) = L_.row(2).transpose() / alpha;        // L^T e_3 / alpha
   return true;
 }
 

@@ -30,8 +30,11 @@
 // inverse depth read as w' = alpha w + beta. As a_z = 1, b' = [a; alpha w + beta] = D b with D
 // the identity but for its last row [0 0 beta alpha], so the cluster's moment becomes D M D^T
 // and the residual r = L^T D^T pi_c / d_c, D^T pi_c = [n_c; alpha d_c] + beta d_c e_3 (one more
-// parameter block [alpha, beta]); its Jacobians are those above with L' = D L, and
-//   dr/dalpha = L^T e_4,   dr/dbeta = L^T e_3.
+// parameter block [alpha, beta]), divided by alpha: the noise is the measured w's, and
+// alpha w + beta has alpha sigma_w (weighted by sigma_w alone, alpha < 1 shrank every pixel's
+// noise and the solve drifted to alpha ~0.95). Its Jacobians are those above with L' = D L,
+// divided by alpha, and
+//   dr/dalpha = (L^T e_4 - r) / alpha,   dr/dbeta = L^T e_3 / alpha.
 #pragma once
 
 #include <ceres/autodiff_cost_function.h>
@@ -134,7 +137,7 @@ struct PlaneClusterDepthFunctor {
     pi(2) += depth[1] * d_c;
     pi(3) = depth[0] * d_c;
     const Eigen::Matrix<T, 4, 1> s = L.transpose().cast<T>() * pi;
-    for (int k = 0; k < 4; ++k) residual[k] = s(k) / d_c;
+    for (int k = 0; k < 4; ++k) residual[k] = s(k) / (depth[0] * d_c);
     return true;
   }
 

@@ -177,7 +177,8 @@ TEST(PlaneClusterDepth, AnalyticJacobianEqualsAutodiffAndFiniteDifferences) {
 }
 
 TEST(PlaneClusterDepth, EqualsTheClusterOfTheCorrectedInverseDepths) {
-  // The model read into the residual equals the plain cluster of w' = alpha w + beta, per pixel.
+  // The model read into the residual equals the plain cluster of w' = alpha w + beta with
+  // sigma alpha sigma_w, per pixel.
   std::mt19937 rng(8);
   std::normal_distribution<double> noise(0.0, 0.002);
   const Pose T = testing::MakePose(Vec3(0.2, 0.4, -0.1), Vec3(0.5, 1.2, -1.0));
@@ -187,7 +188,7 @@ TEST(PlaneClusterDepth, EqualsTheClusterOfTheCorrectedInverseDepths) {
   for (const Vec3& p : PointsOnPlane(T, P, 200, rng)) {
     const double w = 1.0 / p.z() + noise(rng);
     measured.AddRay(p, w, 0.0025);
-    corrected.AddRay(p, model(0) * w + model(1), 0.0025);
+    corrected.AddRay(p, model(0) * w + model(1), model(0) * 0.0025);
   }
   const std::unique_ptr<ceres::CostFunction> with_model(PlaneClusterDepthCost::Create(measured));
   const std::unique_ptr<ceres::CostFunction> plain(PlaneClusterCost::Create(corrected, true));
