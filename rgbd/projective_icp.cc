@@ -257,6 +257,26 @@ std::optional<Vec3> LonePlaneNormal(const FrameLevel& level, const LonePlaneOpti
   return n;
 }
 
+std::optional<Vec3> LonePlaneNormal(const FramePyramid& pyramid, const LonePlaneOptions& options) {
+  if (pyramid.levels.empty()) return std::nullopt;
+  const std::optional<Vec3> n = LonePlaneNormal(pyramid.levels.back(), options);
+  const FrameLevel& finest = pyramid.levels.front();
+  if (!n || finest.valid_pixels.empty()) return n;
+  std::vector<double> offsets;
+  offsets.reserve(finest.valid_pixels.size());
+  for (const int i : finest.valid_pixels)
+    offsets.push_back(n->dot(finest.vertices[i].cast<double>()));
+  std::vector<double> sorted = offsets;
+  const auto middle = sorted.begin() + sorted.size() / 2;
+  std::nth_element(sorted.begin(), middle, sorted.end());
+  const double offset = *middle;
+  const auto near = std::count_if(offsets.begin(), offsets.end(), [&](double d) {
+    return std::abs(d - offset) < options.max_distance_m;
+  });
+  if (static_cast<double>(near) < options.min_share * offsets.size()) return std::nullopt;
+  return n;
+}
+
 std::vector<Vec6> LonePlaneDirections(const Vec3& n) {
   const Vec3 a = n.unitOrthogonal();
   const Vec3 b = n.cross(a);
@@ -295,9 +315,9 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   result.length_m = length_m;
 
   // A lone plane in the target (its axes) or the source (turned into them at each step).
-  const std::optional<Vec3> n_target = LonePlaneNormal(target.levels.back(), options.lone_plane);
+  const std::optional<Vec3> n_target = LonePlaneNormal(target, options.lone_plane);
   const std::optional<Vec3> n_source =
-      n_target ? std::nullopt : LonePlaneNormal(source.levels.back(), options.lone_plane);
+      n_target ? std::nullopt : LonePlaneNormal(source, options.lone_plane);
   result.lone_plane = n_target || n_source;
   Pose T = T_init;
   NormalEquations last;

@@ -137,6 +137,12 @@ struct LonePlaneOptions {
 /// in angle, then its offset to their median distance along it.
 std::optional<Vec3> LonePlaneNormal(const FrameLevel& level, const LonePlaneOptions& options);
 
+/// LonePlaneNormal of the pyramid's coarsest level, confirmed at its finest: there too at least
+/// min_share of the valid pixels within max_distance_m of the plane (offset: their median).
+/// The coarse levels keep normals mostly where a surface faces the camera, so that a wall seen
+/// with the slanted surfaces beside it (a box corner) could look alone there.
+std::optional<Vec3> LonePlaneNormal(const FramePyramid& pyramid, const LonePlaneOptions& options);
+
 /// The three directions a view of a lone plane with unit normal n does not fix, in the scaled
 /// space [length_m w; dt] of SolveStep: the rotation about n (a rotation about any axis along
 /// n maps every plane with normal n onto itself) and the two translations across n.
