@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/geometry.h"
 #include "core/parallel.h"
 #include "residuals/point_to_plane.h"
 
@@ -245,9 +246,7 @@ std::optional<Vec3> LonePlaneNormal(const FrameLevel& level, const LonePlaneOpti
       offsets.push_back(n.dot(level.vertices[i].cast<double>()));
     }
   }
-  const auto middle = offsets.begin() + offsets.size() / 2;
-  std::nth_element(offsets.begin(), middle, offsets.end());
-  const double offset = *middle;
+  const double offset = Quantile(&offsets, 0.5);
   std::size_t on_plane = 0;
   for (const int i : pixels) {
     on_plane += level.normals[i].cast<double>().dot(n) > min_cos &&
@@ -266,10 +265,8 @@ std::optional<Vec3> LonePlaneNormal(const FramePyramid& pyramid, const LonePlane
   offsets.reserve(finest.valid_pixels.size());
   for (const int i : finest.valid_pixels)
     offsets.push_back(n->dot(finest.vertices[i].cast<double>()));
-  std::vector<double> sorted = offsets;
-  const auto middle = sorted.begin() + sorted.size() / 2;
-  std::nth_element(sorted.begin(), middle, sorted.end());
-  const double offset = *middle;
+  // The median in place: the count below does not depend on the order.
+  const double offset = Quantile(&offsets, 0.5);
   const auto near = std::count_if(offsets.begin(), offsets.end(), [&](double d) {
     return std::abs(d - offset) < options.max_distance_m;
   });
