@@ -62,8 +62,9 @@ struct IcpOptions {
   RegistrationMethod method = RegistrationMethod::kPointToPlane;
   /// The stage after the registration (joint or pairwise): the surface bundle refines every
   /// camera and the planar surfaces they see in one problem, starting from the registered
-  /// poses (registration/surface_bundle.h, docs/residuals.md "Surface bundle").
-  bool surface_bundle = false;
+  /// poses (registration/surface_bundle.h, docs/residuals.md "Surface bundle"). It levels the
+  /// reference's tilt again on the floor the cameras share (its yaw and centre held).
+  bool surface_bundle = true;
   /// Finest voxel size; the scales multiply it, coarse to fine.
   double voxel_size = 0.02;
   std::vector<double> scales = {4.0, 2.0, 1.0};

@@ -233,6 +233,7 @@ py::list CameraReports(const RefineResult& result) {
     py::dict d;
     d["serial"] = c.serial;
     d["reference"] = c.reference;
+    d["surface_leveled"] = c.surface_leveled;
     d["leveled"] = c.ground.accepted;
     d["leveling_message"] = c.ground.message;
     d["leveling_rotation_deg"] = c.ground.correction_rotation_deg;

@@ -144,7 +144,8 @@ Json IcpMeta(const RefineResult& result, const RefineOptions& options,
       thickness[c.serial] = {{"before", c.surface_thickness_before},
                              {"after", c.surface_thickness_after},
                              {"noise_correlation", c.surface_noise_correlation},
-                             {"kept_joint_pose", c.surface_fallback}};
+                             {"kept_joint_pose", c.surface_fallback},
+                             {"surface_leveled", c.surface_leveled}};
       if (c.depth_model.offset_prior_sigma > 0.0) {  // a free depth camera, icp.depth_model on
         thickness[c.serial]["depth_model"] = DepthModelMeta(c.depth_model);
       }

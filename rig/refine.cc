@@ -172,9 +172,9 @@ void RefineSurfaces(const RegistrationInputs& in, JointResult* joint, RefineResu
     if (options.depth_model != CameraDepthModel::kNone)
       WarnDepthModel(camera, surfaces[i], log, result);
     if (bundle.leveled[i]) {
-      // The reference, leveled again on the bundle's floor (its yaw and centre held).
+      // The reference, leveled again on the bundle's floor (its yaw and centre held); taken
+      // with the safety bounds when another camera is refined (ApplySafetyBounds).
       joint->poses[i] = bundle.poses[i];
-      result->refined[camera.serial] = bundle.poses[i];
       camera.surface_leveled = true;
       continue;
     }
@@ -185,6 +185,11 @@ void RefineSurfaces(const RegistrationInputs& in, JointResult* joint, RefineResu
                ": too few planes fix its pose for the surface bundle; it keeps its joint "
                "point-to-plane pose");
       continue;  // with the joint covariance
+    }
+    if (options.hold_weak_directions && i < joint->weak.size() && !joint->weak[i].empty()) {
+      log.Info("camera " + camera.serial +
+               ": weak directions held (icp.hold_weak_directions); it keeps its joint pose");
+      continue;
     }
     // The bundle's change from the joint pose held to the safety bounds here (its gauge is
     // the reference's, which it moves by its leveling alone), so that a camera it moved too far
@@ -538,7 +543,7 @@ int ApplySafetyBounds(const std::vector<Pose>& leveled, const std::vector<Pose>&
     report.own_translation_m = own.tail<3>().norm();
     if (report.reference) {
       report.accepted = true;
-      continue;
+      continue;  // its pose: below
     }
     if (!report.connected) {
       report.message = "not connected to the reference camera by an accepted pair";
@@ -553,6 +558,19 @@ int ApplySafetyBounds(const std::vector<Pose>& leveled, const std::vector<Pose>&
       continue;
     }
     Warn(result, log, "camera " + report.serial + " keeps its leveled pose: " + report.message);
+  }
+  // The reference moves only where the surface bundle leveled it again on its floor, and only
+  // with a refined camera: when nothing is refined, every camera keeps its leveled pose.
+  for (size_t i = 0; i < n; ++i) {
+    CameraReport& report = result->cameras[i];
+    if (!report.reference || !report.surface_leveled) continue;
+    if (moved > 0) {
+      result->refined[report.serial] = refined[i];
+    } else {
+      report.surface_leveled = false;
+      report.delta_rotation_deg = 0.0;
+      report.delta_translation_m = 0.0;
+    }
   }
   return moved;
 }

@@ -35,7 +35,7 @@ class CliCompareTest : public SimulatedRigSuite<CliCompareTest> {
 /// The runs of `rigfit compare`, in the order it prints them.
 const char* const kRuns[] = {"pairwise", "joint", "surface_bundle"};
 
-TEST_F(CliCompareTest, ThreeRunsSideBySideAndJointAgreesWithEvaluate) {
+TEST_F(CliCompareTest, ThreeRunsSideBySideAndTheDefaultAgreesWithEvaluate) {
   const RunResult r =
       RunRigfit({"compare", "--capture", Rig("capture.h5"), "--extrinsics", Rig("init.json"),
                  "--gt", Rig("gt.json"), "--json", Scratch("compare.json"), "--quiet"},
@@ -111,16 +111,18 @@ TEST_F(CliCompareTest, ThreeRunsSideBySideAndJointAgreesWithEvaluate) {
   EXPECT_FALSE(compare["modes"]["joint"].contains("surface"));
   EXPECT_FALSE(compare["modes"]["joint"]["cameras"].begin()->contains("surface"));
 
-  // `rigfit refine` (joint) + `rigfit evaluate` on its output give the same errors.
-  const RunResult refine = RunRigfit({"refine", "--capture", Rig("capture.h5"), "--extrinsics",
-                                      Rig("init.json"), "--out", Scratch("joint.json"), "--quiet"},
-                                     root_);
+  // `rigfit refine` with its defaults (joint, then the surface bundle) + `rigfit evaluate` on
+  // its output give the surface_bundle run's errors.
+  const RunResult refine =
+      RunRigfit({"refine", "--capture", Rig("capture.h5"), "--extrinsics", Rig("init.json"),
+                 "--out", Scratch("default.json"), "--quiet"},
+                root_);
   ASSERT_EQ(refine.exit_code, 0) << Describe(refine);
   const RunResult evaluate = RunRigfit(
-      {"evaluate", Scratch("joint.json"), Rig("gt.json"), "--json", Scratch("eval.json")}, root_);
+      {"evaluate", Scratch("default.json"), Rig("gt.json"), "--json", Scratch("eval.json")}, root_);
   ASSERT_EQ(evaluate.exit_code, 0) << Describe(evaluate);
   const Json summary = Json::parse(ReadText(Scratch("eval.json")))["summary"];
-  const Json& joint = compare["modes"]["joint"]["errors"];
+  const Json& joint = compare["modes"]["surface_bundle"]["errors"];
   for (const char* error : {"rotation_deg", "translation_mm", "tilt_deg"}) {
     for (const char* stat : {"rms", "max"}) {
       EXPECT_NEAR(joint[error][stat].get<double>(), summary[error][stat].get<double>(), 1e-9)

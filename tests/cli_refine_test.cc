@@ -169,16 +169,16 @@ TEST_F(CliRefineTest, RefinesTheRigAndPreservesUnknownKeys) {
 }
 
 TEST_F(CliRefineTest, TheReferenceIsHeldOrLeveledOnTheBundlesFloor) {
-  // Point-to-plane holds the reference at its leveled pose; the surface bundle levels it again
-  // on its floor (yaw and centre held), and the summary says which.
+  // Without the surface bundle the reference is held at its leveled pose; the bundle (the
+  // default) levels it again on its floor (yaw and centre held), and the summary says which.
   const PoseMap leveled = LeveledPoses();
   const std::string reference = leveled.begin()->first;  // the first serial
-  const RunResult held = Refine({});
+  const RunResult held = Refine({"--no-surface-bundle"});
   ASSERT_EQ(held.exit_code, 0) << Describe(held);
   EXPECT_NE(held.out.find("reference (held fixed)"), std::string::npos) << held.out;
   EXPECT_EQ(ReadExtrinsics(Out()).poses.at(reference).matrix(), leveled.at(reference).matrix());
 
-  const RunResult bundle = Refine({"--surface-bundle"});
+  const RunResult bundle = Refine({});
   ASSERT_EQ(bundle.exit_code, 0) << Describe(bundle);
   EXPECT_NE(bundle.out.find("reference (yaw and centre held, tilt from the floor)"),
             std::string::npos)

@@ -159,14 +159,16 @@ class CameraReport:
     None; ``sigma`` its 1-sigma read-off and ``sigma_inflation`` how much the residuals raised
     it above the noise model's. ``surfaces`` is the number of distinct surface orientations the
     joint pose rests on, ``few_surfaces`` whether they are too few for the 1-sigma to show one
-    surface's bias (0 and False outside joint mode). ``depth_model``: its surface bundle depth
-    model with ``icp.depth_model`` on (None for the reference, points cameras, or off). ``delta_*`` is the registration change
-    (refined against leveled), ``own_*`` the change against the rig that the safety bounds apply
-    to.
+    surface's bias (0 and False outside joint mode). ``surface_leveled``: the reference, its tilt
+    leveled again on the surface bundle's floor (yaw and centre held; False: held whole).
+    ``depth_model``: its surface bundle depth model with ``icp.depth_model`` on (None for the
+    reference, points cameras, or off). ``delta_*`` is the registration change (refined against
+    leveled), ``own_*`` the change against the rig that the safety bounds apply to.
     """
 
     serial: str
     reference: bool
+    surface_leveled: bool
     leveled: bool
     leveling_message: str
     leveling_rotation_deg: float
