@@ -356,7 +356,7 @@ int RunRefine(const RefineArgs& a) {
   if (!a.report_dir.empty()) {
     log.Info("writing the report to " + a.report_dir);
     for (const std::string& file :
-         WriteRefineReport(a.report_dir, capture, result, poses, options, a.threads, summary)) {
+         WriteRefineReport(a.report_dir, capture, result, poses, options, summary)) {
       std::printf("report: %s\n", file.c_str());
     }
   }
