@@ -219,16 +219,7 @@ RefineOptions OptionsOf(const std::string& command, const ConfigText& config,
 py::object DepthModelDict(const DepthModelEstimate& e) {
   if (!(e.offset_prior_sigma > 0.0)) return py::none();
   py::dict d;
-  d["solved"] = e.solved;
-  d["observable"] = e.observable;
-  d["scale"] = e.scale;
-  d["offset"] = e.offset;
-  d["offset_px"] = e.offset_px;
-  d["scale_sigma"] = e.scale_sigma;
-  d["offset_sigma"] = e.offset_sigma;
-  d["scale_prior_sigma"] = e.scale_prior_sigma;
-  d["offset_prior_sigma"] = e.offset_prior_sigma;
-  d["pose_correlation"] = e.pose_correlation;
+  ForEachDepthModelField(e, [&](const char* name, auto value) { d[name] = value; });
   return d;
 }
 
