@@ -62,8 +62,8 @@ SampledErrors SampleErrors(const Eigen::MatrixXd& covariance,
 
 CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap& T_true,
                                      const RefineOptions& options, double depth_noise,
-                                     double noise_floor_m, int samples, std::uint64_t seed,
-                                     int num_threads) {
+                                     double noise_floor_m, const BoundSampling& sampling) {
+  const auto& [samples, seed, num_threads] = sampling;
   CramerRaoBound bound;
   const size_t n = noise_free.cameras.size();
   if (n < 2) {
@@ -344,9 +344,10 @@ Eigen::MatrixXd WhitePoseCovariance(const std::vector<FacePixels>& cameras, size
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,
-                                            double depth_noise, int samples, std::uint64_t seed,
-                                            const CorrelatedNoiseModel& correlated,
-                                            int num_threads) {
+                                            const SurfaceBoundNoise& noise,
+                                            const BoundSampling& sampling) {
+  const auto& [depth_noise, correlated] = noise;
+  const auto& [samples, seed, num_threads] = sampling;
   CramerRaoBound bound;
   bound.reference = reference;
   const size_t n = cameras.size();

@@ -51,19 +51,26 @@ struct CramerRaoBound {
   SampledErrors estimator_rms;
 };
 
+/// How a bound's errors are sampled (draws of the poses from it), and the threads that compute
+/// it.
+struct BoundSampling {
+  int samples = 0;         ///< draws of the poses from N(T_true, covariance)
+  std::uint64_t seed = 0;  ///< the draws' generator seed (deterministic)
+  int num_threads = 1;     ///< threads computing the bound's information
+};
+
 /// The bound for a capture of noise-free depth taken at the true poses T_true, sensor noise
 /// sigma_z = depth_noise z^2 along each ray and noise_floor_m on every residual (> 0: it keeps
 /// grazing points, n . p near 0, finite; kCramerRaoNoiseFloorM for the benchmarks): the information
 /// of the joint problem (JointInformation: the estimator's near-floor band, finest voxel scale,
 /// correspondences in both directions, gravity prior; every residual weighted by that sensor noise,
 /// not by the estimator's icp.min_noise_m and icp.plane_noise_share) at the true poses, inverted,
-/// then `samples` draws of the poses from N(T_true, covariance) (seeded, deterministic) measured
-/// with EvaluateRig. The reference is options.icp.reference or the first serial. Never throws on
-/// bad geometry: ok false with a message.
+/// then `sampling.samples` draws of the poses from N(T_true, covariance) (seeded, deterministic)
+/// measured with EvaluateRig. The reference is options.icp.reference or the first serial. Never
+/// throws on bad geometry: ok false with a message.
 CramerRaoBound ComputeCramerRaoBound(const RigCapture& noise_free, const PoseMap& T_true,
                                      const RefineOptions& options, double depth_noise,
-                                     double noise_floor_m, int samples, std::uint64_t seed,
-                                     int num_threads);
+                                     double noise_floor_m, const BoundSampling& sampling);
 
 /// The pixels of one camera with the face each one sees (noise-free, at the true pose).
 struct FacePixels {
@@ -88,6 +95,12 @@ struct BoundFaces {
   bool Counts(size_t c, int f) const { return f >= 0 && used[f] && count[f][c] >= kMinPixels; }
 };
 
+/// The depth noise a surface-model bound assumes.
+struct SurfaceBoundNoise {
+  double depth_noise = 0.0;              ///< k of sigma_z = k z^2 (sigma of the inverse depth)
+  CorrelatedNoiseModel correlated = {};  ///< its spatially correlated share (share 0: white)
+};
+
 /// The physical bound of the rig (issue 18): the measurements are the inverse depths of every
 /// pixel once, w = 1/z with sigma_w = depth_noise (noise Gaussian in depth with sigma_z = k z^2
 /// gives sigma_w = k to first order), the unknowns the poses of every camera but `reference`
@@ -98,19 +111,18 @@ struct BoundFaces {
 /// truth, the faces eliminated by Schur complement (MarginalPoseCovariance,
 /// uncertainty/covariance.h). No gravity prior (it is no measurement). Errors sampled like
 /// ComputeCramerRaoBound's. Never throws on bad geometry: ok false with a message. With
-/// `correlated` share > 0 the noise is CorrelatedNoiseModel's (every camera's `pixels` needed;
-/// share < 1 and corr_px > 0, else ok false): the information of camera c is J_c^T B_c^T S_c^-1 B_c
-/// J_c / k^2 over all its faces together (B_c: the rows b_i^T of its counted pixels, each in its
-/// face's columns; CorrelatedGram), no longer a sum over (camera, face) clusters: an estimator that
-/// knows the correlation can difference it away where faces meet. Only the counted pixels enter:
-/// the others (faces one camera sees, clutter) would also tell of the smooth field next to them, so
-/// the true bound of the band is at most this one.
+/// `noise.correlated` share > 0 the noise is CorrelatedNoiseModel's (every camera's `pixels`
+/// needed; share < 1 and corr_px > 0, else ok false): the information of camera c is J_c^T B_c^T
+/// S_c^-1 B_c J_c / k^2 over all its faces together (B_c: the rows b_i^T of its counted pixels,
+/// each in its face's columns; CorrelatedGram), no longer a sum over (camera, face) clusters: an
+/// estimator that knows the correlation can difference it away where faces meet. Only the counted
+/// pixels enter: the others (faces one camera sees, clutter) would also tell of the smooth field
+/// next to them, so the true bound of the band is at most this one.
 CramerRaoBound ComputeSurfaceCramerRaoBound(const std::vector<FacePixels>& cameras,
                                             const std::vector<PlanarFace>& faces,
                                             const PoseMap& T_true, const std::string& reference,
-                                            double depth_noise, int samples, std::uint64_t seed,
-                                            const CorrelatedNoiseModel& correlated = {},
-                                            int num_threads = 1);
+                                            const SurfaceBoundNoise& noise,
+                                            const BoundSampling& sampling);
 
 /// Labels points (camera frame, at T_world_camera) with the faces they lie on, appending new
 /// faces to `faces` (e.g. the simulator's LabelFaces, sim/scene.h).

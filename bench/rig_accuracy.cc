@@ -332,9 +332,9 @@ class SegmentationDiagnostic {
     total_faces += faces_in_bound, total_missed += missed, total_fallbacks += fallbacks;
     total_floor_bound += floor_bound, total_floor_ok += floor_ok;
     const CramerRaoBound b1 =
-        ComputeSurfaceCramerRaoBound(used_true, faces, truth.gt, reference, noise, 2000, seed);
+        ComputeSurfaceCramerRaoBound(used_true, faces, truth.gt, reference, {noise}, {2000, seed});
     const CramerRaoBound b2 = ComputeSurfaceCramerRaoBound(used_split, split_faces, truth.gt,
-                                                           reference, noise, 2000, seed);
+                                                           reference, {noise}, {2000, seed});
     const auto show = [&](const char* what, const CramerRaoBound& b, RatioSums* sums) {
       if (!b.ok) {
         std::printf("       bound of %s: not available: %s\n", what, b.message.c_str());
@@ -373,7 +373,7 @@ class SegmentationDiagnostic {
     };
     const CramerRaoBound b3 =
         ComputeSurfaceCramerRaoBound(face_pixels([&](int f) { return face_ok[f] > 0; }), faces,
-                                     truth.gt, reference, noise, 2000, seed);
+                                     truth.gt, reference, {noise}, {2000, seed});
     show("every pixel of the faces it used", b3, &used_faces_sums);
     int best = -1;
     double best_translation = b1.ok ? b1.rms.translation_m : 0.0;
@@ -387,7 +387,7 @@ class SegmentationDiagnostic {
         plus[c].faces.insert(plus[c].faces.end(), extra[c].faces.begin(), extra[c].faces.end());
       }
       const CramerRaoBound b =
-          ComputeSurfaceCramerRaoBound(plus, faces, truth.gt, reference, noise, 2000, seed);
+          ComputeSurfaceCramerRaoBound(plus, faces, truth.gt, reference, {noise}, {2000, seed});
       if (b.ok && b.rms.translation_m < best_translation) {
         best_translation = b.rms.translation_m;
         best = static_cast<int>(g);
@@ -605,7 +605,7 @@ int main(int argc, char** argv) {
       bound_options.icp.reference = r.reference;
       const CramerRaoBound b =
           ComputeCramerRaoBound(truth.capture, truth.gt, bound_options, sim.noise,
-                                kCramerRaoNoiseFloorM, 2000, sim.seed, threads);
+                                kCramerRaoNoiseFloorM, {2000, sim.seed, threads});
       // Prints a bound's line for this run ("error / it": this run's error over the bound's)
       // and adds it to its summary.
       const auto report = [&](const char* name, const SampledErrors& e, AgainstReference* sum) {
@@ -623,7 +623,7 @@ int main(int argc, char** argv) {
       const std::vector<FacePixels> pixels =
           RigFacePixels(truth.capture, truth.gt, bound_options.region, labeler, &faces);
       const CramerRaoBound s = ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, r.reference,
-                                                            sim.noise, 2000, sim.seed);
+                                                            {sim.noise}, {2000, sim.seed});
       if (s.ok) {
         report(sim.noise_corr_share > 0.0 ? "surface-model bound, white noise of that sigma"
                                           : "surface-model bound",
@@ -638,8 +638,8 @@ int main(int argc, char** argv) {
         const auto correlated_bound = [&](const std::vector<FacePixels>& cameras,
                                           const std::string& name, AgainstReference* sum) {
           const CramerRaoBound c = ComputeSurfaceCramerRaoBound(
-              cameras, faces, truth.gt, r.reference, sim.noise, 2000, sim.seed,
-              {sim.noise_corr_px, sim.noise_corr_share}, threads);
+              cameras, faces, truth.gt, r.reference,
+              {sim.noise, {sim.noise_corr_px, sim.noise_corr_share}}, {2000, sim.seed, threads});
           if (c.ok) {
             report(name.c_str(), c.rms, sum);
           } else {

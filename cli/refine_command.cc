@@ -2,6 +2,7 @@
 // leveling, then registration of the near-floor band). Every input is checked before any work;
 // the refined extrinsics are written with their report in _meta (../shared/docs/formats.md,
 // docs/usage.md), and a summary is printed on stdout.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -356,7 +357,7 @@ int RunRefine(const RefineArgs& a) {
   if (!a.report_dir.empty()) {
     log.Info("writing the report to " + a.report_dir);
     for (const std::string& file :
-         WriteRefineReport(a.report_dir, capture, result, poses, options, a.threads, summary)) {
+         WriteRefineReport(a.report_dir, capture, result, poses, options, summary)) {
       std::printf("report: %s\n", file.c_str());
     }
   }
@@ -393,20 +394,23 @@ Command AddRefineCommand(CLI::App& app) {
                       "ICP + pose graph); overrides icp.mode (default " +
                           defaults["mode"].get<std::string>() + ")")
           ->check(CLI::IsMember({"joint", "pairwise"}));
+  const std::vector<std::string> methods = RegistrationMethodNames();
   a.method_option =
       sub->add_option("--method", a.method,
-                      "Registration residual: point_to_plane or gicp; overrides icp.method "
-                      "(default " +
+                      "Registration residual: " + Join(methods, " or ") +
+                          "; overrides icp.method (default " +
                           defaults["method"].get<std::string>() + ")")
           ->check(CLI::Validator(
-              [](const std::string& v) {
-                if (v == "point_to_plane" || v == "gicp") return std::string();
-                return "must be point_to_plane or gicp, got '" + v + "'" +
+              [methods](const std::string& v) {
+                if (std::find(methods.begin(), methods.end(), v) != methods.end()) {
+                  return std::string();
+                }
+                return "must be " + Join(methods, " or ") + ", got '" + v + "'" +
                        (v == "surface_bundle" ? " (the surface bundle is a stage of its own now: "
                                                 "--surface-bundle)"
                                               : "");
               },
-              "point_to_plane|gicp", "method"));
+              Join(methods, "|"), "method"));
   a.surface_bundle_option = sub->add_flag(
       "--surface-bundle,!--no-surface-bundle", a.surface_bundle,
       "After the registration, refine every camera and the planes they see in one problem (the "

@@ -71,7 +71,7 @@ void PrintBound(const SimulateArgs& a) {
       &faces);
   const std::string reference = RigReference(truth.capture, options);
   const CramerRaoBound s = ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, reference,
-                                                        a.sim.noise, kBoundSamples, a.sim.seed);
+                                                        {a.sim.noise}, {kBoundSamples, a.sim.seed});
   const std::string noise =
       "noise " + Fixed(a.sim.noise, 4) + ", " + std::to_string(kBoundSamples) + " draws";
   if (s.ok) {
@@ -89,8 +89,9 @@ void PrintBound(const SimulateArgs& a) {
                  "computing the bound under the correlated noise (conjugate gradients over the "
                  "faces' pixels: about a minute per 640x360 camera)...\n");
     const CramerRaoBound c =
-        ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, reference, a.sim.noise, kBoundSamples,
-                                     a.sim.seed, {a.sim.noise_corr_px, a.sim.noise_corr_share}, 2);
+        ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, reference,
+                                     {a.sim.noise, {a.sim.noise_corr_px, a.sim.noise_corr_share}},
+                                     {kBoundSamples, a.sim.seed, 2});
     const std::string what = "Cramer-Rao bound of the surface model under the correlated noise (" +
                              Fixed(a.sim.noise_corr_px, 2) + " px, share " +
                              Fixed(a.sim.noise_corr_share, 2) + "; " + noise + ")";
@@ -102,7 +103,7 @@ void PrintBound(const SimulateArgs& a) {
   }
   const CramerRaoBound b =
       ComputeCramerRaoBound(truth.capture, truth.gt, options, a.sim.noise, kCramerRaoNoiseFloorM,
-                            kBoundSamples, a.sim.seed, 2);
+                            {kBoundSamples, a.sim.seed, 2});
   if (!b.ok) {
     std::printf("Point-to-plane information bound: not available: %s\n", b.message.c_str());
     return;

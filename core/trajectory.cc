@@ -96,9 +96,8 @@ TrajectoryErrors EvaluateTrajectory(const Trajectory& est, const Trajectory& gt,
   }
   e.ate_rmse_m = std::sqrt(sum2 / a.size());
   e.ate_mean_m = sum / a.size();
-  std::vector<double> sorted = e.ate_m;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  e.ate_median_m = sorted[sorted.size() / 2];
+  std::vector<double> ate = e.ate_m;
+  e.ate_median_m = Quantile(&ate, 0.5);  // the upper median of an even count
 
   double t2 = 0.0, r2 = 0.0;
   for (size_t k = 0; k + delta < pairs.size(); ++k) {

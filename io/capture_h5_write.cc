@@ -87,9 +87,22 @@ bool DeflateAvailable() {
          (config & H5Z_FILTER_CONFIG_ENCODE_ENABLED) != 0;
 }
 
-/// Writes one dataset; large ones chunked (whole rows) and compressed with shuffle + deflate.
-void WriteDataset(hid_t group, const std::string& name, hid_t file_type, hid_t memory_type,
-                  const std::vector<hsize_t>& dims, const void* data, const Context& where) {
+/// A sample type's HDF5 types: in the file (little-endian, as the format fixes it) and in memory.
+struct SampleTypes {
+  hid_t file;    ///< the type the file stores
+  hid_t memory;  ///< the type of the samples in memory
+};
+SampleTypes TypesOf(const float*) { return {H5T_IEEE_F32LE, H5T_NATIVE_FLOAT}; }
+SampleTypes TypesOf(const double*) { return {H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE}; }
+SampleTypes TypesOf(const std::uint16_t*) { return {H5T_STD_U16LE, H5T_NATIVE_UINT16}; }
+SampleTypes TypesOf(const std::uint8_t*) { return {H5T_STD_U8LE, H5T_NATIVE_UINT8}; }
+
+/// Writes one dataset of `data`'s sample type (TypesOf); large ones chunked (whole rows) and
+/// compressed with shuffle + deflate.
+template <typename T>
+void WriteDataset(hid_t group, const std::string& name, const std::vector<hsize_t>& dims,
+                  const T* data, const Context& where) {
+  const auto [file_type, memory_type] = TypesOf(data);
   const H5Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
   const H5Id dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose);
   hsize_t row_elements = 1;
@@ -167,12 +180,10 @@ void WriteCamera(hid_t cameras, const CameraCapture& camera, const CaptureWriteO
   if (camera.HasPoints()) {
     const std::vector<hsize_t> dims = {camera.points.size(), 3};
     const std::vector<float> points = ToFloat32(camera.points);
-    WriteDataset(group.get(), "points", H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, dims, points.data(),
-                 where);
+    WriteDataset(group.get(), "points", dims, points.data(), where);
     if (!camera.normals.empty()) {
       const std::vector<float> normals = ToFloat32(camera.normals);
-      WriteDataset(group.get(), "normals", H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, dims, normals.data(),
-                   where);
+      WriteDataset(group.get(), "normals", dims, normals.data(), where);
     }
     return;
   }
@@ -181,25 +192,21 @@ void WriteCamera(hid_t cameras, const CameraCapture& camera, const CaptureWriteO
   if (options.depth_as_uint16) {
     const std::vector<std::uint16_t> units =
         ToUint16Depth(camera.depth_m, options.depth_scale, where);
-    WriteDataset(group.get(), "depth", H5T_STD_U16LE, H5T_NATIVE_UINT16, image, units.data(),
-                 where);
+    WriteDataset(group.get(), "depth", image, units.data(), where);
     const H5Id depth(H5Dopen2(group.get(), "depth", H5P_DEFAULT), H5Dclose);
     WriteScalarAttribute(depth.get(), "depth_scale", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
                          &options.depth_scale, where);
   } else {
-    WriteDataset(group.get(), "depth", H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, image,
-                 camera.depth_m.data(), where);
+    WriteDataset(group.get(), "depth", image, camera.depth_m.data(), where);
   }
   const PinholeIntrinsics& k = camera.intrinsics;
   const double K[9] = {k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0};
-  WriteDataset(group.get(), "intrinsics", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, {3, 3}, K, where);
+  WriteDataset(group.get(), "intrinsics", {3, 3}, K, where);
   if (!camera.confidence.empty()) {
-    WriteDataset(group.get(), "confidence", H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, image,
-                 camera.confidence.data(), where);
+    WriteDataset(group.get(), "confidence", image, camera.confidence.data(), where);
   }
   if (!camera.color.empty()) {
-    WriteDataset(group.get(), "color", H5T_STD_U8LE, H5T_NATIVE_UINT8, {image[0], image[1], 3},
-                 camera.color.data(), where);
+    WriteDataset(group.get(), "color", {image[0], image[1], 3}, camera.color.data(), where);
   }
   if (camera.baseline_m > 0.0)
     WriteScalarDataset(group.get(), "baseline_m", camera.baseline_m, where);

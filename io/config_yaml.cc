@@ -599,14 +599,18 @@ nlohmann::json ConfigToJson(const RefineOptions& options) {
   return json;
 }
 
+std::vector<std::string> RegistrationMethodNames() {
+  std::vector<std::string> names;
+  for (const auto& [method, name] : kMethodNames) names.push_back(name);
+  return names;
+}
+
 RegistrationMethod RegistrationMethodNamed(const std::string& name) {
-  std::vector<std::string> valid;
   for (const auto& [method, method_name] : kMethodNames) {
     if (method_name == name) return method;
-    valid.push_back(method_name);
   }
-  throw InputError("unknown method '" + name + "' (valid: " + Join(valid) + ")" +
-                   (name == "surface_bundle" ? std::string("; ") + kSurfaceBundleMoved : ""));
+  throw InputError("unknown method '" + name + "' (valid: " + Join(RegistrationMethodNames()) +
+                   ")" + (name == "surface_bundle" ? std::string("; ") + kSurfaceBundleMoved : ""));
 }
 
 std::string RegistrationMethodName(RegistrationMethod method) { return YamlValue(&method); }

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "options/refine_options.h"
 
@@ -31,6 +32,9 @@ nlohmann::json ConfigToJson(const RefineOptions& options);
 /// The method of a config name (point_to_plane, gicp), as icp.method reads it; InputError listing
 /// the valid names for another (for surface_bundle, saying where the surface bundle went).
 RegistrationMethod RegistrationMethodNamed(const std::string& name);
+
+/// The config names of the registration methods (icp.method), in order: point_to_plane, gicp.
+std::vector<std::string> RegistrationMethodNames();
 
 /// The config name of a method (icp.method), the inverse of RegistrationMethodNamed (as the
 /// config writer spells it: an out-of-range value as its number).

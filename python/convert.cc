@@ -126,25 +126,24 @@ float DepthSample(double z) {
   return static_cast<float>(std::min<double>(z, std::numeric_limits<float>::max()));
 }
 
+}  // namespace
+
 template <typename T>
-void ReadRows(const char* data, py::ssize_t row_stride, py::ssize_t col_stride, int width,
-              int height, double scale, float* out) {
-  for (int v = 0; v < height; ++v) {
-    const char* row = data + v * row_stride;
-    if (col_stride == static_cast<py::ssize_t>(sizeof(T))) {
+void DepthView::ReadRows(double scale, float* out) const {
+  for (int v = 0; v < height_; ++v) {
+    const char* row = data_ + v * row_stride_;
+    if (col_stride_ == static_cast<py::ssize_t>(sizeof(T))) {
       const T* p = reinterpret_cast<const T*>(row);
-      for (int u = 0; u < width; ++u) *out++ = DepthSample(static_cast<double>(p[u]) * scale);
+      for (int u = 0; u < width_; ++u) *out++ = DepthSample(static_cast<double>(p[u]) * scale);
     } else {
-      for (int u = 0; u < width; ++u) {
+      for (int u = 0; u < width_; ++u) {
         T value;
-        std::memcpy(&value, row + u * col_stride, sizeof(T));
+        std::memcpy(&value, row + u * col_stride_, sizeof(T));
         *out++ = DepthSample(static_cast<double>(value) * scale);
       }
     }
   }
 }
-
-}  // namespace
 
 DepthView::DepthView(const py::dict& d, const std::string& where) {
   py::array raw = py::array::ensure(d["depth"]);
@@ -188,14 +187,13 @@ std::vector<float> DepthView::Read() const {
   std::vector<float> metres(static_cast<size_t>(width_) * height_);
   switch (kind_) {
     case Kind::kFloat32:
-      ReadRows<float>(data_, row_stride_, col_stride_, width_, height_, 1.0, metres.data());
+      ReadRows<float>(1.0, metres.data());
       break;
     case Kind::kFloat64:
-      ReadRows<double>(data_, row_stride_, col_stride_, width_, height_, 1.0, metres.data());
+      ReadRows<double>(1.0, metres.data());
       break;
     case Kind::kUint16:
-      ReadRows<std::uint16_t>(data_, row_stride_, col_stride_, width_, height_, scale_,
-                              metres.data());
+      ReadRows<std::uint16_t>(scale_, metres.data());
       break;
   }
   return metres;

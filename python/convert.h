@@ -85,6 +85,11 @@ class DepthView {
 
  private:
   enum class Kind { kFloat32, kFloat64, kUint16 };
+  /// The image's samples of type T, each times `scale`, as DepthSample metres into `out`
+  /// (width x height, row-major).
+  template <typename T>
+  void ReadRows(double scale, float* out) const;
+
   py::array array_;
   Kind kind_ = Kind::kFloat32;
   const char* data_ = nullptr;

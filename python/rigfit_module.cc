@@ -20,6 +20,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/errors.h"
@@ -178,11 +179,16 @@ void CheckThreads(const std::string& command, int threads) {
   }
 }
 
+/// A config as rigfit/__init__.py's _config_text gives it: (YAML text from a dict, path), at
+/// most one of them not empty.
+using ConfigText = std::pair<std::string, std::string>;
+
 /// The options of a run of `command` (refine, compare): config (YAML text from a dict, or a
 /// path, or the defaults) with the keyword overrides applied, as `rigfit refine` applies its
 /// flags, checked.
-RefineOptions OptionsOf(const std::string& command, const std::string& config_yaml,
-                        const std::string& config_path, const RefineKeywords& k) {
+RefineOptions OptionsOf(const std::string& command, const ConfigText& config,
+                        const RefineKeywords& k) {
+  const auto& [config_yaml, config_path] = config;
   RefineOptions options;
   if (!config_path.empty()) {
     options = LoadConfig(config_path);
@@ -213,16 +219,7 @@ RefineOptions OptionsOf(const std::string& command, const std::string& config_ya
 py::object DepthModelDict(const DepthModelEstimate& e) {
   if (!(e.offset_prior_sigma > 0.0)) return py::none();
   py::dict d;
-  d["solved"] = e.solved;
-  d["observable"] = e.observable;
-  d["scale"] = e.scale;
-  d["offset"] = e.offset;
-  d["offset_px"] = e.offset_px;
-  d["scale_sigma"] = e.scale_sigma;
-  d["offset_sigma"] = e.offset_sigma;
-  d["scale_prior_sigma"] = e.scale_prior_sigma;
-  d["offset_prior_sigma"] = e.offset_prior_sigma;
-  d["pose_correlation"] = e.pose_correlation;
+  ForEachDepthModelField(e, [&](const char* name, auto value) { d[name] = value; });
   return d;
 }
 
@@ -307,12 +304,11 @@ py::list PairReports(const RefineResult& result) {
 }
 
 /// `rigfit refine` on arrays: keywords as RefineTable reads them.
-py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
-                   const std::string& config_yaml, const std::string& config_path,
+py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics, const ConfigText& config,
                    const py::dict& keywords, const py::object& logger) {
   const RefineKeywords k = RefineTable().Apply(keywords);
   CheckThreads("refine", k.threads);
-  RefineOptions options = OptionsOf("refine", config_yaml, config_path, k);
+  RefineOptions options = OptionsOf("refine", config, k);
   options.run_registration = !k.no_icp;
   options.threads = k.threads;
   const RigCapture capture = CaptureOf(cameras);
@@ -351,12 +347,11 @@ py::dict RunRefine(const py::dict& cameras, const py::dict& extrinsics,
 
 /// `rigfit compare` on arrays: the three runs (report/compare.h), their JSON document (as
 /// `--json` writes it, sources null) and the text the CLI prints. gt: serial -> (4, 4) or None.
-py::dict RunCompare(const py::dict& cameras, const py::dict& extrinsics,
-                    const std::string& config_yaml, const std::string& config_path,
+py::dict RunCompare(const py::dict& cameras, const py::dict& extrinsics, const ConfigText& config,
                     const py::object& gt, const py::dict& keywords, const py::object& logger) {
   const CompareKeywords k = CompareTable().Apply(keywords);
   CheckThreads("compare", k.threads);
-  RefineOptions options = OptionsOf("compare", config_yaml, config_path, {});
+  RefineOptions options = OptionsOf("compare", config, {});
   options.threads = k.threads;
   const RigCapture capture = CaptureOf(cameras);
   const PoseMap initial = PosesOf(extrinsics, "extrinsics");
@@ -370,7 +365,7 @@ py::dict RunCompare(const py::dict& cameras, const py::dict& extrinsics,
     truth_poses = PosesOf(py::reinterpret_borrow<py::dict>(gt), "gt");
   }
   const PoseMap* truth = gt.is_none() ? nullptr : &truth_poses;
-  const CompareSources sources = {"", "", "", config_path};
+  const CompareSources sources = {"", "", "", config.second};
   CheckCompareInput(capture, truth, {"cameras", "extrinsics", "gt", ""});
   std::vector<std::string> warnings = CaptureWarnings(capture, "cameras");
   const Log log = PythonLog(logger);
@@ -537,10 +532,10 @@ PYBIND11_MODULE(_rigfit, m) {
   defaults["write_capture"] = WriteCaptureTable().Defaults();
   defaults["simulate"] = SimulateTable().Defaults();
   m.attr("keyword_defaults") = defaults;
-  m.def("refine", &RunRefine, py::arg("cameras"), py::arg("extrinsics"), py::arg("config_yaml"),
-        py::arg("config_path"), py::arg("keywords"), py::arg("logger"));
-  m.def("compare", &RunCompare, py::arg("cameras"), py::arg("extrinsics"), py::arg("config_yaml"),
-        py::arg("config_path"), py::arg("gt"), py::arg("keywords"), py::arg("logger"));
+  m.def("refine", &RunRefine, py::arg("cameras"), py::arg("extrinsics"), py::arg("config"),
+        py::arg("keywords"), py::arg("logger"));
+  m.def("compare", &RunCompare, py::arg("cameras"), py::arg("extrinsics"), py::arg("config"),
+        py::arg("gt"), py::arg("keywords"), py::arg("logger"));
   m.def("evaluate", &Evaluate, py::arg("estimated"), py::arg("ground_truth"));
   m.def("read_capture", &PyReadCapture, py::arg("path"), py::arg("logger"));
   m.def("write_capture", &PyWriteCapture, py::arg("path"), py::arg("cameras"), py::arg("keywords"));

@@ -115,15 +115,22 @@ std::vector<double*> FreeBlocks(std::vector<PoseBlock>& blocks, const std::vecto
   return out;
 }
 
-/// SharedNoiseCovariance of the free cameras (in camera order, 6 each) over `terms`, with
+/// What FreePoseCovariance takes the covariance over: the cameras' pose blocks and their views,
+/// which cameras are free, and the terms between the views.
+struct FreeTerms {
+  std::vector<PoseBlock>& blocks;          ///< every camera's pose block
+  const std::vector<CameraView>& views;    ///< every camera's view, at its block
+  const std::vector<bool>& free;           ///< whether the camera's pose is free
+  const std::vector<MatchedViews>& terms;  ///< the correspondences between the views
+};
+
+/// SharedNoiseCovariance of the free cameras (in camera order, 6 each) over `in.terms`, with
 /// the free cameras' gravity priors as the independent prior information.
 Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& cameras,
-                                   std::vector<PoseBlock>& blocks,
-                                   const std::vector<CameraView>& views,
-                                   const std::vector<bool>& free,
-                                   const std::vector<MatchedViews>& terms,
-                                   const IcpOptions& options, int num_threads,
+                                   const FreeTerms& in, const IcpOptions& options, int num_threads,
                                    ClusterSandwiches* sandwiches = nullptr) {
+  std::vector<PoseBlock>& blocks = in.blocks;
+  const std::vector<bool>& free = in.free;
   std::vector<int> column(cameras.size(), -1);
   int count = 0;
   for (size_t i = 0; i < cameras.size(); ++i) {
@@ -140,7 +147,8 @@ Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& camera
                                     ? Eigen::MatrixXd::Zero(6 * count, 6 * count)
                                     : Information(problem.get(), FreeBlocks(blocks, free), priors,
                                                   /*scale_by_residuals=*/false);
-  return SharedNoiseCovariance(views, column, terms, options, prior, num_threads, sandwiches);
+  return SharedNoiseCovariance({in.views, column, in.terms}, options, prior, num_threads,
+                               sandwiches);
 }
 
 /// RegisterJoint's problem through its outer iterations: the cameras' pose blocks, the views
@@ -415,7 +423,7 @@ class JointProblem {
     // Each camera's 1-sigma is raised by the design effect its terms' residuals show.
     ClusterSandwiches sandwiches;
     const Eigen::MatrixXd covariance = FreePoseCovariance(
-        cameras_, blocks_, views_, free, LinkedTerms(), options_, num_threads_, &sandwiches);
+        cameras_, {blocks_, views_, free, LinkedTerms()}, options_, num_threads_, &sandwiches);
     result_.covariance_ok = covariance.size() > 0;
     int k = 0;  // the free cameras, in camera order
     for (size_t i = 0; i < n_ && result_.covariance_ok; ++i) {
@@ -576,7 +584,8 @@ Eigen::MatrixXd JointSharedNoiseCovariance(const std::vector<RegistrationCamera>
                                            const IcpOptions& options, int num_threads) {
   std::optional<FinestTerms> f = FindFinestTerms(cameras, pairs, reference, options, num_threads);
   if (!f) return {};
-  return FreePoseCovariance(cameras, f->blocks, f->views, f->free, f->terms, options, num_threads);
+  return FreePoseCovariance(cameras, {f->blocks, f->views, f->free, f->terms}, options,
+                            num_threads);
 }
 
 }  // namespace rigfit

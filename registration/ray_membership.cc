@@ -228,8 +228,17 @@ struct RayHit {
   std::vector<std::pair<double, int>> near;
 };
 
-void NearestPlane(const RayContext& ctx, int c, int i, const Vec3& ray, const CellsPerPlane& own,
-                  const CellsPerPlane& ring, const CellsPerPlane& zone, RayHit* hit) {
+/// Where a camera looks for each plane along its pixels' rays.
+struct CameraCells {
+  const CellsPerPlane& own;   ///< the camera's extent of each plane (OwnCells)
+  const CellsPerPlane& ring;  ///< its ring around that extent (RingCells)
+  const CellsPerPlane& zone;  ///< each plane's crease zone (of every camera's extents)
+};
+
+/// Into `hit`: the nearest plane along pixel i's ray (camera c) met in the camera's own cells or
+/// ring, and the crease zones met within reach.
+void NearestPlane(const RayContext& ctx, int c, int i, const Vec3& ray, const CameraCells& cells,
+                  RayHit* hit) {
   const Vec3& centre = ctx.poses[c].translation();
   hit->plane = -1;
   hit->z = std::numeric_limits<double>::infinity();
@@ -241,10 +250,10 @@ void NearestPlane(const RayContext& ctx, int c, int i, const Vec3& ray, const Ce
     const double z = RayPlaneDepth(centre, ray, ctx.planes[j].normal, ctx.planes[j].offset);
     if (!ctx.WithinReach(c, i, z, reach)) continue;
     const CellKey key = ctx.grids[j].Key(centre + z * ray);
-    if (zone[j].count(key)) hit->near.emplace_back(z, static_cast<int>(j));
+    if (cells.zone[j].count(key)) hit->near.emplace_back(z, static_cast<int>(j));
     if (z >= hit->z) continue;
-    const bool own_cell = own[j].count(key) > 0;
-    if (!own_cell && !ring[j].count(key)) continue;
+    const bool own_cell = cells.own[j].count(key) > 0;
+    if (!own_cell && !cells.ring[j].count(key)) continue;
     hit->z = z, hit->plane = static_cast<int>(j), hit->in_ring = !own_cell, hit->ring_key = key;
   }
 }
@@ -276,8 +285,7 @@ bool KeepHit(const RayContext& ctx, const PlaneSegmentationOptions& segmentation
 /// and the ring cells whose pixels as a whole lie on the plane.
 std::vector<std::vector<int>> CameraPixels(const RayContext& ctx,
                                            const PlaneSegmentationOptions& segmentation, int c,
-                                           const CellsPerPlane& own, const CellsPerPlane& ring,
-                                           const CellsPerPlane& zone) {
+                                           const CameraCells& cells) {
   const SurfaceCamera& camera = ctx.cameras[c];
   std::vector<std::vector<int>> pixels(ctx.planes.size());
   // The pixels in the ring, by (plane, cell), with their whitened depth residuals.
@@ -285,7 +293,7 @@ std::vector<std::vector<int>> CameraPixels(const RayContext& ctx,
   RayHit hit;
   for (int i = 0; i < static_cast<int>(camera.points.size()); ++i) {
     const Vec3 ray = ctx.Ray(c, i);
-    NearestPlane(ctx, c, i, ray, own, ring, zone, &hit);
+    NearestPlane(ctx, c, i, ray, cells, &hit);
     if (hit.plane < 0 || !KeepHit(ctx, segmentation, c, i, ray, hit)) continue;
     if (hit.in_ring) {
       ring_cells[{hit.plane, hit.ring_key}].Add(
@@ -350,7 +358,7 @@ std::vector<SurfaceTerm> MembershipByRays(const std::vector<SurfaceCamera>& came
       static_cast<int>(n), num_threads,
       [&](int c) {
         if (cameras[c].ray_model)
-          pixels[c] = CameraPixels(ctx, segmentation, c, own[c], ring[c], zone);
+          pixels[c] = CameraPixels(ctx, segmentation, c, {own[c], ring[c], zone});
       },
       /*min_per_thread=*/1);
 

@@ -68,16 +68,9 @@ Json NumberOrNull(bool measured, double value) { return measured ? Json(value) :
 
 /// A camera's surface-bundle depth model, as estimated and as judged observable.
 Json DepthModelMeta(const DepthModelEstimate& d) {
-  return {{"solved", d.solved},
-          {"observable", d.observable},
-          {"scale", d.scale},
-          {"offset", d.offset},
-          {"offset_px", d.offset_px},
-          {"scale_sigma", d.scale_sigma},
-          {"offset_sigma", d.offset_sigma},
-          {"scale_prior_sigma", d.scale_prior_sigma},
-          {"offset_prior_sigma", d.offset_prior_sigma},
-          {"pose_correlation", d.pose_correlation}};
+  Json meta = Json::object();
+  ForEachDepthModelField(d, [&](const char* name, auto value) { meta[name] = value; });
+  return meta;
 }
 
 Json IcpMeta(const RefineResult& result, const RefineOptions& options,

@@ -25,6 +25,22 @@ nlohmann::json RefineMetaJson(const RefineResult& result, const RefineOptions& o
                               const std::vector<std::string>& warnings,
                               const RefineMetaFlags& flags = {});
 
+/// Calls f(name, value) for every field of a camera's surface-bundle depth model, named as the
+/// `_meta` JSON and Python's rigfit.DepthModel name them, in the struct's order.
+template <typename F>
+void ForEachDepthModelField(const DepthModelEstimate& d, F&& f) {
+  f("solved", d.solved);
+  f("observable", d.observable);
+  f("scale", d.scale);
+  f("offset", d.offset);
+  f("offset_px", d.offset_px);
+  f("scale_sigma", d.scale_sigma);
+  f("offset_sigma", d.offset_sigma);
+  f("scale_prior_sigma", d.scale_prior_sigma);
+  f("offset_prior_sigma", d.offset_prior_sigma);
+  f("pose_correlation", d.pose_correlation);
+}
+
 /// Whether the solver reached a verdict on the camera's registration change (applied, or a
 /// reason not to), so that the change was measured.
 bool ChangeMeasured(const RefineResult& result, const CameraReport& camera);

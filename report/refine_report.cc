@@ -80,9 +80,10 @@ void CreateReportDirectory(const std::string& dir) {
 
 std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
                                            const RefineResult& result, const PoseMap& after,
-                                           const RefineOptions& options, int num_threads,
+                                           const RefineOptions& options,
                                            const std::string& summary) {
   CreateReportDirectory(dir);
+  const int num_threads = options.threads;
 
   const DiagnosticRig rig = PrepareDiagnostics(capture, result, options, num_threads);
   const double voxel_m = options.icp.scales.back() * options.icp.voxel_size;

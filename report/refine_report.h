@@ -36,11 +36,12 @@ void CreateReportDirectory(const std::string& dir);
 ///   `after`;
 /// - kReportIndexFile (report/html.h): one page showing `summary` (the text the command
 ///   printed; may be empty), a link to the 3-D view and the three pictures.
-/// `after` holds the poses written as the result (every camera of the capture). Returns
-/// the paths written, the page last. Throws InputError when a file cannot be written.
+/// `after` holds the poses written as the result (every camera of the capture); options.threads
+/// threads. Returns the paths written, the page last. Throws InputError when a file cannot be
+/// written.
 std::vector<std::string> WriteRefineReport(const std::string& dir, const RigCapture& capture,
                                            const RefineResult& result, const PoseMap& after,
-                                           const RefineOptions& options, int num_threads,
+                                           const RefineOptions& options,
                                            const std::string& summary = "");
 
 /// Writes the report of a comparison (`rigfit compare --report DIR`) into dir, created as

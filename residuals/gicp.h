@@ -123,20 +123,17 @@ class GicpCost final : public ceres::SizedCostFunction<3, kPoseAmbientSize, kPos
                               const Mat3& R_world_b, double epsilon_m2 = kGicpCovarianceEpsilon);
 
   /// The term of a correspondence: the weight is fixed from the rotations R_world_a,
-  /// R_world_b at correspondence time.
+  /// R_world_b at correspondence time (epsilon kGicpCovarianceEpsilon).
   static GicpTerm MakeTerm(const Vec3& point_a, const Vec3& point_b, const Mat3& cov_a,
-                           const Mat3& cov_b, const Mat3& R_world_a, const Mat3& R_world_b,
-                           double epsilon_m2 = kGicpCovarianceEpsilon) {
-    return {point_a, point_b, SqrtInformation(cov_a, cov_b, R_world_a, R_world_b, epsilon_m2)};
+                           const Mat3& cov_b, const Mat3& R_world_a, const Mat3& R_world_b) {
+    return {point_a, point_b, SqrtInformation(cov_a, cov_b, R_world_a, R_world_b)};
   }
 
   /// The cost function of MakeTerm (the caller, usually ceres::Problem, owns it).
   static ceres::CostFunction* Create(const Vec3& point_a, const Vec3& point_b, const Mat3& cov_a,
                                      const Mat3& cov_b, const Mat3& R_world_a,
-                                     const Mat3& R_world_b,
-                                     double epsilon_m2 = kGicpCovarianceEpsilon) {
-    const GicpTerm term =
-        MakeTerm(point_a, point_b, cov_a, cov_b, R_world_a, R_world_b, epsilon_m2);
+                                     const Mat3& R_world_b) {
+    const GicpTerm term = MakeTerm(point_a, point_b, cov_a, cov_b, R_world_a, R_world_b);
     return new GicpCost(term.point_a, term.point_b, term.sqrt_information);
   }
 

@@ -4,13 +4,15 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/geometry.h"
+
 namespace rigfit {
 namespace {
 
-double Median(std::deque<double> values) {
-  const auto middle = values.begin() + values.size() / 2;
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
+/// The median of the recent values (the upper one of an even count).
+double Median(const std::deque<double>& values) {
+  std::vector<double> copy(values.begin(), values.end());
+  return Quantile(&copy, 0.5);
 }
 
 // "0.12 m and 3.4 deg".

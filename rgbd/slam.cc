@@ -127,8 +127,10 @@ void ClearLevel(int width, int height, const PinholeIntrinsics& intrinsics, Fram
 }  // namespace
 
 void RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
-                 const RenderOptions& options, int threads, ZBuffer* zbuffer, FrameLevel* level,
-                 MapView* view) {
+                 const RenderOptions& options, int threads, const RenderBuffers& out) {
+  ZBuffer* zbuffer = out.zbuffer;
+  FrameLevel* level = out.level;
+  MapView* view = out.view;
   const int width = viewpoint.width;
   const int height = viewpoint.height;
   ClearLevel(width, height, viewpoint.intrinsics, level);
@@ -183,7 +185,7 @@ FrameLevel RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
                        const RenderOptions& options, int threads) {
   FrameLevel level;
   ZBuffer zbuffer;
-  RenderModel(map, viewpoint, options, threads, &zbuffer, &level, nullptr);
+  RenderModel(map, viewpoint, options, threads, {&zbuffer, &level});
   return level;
 }
 
@@ -215,7 +217,7 @@ class ModelTarget : public TrackingTarget {
     const FrameLevel& base = pyramid.levels[0];
     model_.levels.resize(1);
     RenderModel(result_->map, {T_world_start, base.width, base.height, base.intrinsics, index},
-                options_.render, options_.threads, &zbuffer_, &model_.levels[0], &view_);
+                options_.render, options_.threads, {&zbuffer_, &model_.levels[0], &view_});
     BuildCoarserLevels(&model_, options_.frame.levels, options_.frame.max_depth_jump_ratio,
                        options_.threads);
     model_pixels_ = static_cast<int>(model_.levels[0].valid_pixels.size());

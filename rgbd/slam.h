@@ -58,12 +58,19 @@ struct ModelViewpoint {
 FrameLevel RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
                        const RenderOptions& options, int threads = 2);
 
-/// As above, into *level, whose buffers are reused, as are *zbuffer's (what a sequence
-/// renders every frame without allocating); with a `view`, also collects the map points near
-/// the view (MapView, rgbd/surfel_map.h) for the fusion of the same frame.
+/// Where RenderModel renders into: buffers a sequence reuses every frame.
+struct RenderBuffers {
+  ZBuffer* zbuffer = nullptr;   ///< the z-buffer (its buffers reused)
+  FrameLevel* level = nullptr;  ///< the rendered level (its buffers reused)
+  /// Optional: also collects the map points near the view (MapView, rgbd/surfel_map.h) for the
+  /// fusion of the same frame.
+  MapView* view = nullptr;
+};
+
+/// As above, into *out.level, whose buffers are reused, as are *out.zbuffer's (what a sequence
+/// renders every frame without allocating); with out.view, also the map points near the view.
 void RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
-                 const RenderOptions& options, int threads, ZBuffer* zbuffer, FrameLevel* level,
-                 MapView* view = nullptr);
+                 const RenderOptions& options, int threads, const RenderBuffers& out);
 
 /// SLAM's settings: the shared loop's (rgbd/tracking_loop.h; a restart drops the map and starts
 /// a new one from the current frame), fusion, rendering, colour and resolution.

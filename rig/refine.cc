@@ -390,31 +390,41 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const RegistrationInputs& in
   return joint.poses;
 }
 
-/// Refine's first step, ground leveling: each camera's registration points (`points`) and
-/// leveled pose (returned, the initial one where leveling is off or fails); fills each camera's
-/// serial, reference flag, point count and ground result, result->leveled and the leveling
-/// time, and warns of each camera not leveled.
-std::vector<Pose> LevelCameras(const RigCapture& capture, const PoseMap& initial,
-                               const RefineOptions& options, int reference, int num_threads,
-                               const Log& log, std::vector<PointCloud>* points,
-                               RefineResult* result) {
+/// The rig after ground leveling, what the later stages of Refine start from (capture order).
+struct LeveledRig {
+  std::vector<PointCloud> points;   ///< each camera's registration points (camera frame)
+  std::vector<Pose> leveled;        ///< each camera's leveled pose (initial where not leveled)
+  std::vector<bool> floor_leveled;  ///< whether its floor leveled it (ground accepted)
+  std::vector<double> depth_noise;  ///< its depth noise k (CameraDepthNoise)
+};
+
+/// Refine's first step, ground leveling: each camera's registration points and leveled pose
+/// (the initial one where leveling is off or fails), whether its floor leveled it and its depth
+/// noise; fills each camera's serial, reference flag, point count and ground result,
+/// result->leveled and the leveling time, and warns of each camera not leveled.
+LeveledRig LevelCameras(const RigCapture& capture, const PoseMap& initial,
+                        const RefineOptions& options, int reference, const Log& log,
+                        RefineResult* result) {
   const auto start = std::chrono::steady_clock::now();
   const size_t n = capture.cameras.size();
-  points->assign(n, PointCloud{});
-  std::vector<Pose> leveled(n);
+  LeveledRig rig;
+  std::vector<PointCloud>& points = rig.points;
+  std::vector<Pose>& leveled = rig.leveled;
+  points.assign(n, PointCloud{});
+  leveled.resize(n);
   result->cameras.resize(n);
   for (size_t i = 0; i < n; ++i) leveled[i] = initial.at(capture.cameras[i].serial);
   // The cameras in parallel (each RANSAC has its own seeded generator), then the log in
   // camera order.
   ParallelFor(
-      static_cast<int>(n), num_threads,
+      static_cast<int>(n), options.threads,
       [&](int i) {
         const CameraCapture& camera = capture.cameras[i];
         CameraReport& report = result->cameras[i];
-        (*points)[i] = RegistrationPoints(camera, options.region);
-        report.points = static_cast<int>((*points)[i].size());
+        points[i] = RegistrationPoints(camera, options.region);
+        report.points = static_cast<int>(points[i].size());
         if (options.ground.enabled) {
-          report.ground = LevelCamera((*points)[i], leveled[i], options.ground);
+          report.ground = LevelCamera(points[i], leveled[i], options.ground);
           leveled[i] = report.ground.T_world_camera;
         }
       },
@@ -436,20 +446,20 @@ std::vector<Pose> LevelCameras(const RigCapture& capture, const PoseMap& initial
       }
     }
     result->leveled[camera.serial] = leveled[i];
+    rig.floor_leveled.push_back(report.ground.accepted);
+    rig.depth_noise.push_back(CameraDepthNoise(options.icp, camera, report.ground));
   }
   result->times.leveling_s = SecondsSince(start);
-  return leveled;
+  return rig;
 }
 
 /// Refine's second step: the near-floor band, the voxel pyramids and the candidate pairs
 /// (PrepareRegistration), logged; fills each camera's band point count and the time.
-PreparedRig Preprocess(const RigCapture& capture, const std::vector<PointCloud>& points,
-                       const std::vector<Pose>& leveled, const std::vector<bool>& floor_leveled,
-                       const std::vector<double>& depth_noise, const RefineOptions& options,
-                       int num_threads, const Log& log, RefineResult* result) {
+PreparedRig Preprocess(const RigCapture& capture, const LeveledRig& rig,
+                       const RefineOptions& options, const Log& log, RefineResult* result) {
   const auto start = std::chrono::steady_clock::now();
-  PreparedRig prepared =
-      PrepareRegistration(points, leveled, floor_leveled, depth_noise, options, num_threads);
+  PreparedRig prepared = PrepareRegistration(rig.points, rig.leveled, rig.floor_leveled,
+                                             rig.depth_noise, options, options.threads);
   for (size_t i = 0; i < capture.cameras.size(); ++i) {
     result->cameras[i].band_points = prepared.band_points[i];
     log.Info("camera " + capture.cameras[i].serial + ": " +
@@ -464,10 +474,7 @@ PreparedRig Preprocess(const RigCapture& capture, const std::vector<PointCloud>&
 
 /// The surface bundle's cameras: every valid pixel of the band once (pixel stride 1), at
 /// the leveled poses.
-std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture,
-                                          const std::vector<Pose>& leveled,
-                                          const std::vector<bool>& floor_leveled,
-                                          const std::vector<double>& depth_noise,
+std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture, const LeveledRig& rig,
                                           const RegionOptions& region, int num_threads) {
   const size_t n = capture.cameras.size();
   std::vector<SurfaceCamera> surfaces(n);
@@ -482,13 +489,13 @@ std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture,
       [&](int i) {
         const CameraCapture& camera = capture.cameras[i];
         surfaces[i].points =
-            NearFloorBand(RegistrationPoints(camera, every_pixel), leveled[i], band);
-        surfaces[i].T_world_leveled = leveled[i];
-        surfaces[i].depth_noise = depth_noise[i];
+            NearFloorBand(RegistrationPoints(camera, every_pixel), rig.leveled[i], band);
+        surfaces[i].T_world_leveled = rig.leveled[i];
+        surfaces[i].depth_noise = rig.depth_noise[i];
         surfaces[i].ray_model = camera.HasDepth();
         if (camera.HasDepth()) surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
         surfaces[i].baseline_m = camera.baseline_m;
-        surfaces[i].floor_leveled = floor_leveled[i];
+        surfaces[i].floor_leveled = rig.floor_leveled[i];
         if (band.band_height > 0.0) {
           surfaces[i].band_bottom = -band.band_below;
           surfaces[i].band_top = region.band_height;
@@ -503,14 +510,13 @@ std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture,
 /// logged with where it comes from.
 std::vector<RegistrationCamera> RegistrationCameras(const RigCapture& capture,
                                                     const std::vector<CloudPyramid>& pyramids,
-                                                    const std::vector<Pose>& leveled,
-                                                    const std::vector<double>& depth_noise,
+                                                    const LeveledRig& rig,
                                                     const IcpOptions& options, const Log& log,
                                                     const RefineResult& result) {
   std::vector<RegistrationCamera> cameras(capture.cameras.size());
   for (size_t i = 0; i < cameras.size(); ++i) {
     const GroundResult& ground = result.cameras[i].ground;
-    cameras[i] = {&pyramids[i], leveled[i], depth_noise[i]};
+    cameras[i] = {&pyramids[i], rig.leveled[i], rig.depth_noise[i]};
     log.Info("camera " + capture.cameras[i].serial +
              ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
              (!capture.cameras[i].HasDepth() ? " (points camera: noise floor only)"
@@ -741,9 +747,8 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
                                                             : options.icp.reference;
   const int reference = ReferenceIndex(capture, result.reference);
 
-  std::vector<PointCloud> points;
-  const std::vector<Pose> leveled =
-      LevelCameras(capture, initial, options, reference, num_threads, log, &points, &result);
+  const LeveledRig rig = LevelCameras(capture, initial, options, reference, log, &result);
+  const std::vector<Pose>& leveled = rig.leveled;
   result.refined = result.leveled;
   if (!options.run_registration) {
     result.success = true;
@@ -759,20 +764,12 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   result.icp_ran = true;
   result.mode = options.icp.mode;
   result.method = options.icp.method;
-  std::vector<bool> floor_leveled(n);
-  std::vector<double> depth_noise(n);
-  for (size_t i = 0; i < n; ++i) {
-    floor_leveled[i] = result.cameras[i].ground.accepted;
-    depth_noise[i] = CameraDepthNoise(options.icp, capture.cameras[i], result.cameras[i].ground);
-  }
-  const PreparedRig prepared = Preprocess(capture, points, leveled, floor_leveled, depth_noise,
-                                          options, num_threads, log, &result);
+  const PreparedRig prepared = Preprocess(capture, rig, options, log, &result);
   const std::vector<SurfaceCamera> surfaces =
-      options.icp.surface_bundle ? SurfaceCameras(capture, leveled, floor_leveled, depth_noise,
-                                                  options.region, num_threads)
+      options.icp.surface_bundle ? SurfaceCameras(capture, rig, options.region, num_threads)
                                  : std::vector<SurfaceCamera>{};
-  const std::vector<RegistrationCamera> cameras = RegistrationCameras(
-      capture, prepared.pyramids, leveled, depth_noise, options.icp, log, result);
+  const std::vector<RegistrationCamera> cameras =
+      RegistrationCameras(capture, prepared.pyramids, rig, options.icp, log, result);
   const RegistrationInputs inputs{cameras,  prepared.candidates, leveled, reference, options.icp,
                                   surfaces, num_threads,         log};
   const std::optional<std::vector<Pose>> registered = options.icp.mode == RefineMode::kJoint

@@ -100,9 +100,11 @@ double KinectNoiseSigma(const KinectNoiseOptions& options, double z_m) {
   return 0.01 * std::sqrt(disparity_cm * disparity_cm + 1.0 / 12);
 }
 
-std::vector<float> KinectNoise(const std::vector<float>& depth_m, int width, int height,
-                               const KinectNoiseOptions& options, double pixel_scale,
-                               double max_depth_m, SimRng& rng) {
+std::vector<float> KinectNoise(const RgbdFrame& frame, const KinectNoiseOptions& options,
+                               double pixel_scale, double max_depth_m, SimRng& rng) {
+  const std::vector<float>& depth_m = frame.depth_m;
+  const int width = frame.width;
+  const int height = frame.height;
   const double shift_sigma = options.shift_sigma_px * pixel_scale;
   const double C = options.disparity_constant;
   const auto at = [&](int u, int v) { return depth_m[static_cast<size_t>(v) * width + u]; };
@@ -308,8 +310,8 @@ RgbdFrame SimulatedSequence::Frame(int index) const {
                               options_.max_depth_m, options_.color ? &frame.color : nullptr);
   if (options_.noise == SequenceNoise::kKinect) {
     SimRng rng(options_.seed, kFrameStream + static_cast<std::uint64_t>(index));
-    frame.depth_m = KinectNoise(frame.depth_m, options_.width, options_.height, options_.kinect,
-                                options_.width / 640.0, options_.max_depth_m, rng);
+    frame.depth_m =
+        KinectNoise(frame, options_.kinect, options_.width / 640.0, options_.max_depth_m, rng);
   }
   return frame;
 }

@@ -45,14 +45,13 @@ struct KinectNoiseOptions {
 /// the pixel shift.
 double KinectNoiseSigma(const KinectNoiseOptions& options, double z_m);
 
-/// The Kinect noise of KinectNoiseOptions applied to a depth image (metres, row-major
-/// [height, width], NaN invalid): a new image, NaN where the input is (and where a shifted
+/// The Kinect noise of KinectNoiseOptions applied to a frame's depth image (frame.depth_m,
+/// frame.width x frame.height): a new image, NaN where the input is (and where a shifted
 /// pixel's nearest neighbour is), where the noisy depth is not positive, and beyond
 /// max_depth_m. pixel_scale multiplies shift_sigma_px (width / 640). Each pixel draws its
 /// shift (2 variates) then its disparity noise (1), in row-major order.
-std::vector<float> KinectNoise(const std::vector<float>& depth_m, int width, int height,
-                               const KinectNoiseOptions& options, double pixel_scale,
-                               double max_depth_m, SimRng& rng);
+std::vector<float> KinectNoise(const RgbdFrame& frame, const KinectNoiseOptions& options,
+                               double pixel_scale, double max_depth_m, SimRng& rng);
 
 /// The smooth path of a hand-held camera through the room, T_world_camera at time t (OpenCV
 /// camera axes). The centre walks a closed curve around the room centre, an ellipse at

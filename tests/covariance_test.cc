@@ -88,7 +88,7 @@ class SharedNoiseTest : public ::testing::Test {
 
   /// SharedNoiseCovariance of the source pose (the target held) over `terms`.
   Eigen::MatrixXd Shared(const std::vector<MatchedViews>& terms, const IcpOptions& options) {
-    return SharedNoiseCovariance(views_, {0, -1}, terms, options, Eigen::MatrixXd::Zero(6, 6), 2);
+    return SharedNoiseCovariance({views_, {0, -1}, terms}, options, Eigen::MatrixXd::Zero(6, 6), 2);
   }
 
   /// The inverse of the information of the same terms taken as independent.
@@ -317,7 +317,7 @@ TEST(SharedNoiseCovariance, EqualsItsDenseDefinitionWithTwoFreeCameras) {
       const Eigen::MatrixXd want = DenseSharedNoiseCovariance(rig, column, options, prior);
       for (const int threads : {1, 2}) {
         const Eigen::MatrixXd got =
-            SharedNoiseCovariance(rig.views, column, rig.terms, options, prior, threads);
+            SharedNoiseCovariance({rig.views, column, rig.terms}, options, prior, threads);
         ASSERT_EQ(got.rows(), 12);
         EXPECT_LT(RelativeDifference(got, want), 1e-5)
             << "method " << static_cast<int>(method) << ", columns " << column[0] << " "
@@ -332,7 +332,7 @@ TEST(SharedNoiseCovariance, AFreeCameraInNoTermHasNoCovariance) {
   // Nothing constrains camera 2: no covariance at all, rather than a 1-sigma of 0.
   ThreeViews rig;
   rig.terms.resize(1);  // 0 -> 1 only
-  EXPECT_EQ(SharedNoiseCovariance(rig.views, {-1, 0, 6}, rig.terms, IcpOptions(),
+  EXPECT_EQ(SharedNoiseCovariance({rig.views, {-1, 0, 6}, rig.terms}, IcpOptions(),
                                   Eigen::MatrixXd::Zero(12, 12), 1)
                 .size(),
             0);
@@ -701,8 +701,8 @@ class CorrelatedCorner {
     const std::vector<MatchedViews> terms = {{&views_[0], &views_[1], &matches_}};
     ClusterSandwiches sandwiches;
     sandwiches.cell_m = kCellM;
-    draw.model = SharedNoiseCovariance(views_, {0, -1}, terms, options, Eigen::MatrixXd::Zero(6, 6),
-                                       1, &sandwiches);
+    draw.model = SharedNoiseCovariance({views_, {0, -1}, terms}, options,
+                                       Eigen::MatrixXd::Zero(6, 6), 1, &sandwiches);
     draw.inflated = Inflated(draw.model, InflationOf(sandwiches, 0));
     return draw;
   }

@@ -35,9 +35,9 @@ TEST(CramerRaoBound, ScalesWithTheNoiseAndMatchesItsCovariance) {
   options.icp.gravity_weight = 0.0;
   options.ground.enabled = false;  // floor normals are snapped within a noise-sized band
   const CramerRaoBound k =
-      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.002, 1e-7, 500, 1, 2);
+      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.002, 1e-7, {500, 1, 2});
   const CramerRaoBound k2 =
-      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.004, 1e-7, 500, 1, 2);
+      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.004, 1e-7, {500, 1, 2});
   ASSERT_TRUE(k.ok) << k.message;
   ASSERT_TRUE(k2.ok) << k2.message;
   ASSERT_EQ(k.serials.size(), 2u);
@@ -66,7 +66,7 @@ TEST(CramerRaoBound, SampledErrorsAreTheCovariancesErrors) {
   options.ground.enabled = false;
   constexpr int kSamples = 2000;
   const CramerRaoBound k =
-      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.002, 1e-7, kSamples, 3, 2);
+      ComputeCramerRaoBound(rig.capture, rig.gt, options, 0.002, 1e-7, {kSamples, 3, 2});
   ASSERT_TRUE(k.ok) << k.message;
   ASSERT_EQ(k.serials.size(), 1u);
   // A mean square of 2000 samples of a 3-dof quadratic form is within ~3% (1 sigma, less
@@ -83,7 +83,7 @@ TEST(CramerRaoBound, CamerasThatShareNothingHaveNoBound) {
   // Move the second camera's data 100 m away: nothing overlaps at the true poses.
   rig.gt[rig.capture.cameras[1].serial].translation() += Vec3(100.0, 0.0, 0.0);
   const CramerRaoBound b =
-      ComputeCramerRaoBound(rig.capture, rig.gt, {}, 0.002, kCramerRaoNoiseFloorM, 10, 1, 2);
+      ComputeCramerRaoBound(rig.capture, rig.gt, {}, 0.002, kCramerRaoNoiseFloorM, {10, 1, 2});
   EXPECT_FALSE(b.ok);
   EXPECT_FALSE(b.message.empty());
 }
@@ -221,7 +221,7 @@ TEST(SurfaceCramerRaoBound, PoseBlockOfTheSchurComplementEqualsTheDenseInverse) 
   const SmallSurfaceProblem problem(64, 36);
   const CramerRaoBound bound =
       ComputeSurfaceCramerRaoBound(problem.cameras, problem.faces, problem.rig.gt,
-                                   problem.cameras.front().serial, problem.kNoise, 10, 1);
+                                   problem.cameras.front().serial, {problem.kNoise}, {10, 1});
   ASSERT_TRUE(bound.ok) << bound.message;
   const Eigen::MatrixXd dense = problem.DenseCovariance(
       [](const Eigen::Vector2i& a, const Eigen::Vector2i& b) { return a == b ? 1.0 : 0.0; });
@@ -241,9 +241,9 @@ TEST(SurfaceCramerRaoBound, CorrelatedNoiseEqualsTheDenseGeneralisedLeastSquares
   const auto rho_at = [&](int d) {
     return std::abs(d) < static_cast<int>(rho.size()) ? rho[std::abs(d)] : 0.0;
   };
-  const CramerRaoBound bound =
-      ComputeSurfaceCramerRaoBound(problem.cameras, problem.faces, problem.rig.gt,
-                                   problem.cameras.front().serial, problem.kNoise, 10, 1, noise, 2);
+  const CramerRaoBound bound = ComputeSurfaceCramerRaoBound(
+      problem.cameras, problem.faces, problem.rig.gt, problem.cameras.front().serial,
+      {problem.kNoise, noise}, {10, 1, 2});
   ASSERT_TRUE(bound.ok) << bound.message;
   const Eigen::MatrixXd dense =
       problem.DenseCovariance([&](const Eigen::Vector2i& a, const Eigen::Vector2i& b) {
@@ -258,15 +258,15 @@ TEST(SurfaceCramerRaoBound, CorrelatedNoiseEqualsTheDenseGeneralisedLeastSquares
   // A vanishing share is white noise: the per-(camera, face) clusters' bound.
   const CramerRaoBound white =
       ComputeSurfaceCramerRaoBound(problem.cameras, problem.faces, problem.rig.gt,
-                                   problem.cameras.front().serial, problem.kNoise, 10, 1);
+                                   problem.cameras.front().serial, {problem.kNoise}, {10, 1});
   const CramerRaoBound nearly_white = ComputeSurfaceCramerRaoBound(
       problem.cameras, problem.faces, problem.rig.gt, problem.cameras.front().serial,
-      problem.kNoise, 10, 1, {noise.corr_px, 1e-9}, 2);
+      {problem.kNoise, {noise.corr_px, 1e-9}}, {10, 1, 2});
   ASSERT_TRUE(white.ok && nearly_white.ok);
   // All of the noise correlated leaves no white share to invert: no bound, said so.
   const CramerRaoBound smooth = ComputeSurfaceCramerRaoBound(
       problem.cameras, problem.faces, problem.rig.gt, problem.cameras.front().serial,
-      problem.kNoise, 10, 1, {noise.corr_px, 1.0}, 2);
+      {problem.kNoise, {noise.corr_px, 1.0}}, {10, 1, 2});
   EXPECT_FALSE(smooth.ok);
   EXPECT_THAT(smooth.message, ::testing::HasSubstr("white share"));
   EXPECT_LT((nearly_white.covariance - white.covariance).cwiseAbs().maxCoeff(),

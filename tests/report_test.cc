@@ -187,7 +187,7 @@ TEST_F(ReportTest, RefineReportShowsEveryCamera) {
   const RefineResult leveling = Refine(rig.capture, rig.init, leveling_only);
   const fs::path report = dir_ / "report";  // created by the report
   const std::vector<std::string> files = WriteRefineReport(
-      report.string(), rig.capture, leveling, rig.gt, RefineOptions{}, 2, "camera 0 & <1>\n");
+      report.string(), rig.capture, leveling, rig.gt, RefineOptions{}, "camera 0 & <1>\n");
   // Three pictures, the 3-D view (three.js, OrbitControls, its data, the whole views, its
   // page), the page.
   ASSERT_EQ(files.size(), 9u);

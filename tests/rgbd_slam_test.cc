@@ -172,8 +172,8 @@ TEST(RgbdRender, FusingThroughTheRenderedViewEqualsFusingThroughTheWholeMap) {
     FrameLevel model;
     MapView view;
     view.margin_px = 6;
-    RenderModel(with_view, {predicted, 160, 120, level.intrinsics, k}, {}, 2, &zbuffer, &model,
-                &view);
+    RenderModel(with_view, {predicted, 160, 120, level.intrinsics, k}, {}, 2,
+                {&zbuffer, &model, &view});
     const bool covers =
         view.Covers(level, poses[k], with_view.size(), FusionOptions{}.max_distance_m);
     const FusionStats a = with_view.FuseFrame(level, poses[k], k, {}, {}, 2, &view);
@@ -192,8 +192,8 @@ TEST(RgbdRender, FusingThroughTheRenderedViewEqualsFusingThroughTheWholeMap) {
   MapView view;
   ZBuffer zbuffer;
   FrameLevel model;
-  RenderModel(whole, {poses[6], 160, 120, Intrinsics(160, 120), 12}, {}, 2, &zbuffer, &model,
-              &view);
+  RenderModel(whole, {poses[6], 160, 120, Intrinsics(160, 120), 12}, {}, 2,
+              {&zbuffer, &model, &view});
   const FrameLevel level =
       BuildFramePyramid(Render(scene, poses[6], 160, 120), FrameOptions{}).levels[0];
   EXPECT_TRUE(view.Covers(level, poses[6], whole.size(), 0.05));

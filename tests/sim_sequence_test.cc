@@ -166,6 +166,15 @@ std::vector<float> SlantedWall(int width, int height, double near_m, double far_
   return depth;
 }
 
+/// A frame holding the depth image depth_m (width x height), what KinectNoise noises.
+RgbdFrame DepthFrame(const std::vector<float>& depth_m, int width, int height) {
+  RgbdFrame frame;
+  frame.width = width;
+  frame.height = height;
+  frame.depth_m = depth_m;
+  return frame;
+}
+
 struct Moments {
   double mean = 0.0;
   double std = 0.0;
@@ -200,7 +209,8 @@ TEST(SimSequence, KinectNoiseHasTheModelsMeanAndSigma) {
   KinectNoiseOptions options;
   options.shift_sigma_px = 0.0;
   SimRng rng(11, 0);
-  const std::vector<float> noisy = KinectNoise(wall, kWidth, kHeight, options, 1.0, 10.0, rng);
+  const std::vector<float> noisy =
+      KinectNoise(DepthFrame(wall, kWidth, kHeight), options, 1.0, 10.0, rng);
   const Moments m =
       NormalisedError(wall, noisy, [&](double z) { return KinectNoiseSigma(options, z); });
   EXPECT_EQ(m.count, kWidth * kHeight);
@@ -214,7 +224,7 @@ TEST(SimSequence, KinectNoiseHasTheModelsMeanAndSigma) {
   options.disparity_offset = 0.5;
   SimRng rng_biased(11, 0);
   const std::vector<float> biased =
-      KinectNoise(wall, kWidth, kHeight, options, 1.0, 10.0, rng_biased);
+      KinectNoise(DepthFrame(wall, kWidth, kHeight), options, 1.0, 10.0, rng_biased);
   const Moments b = NormalisedError(wall, biased, [&](double z) {
     return -0.01 * (100.0 * z) * (100.0 * z) / (2.0 * options.disparity_constant);
   });
@@ -231,7 +241,8 @@ TEST(SimSequence, KinectNoiseQuantisesTheDisparityToAnEighthPixel) {
   const std::vector<float> wall(kWidth * kHeight, 2.0f);
   const KinectNoiseOptions options;
   SimRng rng(5, 0);
-  const std::vector<float> noisy = KinectNoise(wall, kWidth, kHeight, options, 1.0, 10.0, rng);
+  const std::vector<float> noisy =
+      KinectNoise(DepthFrame(wall, kWidth, kHeight), options, 1.0, 10.0, rng);
   const double C = options.disparity_constant;
   int at_176 = 0;
   for (float z : noisy) {
@@ -256,7 +267,8 @@ TEST(SimSequence, KinectNoiseShiftKeepsInvalidPixelsAndBlursEdges) {
   KinectNoiseOptions options;
   options.disparity_sigma = 0.0;
   SimRng rng(3, 0);
-  const std::vector<float> noisy = KinectNoise(depth, kWidth, kHeight, options, 1.0, 10.0, rng);
+  const std::vector<float> noisy =
+      KinectNoise(DepthFrame(depth, kWidth, kHeight), options, 1.0, 10.0, rng);
   int between = 0;
   for (int v = 0; v < kHeight; ++v) {
     for (int u = 0; u < kWidth; ++u) {

@@ -96,7 +96,7 @@ class RigView : public ::testing::Test {
     leveling_only.run_registration = false;
     const RefineResult leveling = Refine(rig.capture, rig.init, leveling_only);
     WriteRefineReport((dir_->path() / "report").string(), rig.capture, leveling, rig.gt,
-                      RefineOptions{}, 2, "summary\n");
+                      RefineOptions{}, "summary\n");
   }
   static void TearDownTestSuite() {
     delete dir_;
@@ -242,7 +242,7 @@ class SurfacePlanesView : public RigView {
     options.threads = 2;
     result_ = new RefineResult(Refine(rig.capture, rig.init, options));
     WriteRefineReport((dir_->path() / "report").string(), rig.capture, *result_, result_->refined,
-                      options, 2, "summary\n");
+                      options, "summary\n");
   }
   static void TearDownTestSuite() {
     RigView::TearDownTestSuite();

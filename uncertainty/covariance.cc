@@ -431,21 +431,20 @@ class SharedNoise {
   using Plus = Eigen::Matrix<double, 7, 6, Eigen::RowMajor>;
   using Score = Eigen::Matrix<double, 6, 3>;
 
-  SharedNoise(const std::vector<CameraView>& views, const std::vector<int>& column,
-              const std::vector<MatchedViews>& terms, const IcpOptions& options,
-              const MakeTerm& make_term, FloorShares floors, int free)
-      : views_(views),
-        column_(column),
-        terms_(terms),
+  SharedNoise(const ViewTerms& in, const IcpOptions& options, const MakeTerm& make_term,
+              FloorShares floors, int free)
+      : views_(in.views),
+        column_(in.column),
+        terms_(in.terms),
         options_(options),
         make_term_(make_term),
         floors_(floors),
         free_(free),
-        plus_(views.size()),
-        rotation_(views.size()) {
-    for (size_t v = 0; v < views.size(); ++v) {
-      SharedPoseManifold()->PlusJacobian(views[v].pose_block, plus_[v].data());
-      rotation_[v] = PoseFromParameters(views[v].pose_block).linear();
+        plus_(in.views.size()),
+        rotation_(in.views.size()) {
+    for (size_t v = 0; v < views_.size(); ++v) {
+      SharedPoseManifold()->PlusJacobian(views_[v].pose_block, plus_[v].data());
+      rotation_[v] = PoseFromParameters(views_[v].pose_block).linear();
     }
   }
 
@@ -591,20 +590,17 @@ Eigen::MatrixXd SharedNoiseOf(const SharedNoise<Term, MakeTerm>& shared, size_t 
 
 }  // namespace
 
-Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
-                                      const std::vector<int>& column,
-                                      const std::vector<MatchedViews>& terms,
-                                      const IcpOptions& options,
+Eigen::MatrixXd SharedNoiseCovariance(const ViewTerms& in, const IcpOptions& options,
                                       const Eigen::MatrixXd& prior_information, int num_threads,
                                       ClusterSandwiches* sandwiches) {
   if (sandwiches != nullptr) sandwiches->fine = sandwiches->coarse = Eigen::MatrixXd();
-  if (prior_information.rows() == 0 || terms.empty()) return {};
+  if (prior_information.rows() == 0 || in.terms.empty()) return {};
   const int free = static_cast<int>(prior_information.rows()) / 6;
   const auto run = [&](const auto& make_term, FloorShares floors, auto term_type) {
     using Term = typename decltype(term_type)::type;
-    const SharedNoise<Term, std::decay_t<decltype(make_term)>> shared(views, column, terms, options,
-                                                                      make_term, floors, free);
-    return SharedNoiseOf(shared, views.size(), prior_information, num_threads, sandwiches);
+    const SharedNoise<Term, std::decay_t<decltype(make_term)>> shared(in, options, make_term,
+                                                                      floors, free);
+    return SharedNoiseOf(shared, in.views.size(), prior_information, num_threads, sandwiches);
   };
   if (options.method == RegistrationMethod::kGicp) {
     return run([&](const CameraView& s, const CameraView& t,

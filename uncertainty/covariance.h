@@ -134,7 +134,14 @@ struct MatchedViews {
   const std::vector<Correspondence>* matches = nullptr;
 };
 
-/// Covariance of the poses that weighted least squares over the terms of `terms`
+/// The terms a shared-noise covariance is taken over, and the views they link.
+struct ViewTerms {
+  const std::vector<CameraView>& views;    ///< every view, at its pose block
+  const std::vector<int>& column;          ///< per view, its first column in C (-1: held fixed)
+  const std::vector<MatchedViews>& terms;  ///< the correspondences between the views
+};
+
+/// Covariance of the poses that weighted least squares over the terms of `in.terms`
 /// (CorrespondenceCost's terms of options.method and weights, loss not applied) estimates,
 /// when the noise is the one the weights model but belongs to the POINTS, not to the terms:
 /// each point p of a view has one error, of covariance k^2 z^2 p p^T (depth, along its ray)
@@ -149,7 +156,7 @@ struct MatchedViews {
 /// variance and P = prior_information (the gravity priors', independent of the points).
 /// For point-to-plane, whose weights are exactly that noise, C = H^-1 when every point is in
 /// one term; counting the same points twice leaves C unchanged where it halves H^-1 (both
-/// methods). `column[v]` is 6 times view v's index among the free views (its first tangent
+/// methods). `in.column[v]` is 6 times view v's index among the free views (its first tangent
 /// column of C), -1 for a view held fixed; C is prior_information's size. Empty when there
 /// are no terms or free views, or when H is singular (information below 1e-12 of the
 /// largest in some direction, e.g. a free view in no term). The views' points are
@@ -159,10 +166,7 @@ struct MatchedViews {
 /// residuals, the terms clustered by where their source point is in the world: `fine` in cubes
 /// of the source view's voxel (a point, its nearest neighbours in the other views and their
 /// terms back), `coarse` in cubes of sandwiches->cell_m; empty when the covariance is.
-Eigen::MatrixXd SharedNoiseCovariance(const std::vector<CameraView>& views,
-                                      const std::vector<int>& column,
-                                      const std::vector<MatchedViews>& terms,
-                                      const IcpOptions& options,
+Eigen::MatrixXd SharedNoiseCovariance(const ViewTerms& in, const IcpOptions& options,
                                       const Eigen::MatrixXd& prior_information, int num_threads,
                                       ClusterSandwiches* sandwiches = nullptr);
 

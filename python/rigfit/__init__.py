@@ -258,8 +258,7 @@ def refine(cameras: Cameras, extrinsics: Extrinsics, *, config: Config = None,
 
     Raises ValueError on bad input (config, arrays, serials that do not match, keywords).
     """
-    yaml_text, path = _config_text(config)
-    raw = _rigfit.refine(dict(cameras), dict(extrinsics), yaml_text, path, options, logger)
+    raw = _rigfit.refine(dict(cameras), dict(extrinsics), _config_text(config), options, logger)
     return RefineResult(
         extrinsics=dict(raw["extrinsics"]), success=bool(raw["success"]),
         message=raw["message"], warnings=list(raw["warnings"]),
@@ -405,8 +404,7 @@ def compare(cameras: Cameras, extrinsics: Extrinsics, *, config: Config = None,
     Raises ValueError on bad input (as ``refine``; a single camera; a camera missing from
     ``gt``).
     """
-    yaml_text, path = _config_text(config)
-    raw = _rigfit.compare(dict(cameras), dict(extrinsics), yaml_text, path,
+    raw = _rigfit.compare(dict(cameras), dict(extrinsics), _config_text(config),
                           None if gt is None else dict(gt), options, logger)
     doc = json.loads(raw["json"])
     return CompareResult(
