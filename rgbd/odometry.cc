@@ -1,5 +1,6 @@
 #include "rgbd/odometry.h"
 
+#include <optional>
 #include <utility>
 
 namespace rigfit {
@@ -12,9 +13,9 @@ class KeyframeTarget : public TrackingTarget {
 
   std::pair<TrackResult, Pose> Track(const FramePyramid& pyramid, int /*index*/,
                                      const Pose& T_world_start) override {
-    TrackResult track =
-        TrackProjective(pyramid, reference_, T_world_reference_.inverse() * T_world_start,
-                        options_.icp, options_.threads);
+    TrackResult track = TrackProjective(pyramid, reference_, reference_plane_,
+                                        T_world_reference_.inverse() * T_world_start, options_.icp,
+                                        options_.threads);
     return {track, Reorthonormalized(T_world_reference_ * track.T_target_source)};
   }
 
@@ -33,6 +34,7 @@ class KeyframeTarget : public TrackingTarget {
     if (tracked.keyframe) {
       reference_ = std::move(pyramid);
       T_world_reference_ = step.T_world_camera;
+      reference_plane_ = LonePlaneNormal(reference_, options_.icp.lone_plane);
     }
     frames_.push_back(tracked);
   }
@@ -50,6 +52,7 @@ class KeyframeTarget : public TrackingTarget {
 
   const OdometryOptions& options_;
   FramePyramid reference_;
+  std::optional<Vec3> reference_plane_;  // its lone plane (LonePlaneNormal), checked once
   Pose T_world_reference_ = Pose::Identity();
   std::vector<OdometryFrame> frames_;
 };

@@ -293,6 +293,13 @@ Pose ApplyLeftUpdate(const Vec6& x, const Pose& T) {
 
 TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& target,
                             const Pose& T_init, const ProjectiveIcpOptions& options, int threads) {
+  return TrackProjective(source, target, LonePlaneNormal(target, options.lone_plane), T_init,
+                         options, threads);
+}
+
+TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& target,
+                            const std::optional<Vec3>& n_target, const Pose& T_init,
+                            const ProjectiveIcpOptions& options, int threads) {
   TrackResult result;
   const int levels = static_cast<int>(std::min(source.levels.size(), target.levels.size()));
   if (levels == 0 || options.iterations.empty()) {
@@ -312,7 +319,6 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   result.length_m = length_m;
 
   // A lone plane in the target (its axes) or the source (turned into them at each step).
-  const std::optional<Vec3> n_target = LonePlaneNormal(target, options.lone_plane);
   const std::optional<Vec3> n_source =
       n_target ? std::nullopt : LonePlaneNormal(source, options.lone_plane);
   result.lone_plane = n_target || n_source;

@@ -200,6 +200,13 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
                             const Pose& T_init, const ProjectiveIcpOptions& options,
                             int threads = 2);
 
+/// The same with the target's lone plane known: n_target is LonePlaneNormal(target,
+/// options.lone_plane), computed once for a target that many frames are tracked against (the
+/// odometry's keyframe).
+TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& target,
+                            const std::optional<Vec3>& n_target, const Pose& T_init,
+                            const ProjectiveIcpOptions& options, int threads = 2);
+
 /// Gauss-Newton on a FIXED set of pairs until converged (the closed-form path of the
 /// two-path comparison; docs/rgbd.md).
 Pose SolvePairsGaussNewton(const std::vector<ProjectiveCorrespondence>& pairs, const Pose& T_init,

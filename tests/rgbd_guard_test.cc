@@ -157,6 +157,13 @@ TEST(RgbdGuard, ALonePlaneHoldsItsFreeDirectionsAgainstTheNoise) {
   const Pose error = truth.inverse() * track.T_target_source;
   EXPECT_LT(error.translation().norm(), 0.3e-3);
   EXPECT_LT(LogSO3(error.linear()).norm() * kRadToDeg, 0.025);
+  // The target's lone plane checked once (the odometry's keyframe): the same track.
+  const TrackResult cached =
+      TrackProjective(source_pyramid, target_pyramid,
+                      LonePlaneNormal(target_pyramid, ProjectiveIcpOptions{}.lone_plane), truth,
+                      ProjectiveIcpOptions{});
+  EXPECT_LT((cached.T_target_source.matrix() - track.T_target_source.matrix()).norm(), 1e-12);
+  EXPECT_EQ(cached.lone_plane, track.lone_plane);
   // A view of the room is no lone plane.
   o.lone_plane.plane = LonePlane::kNone;
   const FramePyramid room = BuildFramePyramid(SimulatedSequence(o).Frame(0), FrameOptions{});
