@@ -333,24 +333,28 @@ struct Linearised {
   Eigen::Matrix<double, kRows, 3> D_source, D_target;
 };
 
-/// The term's linearisation at the views' pose blocks; plus_* are the blocks' PlusJacobians
-/// and R_* their rotations.
+/// A pose block's tangent at its value: the block's PlusJacobian and the pose's rotation.
+struct PoseTangent {
+  Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus;
+  Mat3 R;
+};
+
+/// The term's linearisation at the views' pose blocks, whose tangents are `source_tangent`
+/// and `target_tangent`.
 template <typename Term>
 Linearised<Term> Linearise(const Term& term, const CameraView& source, const CameraView& target,
-                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_source,
-                           const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>& plus_target,
-                           const Mat3& R_source, const Mat3& R_target) {
+                           const PoseTangent& source_tangent, const PoseTangent& target_tangent) {
   constexpr int kRows = Term::kNumResiduals;
   Eigen::Matrix<double, kRows, 7, Eigen::RowMajor> Ja, Jb;
   Linearised<Term> l;
   term.Evaluate(source.pose_block, target.pose_block, l.r.data(), Ja.data(), Jb.data());
-  l.J_source = Ja * plus_source;
-  l.J_target = Jb * plus_target;
+  l.J_source = Ja * source_tangent.plus;
+  l.J_target = Jb * target_tangent.plus;
   // r depends on p through T_source p and on q through T_target q only (both methods), so
   // its derivative with respect to a point is that with respect to the pose's translation
   // (the point in the world) times the pose's rotation.
-  l.D_source = Ja.template rightCols<3>() * R_source;
-  l.D_target = Jb.template rightCols<3>() * R_target;
+  l.D_source = Ja.template rightCols<3>() * source_tangent.R;
+  l.D_target = Jb.template rightCols<3>() * target_tangent.R;
   return l;
 }
 
@@ -428,7 +432,6 @@ struct FloorShares {
 template <typename Term, typename MakeTerm>
 class SharedNoise {
  public:
-  using Plus = Eigen::Matrix<double, 7, 6, Eigen::RowMajor>;
   using Score = Eigen::Matrix<double, 6, 3>;
 
   SharedNoise(const ViewTerms& in, const IcpOptions& options, const MakeTerm& make_term,
@@ -440,11 +443,10 @@ class SharedNoise {
         make_term_(make_term),
         floors_(floors),
         free_(free),
-        plus_(in.views.size()),
-        rotation_(in.views.size()) {
+        tangents_(in.views.size()) {
     for (size_t v = 0; v < views_.size(); ++v) {
-      SharedPoseManifold()->PlusJacobian(views_[v].pose_block, plus_[v].data());
-      rotation_[v] = PoseFromParameters(views_[v].pose_block).linear();
+      SharedPoseManifold()->PlusJacobian(views_[v].pose_block, tangents_[v].plus.data());
+      tangents_[v].R = PoseFromParameters(views_[v].pose_block).linear();
     }
   }
 
@@ -481,8 +483,7 @@ class SharedNoise {
     const double floor2 = options_.min_noise_m * options_.min_noise_m;
     for (const Correspondence& c : *m.matches) {
       const Term term = make_term_(*m.source, *m.target, c);
-      const Linearised<Term> l =
-          Linearise(term, *m.source, *m.target, plus_[s], plus_[t], rotation_[s], rotation_[t]);
+      const Linearised<Term> l = Linearise(term, *m.source, *m.target, tangents_[s], tangents_[t]);
       if (s == static_cast<size_t>(v)) {
         // Each term once, with its source's view.
         AddBlock(H, cs, cs, l.J_source, l.J_source);
@@ -545,8 +546,7 @@ class SharedNoise {
   const MakeTerm& make_term_;
   FloorShares floors_;
   int free_;
-  std::vector<Plus> plus_;
-  std::vector<Mat3> rotation_;
+  std::vector<PoseTangent> tangents_;
 };
 
 /// A term type as a value (for a generic lambda).
