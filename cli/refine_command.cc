@@ -187,7 +187,7 @@ std::string CameraTable(const RefineResult& result, const RefineOptions& options
                   {"leveling", 2, Align::kCentre},
                   {"registration", 2, Align::kCentre},
                   {"against the rig", 2, Align::kCentre},
-                  {"1-sigma (joint covariance)", 6, Align::kCentre},
+                  {"1-sigma", 6, Align::kCentre},
                   {"", 1}});
   table.AddRow({"camera", "deg", "mm", "deg", "mm", "deg", "mm", "yaw deg", "tilt deg", "x mm",
                 "y mm", "z mm", "inflated", "surfaces", "result"});

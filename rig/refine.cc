@@ -365,12 +365,12 @@ std::optional<std::vector<Pose>> RegisterAllJointly(const RegistrationInputs& in
   log.Info("joint: " + std::to_string(cameras.size()) + " cameras, " +
            std::to_string(candidates.size()) + " pairs");
   JointResult joint = RegisterJoint(cameras, candidates, reference, options, num_threads, log);
-  if (!surfaces.empty() && joint.usable) RefineSurfaces(in, &joint, result);
-  result->times.correspondences_s = joint.correspondences_s;
-  result->times.solve_s = joint.solve_s;
   log.Info("joint: " + std::to_string(joint.iterations) + " iterations, correspondences " +
            Fixed(joint.correspondences_s, 3) + " s, solve " + Fixed(joint.solve_s, 3) +
            " s, covariance " + Fixed(joint.covariance_s, 3) + " s");
+  if (!surfaces.empty() && joint.usable) RefineSurfaces(in, &joint, result);
+  result->times.correspondences_s = joint.correspondences_s;
+  result->times.solve_s = joint.solve_s;
   ReportJointCameras(joint, options, log, result);
   std::vector<OverlapStats> overlap(candidates.size());
   ParallelFor(
