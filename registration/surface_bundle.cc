@@ -1,6 +1,5 @@
 #include "registration/surface_bundle.h"
 
-#include <ceres/autodiff_cost_function.h>
 #include <ceres/manifold.h>
 #include <ceres/normal_prior.h>
 #include <ceres/ordered_groups.h>
@@ -26,6 +25,7 @@
 #include "registration/ray_membership.h"
 #include "residuals/gravity_prior.h"
 #include "residuals/plane_cluster.h"
+#include "residuals/pose_prior.h"
 #include "uncertainty/covariance.h"
 #include "uncertainty/degeneracy.h"
 
@@ -71,28 +71,6 @@ double InverseDepthSigma(double k, double z, double min_noise_m) {
 double InverseDepth(double z, double k, DepthNoiseModel model) {
   return model == DepthNoiseModel::kGaussianDepth ? 1.0 / z - k * k * z : 1.0 / z;
 }
-
-/// A prior on a pose: r = W [2 vec(q q0^-1); t - t0] (the PoseManifold tangent:
-/// world rotation vector to first order, world translation), W^T W the
-/// information.
-struct PosePriorFunctor {
-  Eigen::Quaterniond q0;
-  Vec3 t0;
-  Mat6 W;
-
-  template <typename T>
-  bool operator()(const T* pose, T* residual) const {
-    const Eigen::Quaternion<T> q(pose[3], pose[0], pose[1], pose[2]);
-    const Eigen::Quaternion<T> dq = q * q0.conjugate().cast<T>();
-    const T sign = dq.w() < T(0) ? T(-1) : T(1);
-    Eigen::Matrix<T, 6, 1> e;
-    e.template head<3>() = T(2) * sign * dq.vec();
-    for (int k = 0; k < 3; ++k) e(3 + k) = pose[4 + k] - T(t0(k));
-    Eigen::Map<Eigen::Matrix<T, 6, 1>> r(residual);
-    r = W.cast<T>() * e;
-    return true;
-  }
-};
 
 /// The start's prior along the directions where the planes know the pose less
 /// well than the start does: with the start's covariance S = C C^T and the
@@ -691,10 +669,7 @@ void BundleSolver::AddPriors(ceres::Problem* problem, const std::vector<Mat6>& p
   for (size_t c = 0; c < n_; ++c) {
     if (priors.empty() || priors[c].isZero() || !Free(c)) continue;
     const Pose T0 = gauge_ * cameras_[c].T_world_camera;
-    problem->AddResidualBlock(
-        new ceres::AutoDiffCostFunction<PosePriorFunctor, 6, kPoseAmbientSize>(
-            new PosePriorFunctor{Eigen::Quaterniond(T0.linear()), T0.translation(), priors[c]}),
-        nullptr, blocks_[c].data());
+    problem->AddResidualBlock(new PosePriorCost(T0, priors[c]), nullptr, blocks_[c].data());
   }
 }
 
