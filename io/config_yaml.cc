@@ -158,6 +158,9 @@ std::vector<Section> Schema(RefineOptions& o) {
            {"depth_offset_sigma_px", &i.depth_offset_sigma_px,
             "Surface bundle: prior 1-sigma of a camera's depth offset about 0, in pixels of "
             "disparity (> 0)."},
+           {"surface_bias_px", &i.surface_bias_px,
+            "Stereo cameras (baseline_m in the capture): 1-sigma of each surface's disparity "
+            "offset, pixels, in the reported 1-sigma (>= 0; 0: none)."},
            {"robust_loss", &i.robust_loss, "huber, cauchy, tukey or none."},
            {"robust_loss_scale", &i.robust_loss_scale,
             "Robust loss scale on whitened residuals, in standard deviations (> 0)."},

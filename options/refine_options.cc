@@ -74,6 +74,7 @@ void CheckIcp(const IcpOptions& o, ProblemList& p) {
   p.Require(Positive(o.depth_scale_sigma), "icp.depth_scale_sigma", "> 0", o.depth_scale_sigma);
   p.Require(Positive(o.depth_offset_sigma_px), "icp.depth_offset_sigma_px", "> 0",
             o.depth_offset_sigma_px);
+  p.Require(NonNegative(o.surface_bias_px), "icp.surface_bias_px", ">= 0", o.surface_bias_px);
   p.Require(o.robust_loss == RobustLoss::kHuber || o.robust_loss == RobustLoss::kCauchy ||
                 o.robust_loss == RobustLoss::kTukey || o.robust_loss == RobustLoss::kNone,
             "icp.robust_loss", "huber, cauchy, tukey or none", static_cast<int>(o.robust_loss));

@@ -121,6 +121,12 @@ struct IcpOptions {
   CameraDepthModel depth_model = CameraDepthModel::kNone;
   double depth_scale_sigma = 0.01;
   double depth_offset_sigma_px = 0.2;
+  /// Stereo cameras (a baseline_m in the capture): the 1-sigma (px) of the disparity offset
+  /// each surface has, the same over the surface (block matching's bias on slanted and
+  /// differently textured surfaces), which no number of pixels averages away and a camera on
+  /// few surfaces absorbs into its pose. It widens the reported 1-sigma (joint and surface
+  /// bundle covariances), not the poses; 0: none (docs/uncertainty.md, "Surface bias").
+  double surface_bias_px = 0.1;
   /// Surface bundle: keep its last round's planes and pixels in RefineResult::surface
   /// (SurfaceBundleReport::plane_list, terms, points) for a caller that looks inside it
   /// (bench/rig_accuracy --segmentation, the reports' 3-D view of the planes). The refinement is

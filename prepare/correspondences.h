@@ -31,6 +31,10 @@ struct CameraView {
   Pose T_world_camera = Pose::Identity();
   double* pose_block = nullptr;
   double depth_noise = 0.0;  ///< k of sigma_z = k z^2 (1/m); 0 for none
+  /// 1-sigma of the offset a surface's inverse depth has, the same over the surface (1/m; a
+  /// stereo camera's per-surface disparity bias, IcpOptions::surface_bias_px); 0 for none. It
+  /// widens the covariance (SharedNoiseCovariance), not the weights.
+  double surface_bias = 0.0;
 };
 
 /// For every source point, the nearest target point at the views' poses, kept when both

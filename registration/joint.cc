@@ -128,7 +128,8 @@ struct FreeTerms {
 /// the free cameras' gravity priors as the independent prior information.
 Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& cameras,
                                    const FreeTerms& in, const IcpOptions& options, int num_threads,
-                                   ClusterSandwiches* sandwiches = nullptr) {
+                                   ClusterSandwiches* sandwiches = nullptr,
+                                   Eigen::MatrixXd* surface_bias = nullptr) {
   std::vector<PoseBlock>& blocks = in.blocks;
   const std::vector<bool>& free = in.free;
   std::vector<int> column(cameras.size(), -1);
@@ -148,7 +149,7 @@ Eigen::MatrixXd FreePoseCovariance(const std::vector<RegistrationCamera>& camera
                                     : Information(problem.get(), FreeBlocks(blocks, free), priors,
                                                   /*scale_by_residuals=*/false);
   return SharedNoiseCovariance({in.views, column, in.terms}, options, prior, num_threads,
-                               sandwiches);
+                               sandwiches, surface_bias);
 }
 
 /// RegisterJoint's problem through its outer iterations: the cameras' pose blocks, the views
@@ -178,6 +179,7 @@ class JointProblem {
     result_.connected.assign(n_, false);
     result_.pair_correspondences.assign(pairs_.size(), 0);
     result_.covariance.assign(n_, Mat6::Zero());
+    result_.surface_bias.assign(n_, Mat6::Zero());
     result_.sigma_inflation.assign(n_, SigmaInflation{});
     result_.surfaces.assign(n_, 0);
     result_.weak.assign(n_, {});
@@ -220,7 +222,7 @@ class JointProblem {
     for (size_t i = 0; i < n_; ++i) {
       current[i] = PoseFromParameters(blocks_[i].data());
       views_[i] = {&cameras_[i].pyramid->levels[s], current[i], blocks_[i].data(),
-                   cameras_[i].depth_noise};
+                   cameras_[i].depth_noise, cameras_[i].surface_bias};
     }
     auto start = std::chrono::steady_clock::now();
     // The gate's overlaps (a finest-level search of every pair): at the start, and again at
@@ -420,17 +422,21 @@ class JointProblem {
     for (size_t i = 0; i < n_; ++i) {
       if (free[i]) views_[i].T_world_camera = PoseFromParameters(blocks_[i].data());
     }
-    // Each camera's 1-sigma is raised by the design effect its terms' residuals show.
+    // Each camera's 1-sigma is raised by the design effect its terms' residuals show, and
+    // widened by its surfaces' offsets (stereo cameras).
     ClusterSandwiches sandwiches;
-    const Eigen::MatrixXd covariance = FreePoseCovariance(
-        cameras_, {blocks_, views_, free, LinkedTerms()}, options_, num_threads_, &sandwiches);
+    Eigen::MatrixXd bias;
+    const Eigen::MatrixXd covariance =
+        FreePoseCovariance(cameras_, {blocks_, views_, free, LinkedTerms()}, options_, num_threads_,
+                           &sandwiches, &bias);
     result_.covariance_ok = covariance.size() > 0;
     int k = 0;  // the free cameras, in camera order
     for (size_t i = 0; i < n_ && result_.covariance_ok; ++i) {
       if (!free[i]) continue;
+      const Mat6 model = covariance.block<6, 6>(6 * k, 6 * k);
       result_.sigma_inflation[i] = InflationOf(sandwiches, 6 * k);
-      result_.covariance[i] =
-          Inflated(covariance.block<6, 6>(6 * k, 6 * k), result_.sigma_inflation[i]);
+      result_.surface_bias[i] = bias.block<6, 6>(6 * k, 6 * k);
+      result_.covariance[i] = Inflated(model, result_.sigma_inflation[i]) + result_.surface_bias[i];
       ++k;
     }
     const std::vector<StabilityAccumulator> stability =

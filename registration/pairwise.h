@@ -41,6 +41,7 @@ struct RegistrationCamera {
   const CloudPyramid* pyramid = nullptr;
   Pose T_world_camera = Pose::Identity();
   double depth_noise = 0.0;
+  double surface_bias = 0.0;  ///< CameraView::surface_bias
 };
 
 /// Registers the source camera onto the target camera. The gravity prior keeps the

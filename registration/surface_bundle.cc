@@ -509,6 +509,31 @@ void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterT
   for (const ClusterTerm& t : terms) result->terms.push_back({t.camera, t.plane, t.pixels});
 }
 
+/// A term's Jacobians (PlaneClusterCost) with, for residuals, what an offset of one sigma in
+/// its camera's inverse depth on this surface does to them: r(beta) - r(0) = beta L^T e_3
+/// (docs/residuals.md section 11, dr/dbeta at scale 1). The cluster-robust sandwich of these
+/// residuals, each term its own cluster, is the covariance that independent offsets of that
+/// sigma give the poses.
+class SurfaceBiasShift final : public ceres::SizedCostFunction<4, kPoseAmbientSize, 4> {
+ public:
+  SurfaceBiasShift(const PlaneCluster& cluster, bool ray_model, double sigma)
+      : cost_(cluster.SquareRoot(), ray_model),
+        shift_(sigma * cluster.SquareRoot().row(2).transpose()) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override {
+    Vec4 unused;
+    if (!cost_.Evaluate(parameters, unused.data(), jacobians)) return false;
+    Eigen::Map<Vec4> r(residuals);
+    r = shift_;
+    return true;
+  }
+
+ private:
+  PlaneClusterCost cost_;
+  Vec4 shift_;
+};
+
 /// The surface bundle's solve: rounds of segmentation and a joint Ceres solve
 /// of poses and planes, then the statistics (noise scale, thickness,
 /// covariance) and, where the start knows a camera's pose better than the
@@ -549,6 +574,12 @@ class BundleSolver {
   Eigen::MatrixXd PixelSandwiches(const std::vector<double*>& free_poses,
                                   const std::vector<double*>& plane_blocks,
                                   ClusterSandwiches* sandwiches, Eigen::MatrixXd* priors);
+  /// The poses' covariance (free_poses' columns) from an independent offset of each stereo
+  /// camera's inverse depth on each surface (SurfaceCamera::surface_bias): a bias that no number of
+  /// pixels averages away and that a camera on few surfaces absorbs whole, so its residuals do not
+  /// show it. Empty when no camera has one or a depth model is solved.
+  Eigen::MatrixXd SurfaceBiasCovariance(const std::vector<double*>& free_poses,
+                                        const std::vector<double*>& plane_blocks);
   /// The start as a prior along the directions it knows better than the planes;
   /// false when no camera has such a direction.
   bool StartPriors(std::vector<Mat6>* priors) const;
@@ -851,12 +882,15 @@ void BundleSolver::Statistics() {
          unscaled * start.asDiagonal() * priors * start.asDiagonal() * unscaled);
   }
   if (with_robust) covariance = CovarianceAtLeast(covariance, robust);
+  // The surfaces' offsets (stereo cameras) widen the 1-sigma after the inflation.
+  const Eigen::MatrixXd bias = SurfaceBiasCovariance(free_poses, plane_blocks);
   for (size_t k = 0; k < free_cameras.size(); ++k) {
     const size_t c = free_cameras[k];
     planes_covariance_[c] = planes.block<6, 6>(6 * k, 6 * k);
     result_.covariance[c] = covariance.block<6, 6>(6 * k, 6 * k);
     result_.sigma_inflation[c] =
         InflationBetween(model.block<6, 6>(6 * k, 6 * k), result_.covariance[c]);
+    if (bias.size() > 0) result_.covariance[c] += bias.block<6, 6>(6 * k, 6 * k);
   }
 }
 
@@ -909,6 +943,37 @@ Eigen::MatrixXd BundleSolver::PixelSandwiches(const std::vector<double*>& free_p
   clusters.coarse.resize(residual_blocks.size(), -1);
   return MarginalPoseSandwiches(split.get(), free_poses, plane_blocks, clusters, sandwiches,
                                 priors);
+}
+
+Eigen::MatrixXd BundleSolver::SurfaceBiasCovariance(const std::vector<double*>& free_poses,
+                                                    const std::vector<double*>& plane_blocks) {
+  bool any = false;
+  for (size_t c = 0; c < n_; ++c) {
+    if (DepthSolved(c)) return {};
+    any = any || (Free(c) && cameras_[c].surface_bias > 0.0);
+  }
+  if (!any) return {};
+  const std::unique_ptr<ceres::Problem> problem = NewProblem();
+  AddPoseAndPlaneBlocks(problem.get(), nullptr);
+  BlockClusters clusters;
+  for (size_t k = 0; k < terms_.size(); ++k) {
+    const ClusterTerm& t = terms_[k];
+    const SurfaceCamera& camera = cameras_[t.camera];
+    problem->AddResidualBlock(
+        new SurfaceBiasShift(t.cluster, camera.ray_model, camera.surface_bias), nullptr,
+        blocks_[t.camera].data(), planes_[t.plane].x.data());
+    clusters.fine.push_back(static_cast<int>(k));
+    clusters.coarse.push_back(static_cast<int>(k));
+  }
+  AddPriors(problem.get(), priors_);
+  clusters.fine.resize(problem->NumResidualBlocks(), -1);  // the priors: in none
+  clusters.coarse.resize(problem->NumResidualBlocks(), -1);
+  ClusterSandwiches sandwiches;
+  if (MarginalPoseSandwiches(problem.get(), free_poses, plane_blocks, clusters, &sandwiches)
+          .size() == 0) {
+    return {};
+  }
+  return sandwiches.fine;
 }
 
 std::vector<Mat6> BundleSolver::UntiedPriors() const {

@@ -38,6 +38,9 @@ struct SurfaceCamera {
   /// A stereo camera's baseline (m; 0: unknown): its depth model's offset prior is in pixels of
   /// disparity through it and pixel_angle (IcpOptions::depth_offset_sigma_px).
   double baseline_m = 0.0;
+  /// The 1-sigma of each surface's offset in its inverse depth (1/m; CameraView::surface_bias):
+  /// in the reported covariance, not the weights.
+  double surface_bias = 0.0;
   bool floor_leveled = false;  ///< its floor was leveled to y = 0 (the floor is then known)
   bool free = false;           ///< estimated (connected, not the reference)
   /// The near-floor band (world heights at the leveled pose, region.band_below and

@@ -139,9 +139,10 @@ void RefineSurfaces(const RegistrationInputs& in, JointResult* joint, RefineResu
     // The start's information is the noise model's: the inflation (uncertainty/inflation.h)
     // widens the reported 1-sigma, not the prior that holds the bundle at the joint pose.
     if (joint->covariance_ok) {
+      // The surfaces' offsets widen what is reported, not what holds the bundle.
       const SigmaInflation& f = joint->sigma_inflation[i];
-      surfaces[i].start_covariance =
-          Inflated(joint->covariance[i], {1.0 / f.rotation, 1.0 / f.translation});
+      surfaces[i].start_covariance = Inflated(joint->covariance[i] - joint->surface_bias[i],
+                                              {1.0 / f.rotation, 1.0 / f.translation});
       surfaces[i].start_inflation = f;
     }
     // A camera the joint solve could not link keeps its leveled pose, which may be far off:
@@ -224,6 +225,7 @@ std::vector<Pose> PairwiseSurfaces(const RegistrationInputs& in, const PoseGraph
   start.poses = graph.poses;
   start.connected = graph.connected;
   start.covariance.assign(n, Mat6::Zero());
+  start.surface_bias.assign(n, Mat6::Zero());
   start.covariance_ok = true;  // zero: none, for the start and for the cameras not refined
   start.sigma_inflation.assign(n, SigmaInflation{});
   start.surfaces.assign(n, 0);
@@ -472,10 +474,19 @@ PreparedRig Preprocess(const RigCapture& capture, const LeveledRig& rig,
   return prepared;
 }
 
+/// A stereo camera's 1-sigma of each surface's inverse-depth offset (CameraView::surface_bias):
+/// icp.surface_bias_px of disparity through fx and its baseline (w = d / (fx B)); 0 for a camera
+/// without a baseline or depth.
+double SurfaceBias(const CameraCapture& camera, const IcpOptions& options) {
+  if (!camera.HasDepth() || !(camera.baseline_m > 0.0)) return 0.0;
+  return options.surface_bias_px / (camera.intrinsics.fx * camera.baseline_m);
+}
+
 /// The surface bundle's cameras: every valid pixel of the band once (pixel stride 1), at
 /// the leveled poses.
 std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture, const LeveledRig& rig,
-                                          const RegionOptions& region, int num_threads) {
+                                          const RefineOptions& options, int num_threads) {
+  const RegionOptions& region = options.region;
   const size_t n = capture.cameras.size();
   std::vector<SurfaceCamera> surfaces(n);
   RegionOptions every_pixel = region;
@@ -495,6 +506,7 @@ std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture, const Level
         surfaces[i].ray_model = camera.HasDepth();
         if (camera.HasDepth()) surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
         surfaces[i].baseline_m = camera.baseline_m;
+        surfaces[i].surface_bias = SurfaceBias(camera, options.icp);
         surfaces[i].floor_leveled = rig.floor_leveled[i];
         if (band.band_height > 0.0) {
           surfaces[i].band_bottom = -band.band_below;
@@ -516,7 +528,8 @@ std::vector<RegistrationCamera> RegistrationCameras(const RigCapture& capture,
   std::vector<RegistrationCamera> cameras(capture.cameras.size());
   for (size_t i = 0; i < cameras.size(); ++i) {
     const GroundResult& ground = result.cameras[i].ground;
-    cameras[i] = {&pyramids[i], rig.leveled[i], rig.depth_noise[i]};
+    cameras[i] = {&pyramids[i], rig.leveled[i], rig.depth_noise[i],
+                  SurfaceBias(capture.cameras[i], options)};
     log.Info("camera " + capture.cameras[i].serial +
              ": depth noise k = " + Fixed(cameras[i].depth_noise, 5) + " /m" +
              (!capture.cameras[i].HasDepth() ? " (points camera: noise floor only)"
@@ -766,7 +779,7 @@ RefineResult Refine(const RigCapture& capture, const PoseMap& initial, const Ref
   result.method = options.icp.method;
   const PreparedRig prepared = Preprocess(capture, rig, options, log, &result);
   const std::vector<SurfaceCamera> surfaces =
-      options.icp.surface_bundle ? SurfaceCameras(capture, rig, options.region, num_threads)
+      options.icp.surface_bundle ? SurfaceCameras(capture, rig, options, num_threads)
                                  : std::vector<SurfaceCamera>{};
   const std::vector<RegistrationCamera> cameras =
       RegistrationCameras(capture, prepared.pyramids, rig, options.icp, log, result);

@@ -65,6 +65,7 @@ RefineOptions NonDefaultOptions() {
   o.icp.depth_model = CameraDepthModel::kScaleOffset;
   o.icp.depth_scale_sigma = 0.005;
   o.icp.depth_offset_sigma_px = 0.1;
+  o.icp.surface_bias_px = 0.25;
   o.icp.robust_loss = RobustLoss::kTukey;
   o.icp.robust_loss_scale = 4.685;
   o.icp.min_fitness = 1.0;

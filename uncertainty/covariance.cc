@@ -450,17 +450,22 @@ class SharedNoise {
     }
   }
 
-  /// Adds view v's terms' information to H and its terms' and points' noise to M; with
-  /// `meats`, the realised scores of the terms whose source is v to its cells, fine ones of
-  /// the view's voxel and coarse ones of `cell_m`.
-  void AddView(int v, Eigen::MatrixXd* H, Eigen::MatrixXd* M, Meats* meats, double cell_m) const {
+  /// Adds view v's terms' information to H and its terms' and points' noise to M, and the
+  /// noise of its surfaces' offsets to B (SurfaceBias); with `meats`, the realised scores of
+  /// the terms whose source is v to its cells, fine ones of the view's voxel and coarse ones
+  /// of `cell_m`.
+  void AddView(int v, Eigen::MatrixXd* H, Eigen::MatrixXd* M, Eigen::MatrixXd* B, Meats* meats,
+               double cell_m) const {
     std::vector<Score> scores;  // [point * free + free index of the view]
     std::optional<ClusterScores> realised;
     if (meats != nullptr) realised.emplace(views_[v], static_cast<int>(H->rows()));
     for (const MatchedViews& m : terms_) {
       AddTerms(v, m, H, M, &scores, realised ? &*realised : nullptr);
     }
-    if (!scores.empty()) AddPointNoise(v, scores, M);
+    if (!scores.empty()) {
+      AddPointNoise(v, scores, M);
+      AddSurfaceBias(v, scores, B);
+    }
     if (realised) {
       realised->AddToCells(views_[v].level->voxel_size, &meats->fine);
       realised->AddToCells(cell_m, &meats->coarse);
@@ -539,6 +544,31 @@ class SharedNoise {
     }
   }
 
+  /// B += sum over the cubes of kCovarianceCellM holding view v's points of g g^T, g the sum of
+  /// its points' scores times the shift -z p that one sigma of an offset of the view's inverse
+  /// depth (its surface_bias) gives each point p: the points of a cube, of one or two surfaces,
+  /// share one offset, which the terms do not average away.
+  void AddSurfaceBias(int v, const std::vector<Score>& scores, Eigen::MatrixXd* B) const {
+    const CameraView& view = views_[v];
+    if (!(view.surface_bias > 0.0)) return;
+    CellScores cubes;
+    for (size_t i = 0; i < view.level->points.size(); ++i) {
+      const Vec3& p = view.level->points[i];
+      const Vec3 shift = -view.surface_bias * p.z() * p;
+      Eigen::VectorXd* g = nullptr;
+      for (int w = 0; w < free_; ++w) {
+        const Score& s = scores[i * free_ + w];
+        if (s.isZero(0.0)) continue;
+        if (g == nullptr) {
+          const std::array<int64_t, 3> key = CellOf(view.T_world_camera * p, kCovarianceCellM);
+          g = &cubes.try_emplace(key, Eigen::VectorXd::Zero(B->rows())).first->second;
+        }
+        g->segment<6>(6 * w) += s * shift;
+      }
+    }
+    for (const auto& [key, g] : cubes) *B += g * g.transpose();
+  }
+
   const std::vector<CameraView>& views_;
   const std::vector<int>& column_;
   const std::vector<MatchedViews>& terms_;
@@ -560,26 +590,31 @@ struct TermType {
 template <typename Term, typename MakeTerm>
 Eigen::MatrixXd SharedNoiseOf(const SharedNoise<Term, MakeTerm>& shared, size_t n,
                               const Eigen::MatrixXd& prior_information, int num_threads,
-                              ClusterSandwiches* sandwiches) {
+                              ClusterSandwiches* sandwiches, Eigen::MatrixXd* surface_bias) {
   const Eigen::MatrixXd zero =
       Eigen::MatrixXd::Zero(prior_information.rows(), prior_information.cols());
-  std::vector<Eigen::MatrixXd> H(n, zero), M(n, zero);
+  std::vector<Eigen::MatrixXd> H(n, zero), M(n, zero), B(n, zero);
   std::vector<Meats> meats(sandwiches != nullptr ? n : 0);
   const double cell_m = sandwiches != nullptr ? sandwiches->cell_m : 0.0;
   ParallelFor(
       static_cast<int>(n), num_threads,
-      [&](int v) { shared.AddView(v, &H[v], &M[v], meats.empty() ? nullptr : &meats[v], cell_m); },
+      [&](int v) {
+        shared.AddView(v, &H[v], &M[v], &B[v], meats.empty() ? nullptr : &meats[v], cell_m);
+      },
       /*min_per_thread=*/1);
   Eigen::MatrixXd H_total = prior_information;
   Eigen::MatrixXd M_total = prior_information;
+  Eigen::MatrixXd B_total = zero;
   for (size_t v = 0; v < n; ++v) {
     H_total += H[v];
     M_total += M[v];
+    B_total += B[v];
   }
   const Eigen::MatrixXd H_inverse = InverseOrEmpty(H_total);
   if (H_inverse.size() == 0) return {};
   Eigen::MatrixXd covariance = H_inverse * M_total * H_inverse;
   if (!covariance.allFinite()) return {};
+  if (surface_bias != nullptr) *surface_bias = H_inverse * B_total * H_inverse;
   if (sandwiches != nullptr) {
     const int dimension = static_cast<int>(zero.rows());
     sandwiches->fine = H_inverse * MeatOf(meats, &Meats::fine, dimension) * H_inverse;
@@ -592,15 +627,18 @@ Eigen::MatrixXd SharedNoiseOf(const SharedNoise<Term, MakeTerm>& shared, size_t 
 
 Eigen::MatrixXd SharedNoiseCovariance(const ViewTerms& in, const IcpOptions& options,
                                       const Eigen::MatrixXd& prior_information, int num_threads,
-                                      ClusterSandwiches* sandwiches) {
+                                      ClusterSandwiches* sandwiches,
+                                      Eigen::MatrixXd* surface_bias) {
   if (sandwiches != nullptr) sandwiches->fine = sandwiches->coarse = Eigen::MatrixXd();
+  if (surface_bias != nullptr) *surface_bias = Eigen::MatrixXd();
   if (prior_information.rows() == 0 || in.terms.empty()) return {};
   const int free = static_cast<int>(prior_information.rows()) / 6;
   const auto run = [&](const auto& make_term, FloorShares floors, auto term_type) {
     using Term = typename decltype(term_type)::type;
     const SharedNoise<Term, std::decay_t<decltype(make_term)>> shared(in, options, make_term,
                                                                       floors, free);
-    return SharedNoiseOf(shared, in.views.size(), prior_information, num_threads, sandwiches);
+    return SharedNoiseOf(shared, in.views.size(), prior_information, num_threads, sandwiches,
+                         surface_bias);
   };
   if (options.method == RegistrationMethod::kGicp) {
     return run([&](const CameraView& s, const CameraView& t,

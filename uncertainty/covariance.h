@@ -166,8 +166,15 @@ struct ViewTerms {
 /// residuals, the terms clustered by where their source point is in the world: `fine` in cubes
 /// of the source view's voxel (a point, its nearest neighbours in the other views and their
 /// terms back), `coarse` in cubes of sandwiches->cell_m; empty when the covariance is.
+///
+/// With `surface_bias` (not null): also H^-1 B H^-1, the covariance that each view's surfaces'
+/// offsets of its inverse depth give the estimate (CameraView::surface_bias, the same offset for
+/// every point of the view in one cube of kCovarianceCellM, independent between cubes and views):
+/// B = sum over the views' cubes of g g^T, g = sum over the cube's points p of s_p (-z_p p) times
+/// the view's surface_bias. Zero when no view has one; empty when the covariance is.
 Eigen::MatrixXd SharedNoiseCovariance(const ViewTerms& in, const IcpOptions& options,
                                       const Eigen::MatrixXd& prior_information, int num_threads,
-                                      ClusterSandwiches* sandwiches = nullptr);
+                                      ClusterSandwiches* sandwiches = nullptr,
+                                      Eigen::MatrixXd* surface_bias = nullptr);
 
 }  // namespace rigfit
