@@ -436,7 +436,7 @@ class JointProblem {
       const Mat6 model = covariance.block<6, 6>(6 * k, 6 * k);
       result_.sigma_inflation[i] = InflationOf(sandwiches, 6 * k);
       result_.surface_bias[i] = bias.block<6, 6>(6 * k, 6 * k);
-      result_.covariance[i] = Inflated(model, result_.sigma_inflation[i]) + result_.surface_bias[i];
+      result_.covariance[i] = Inflated(model, result_.sigma_inflation[i]);
       ++k;
     }
     const std::vector<StabilityAccumulator> stability =

@@ -31,17 +31,17 @@ struct JointResult {
   /// Per camera: 6x6 covariance of the pose in the PoseManifold tangent (world rotation
   /// vector, world translation), gauge fixed by the reference (whose covariance is 0),
   /// scaled by the measured variance of the whitened residuals. Zero when unavailable.
-  /// Raised by the design effect, plus `surface_bias`.
+  /// Raised by `sigma_inflation`. The reported covariance is covariance + surface_bias.
   std::vector<Mat6> covariance;
   bool covariance_ok = false;
-  /// Per camera: the part of `covariance` that its surfaces' offsets of inverse depth give it
+  /// Per camera: the covariance its surfaces' offsets of inverse depth give it
   /// (RegistrationCamera::surface_bias; SharedNoiseCovariance); zero without one.
   std::vector<Mat6> surface_bias;
   /// Per camera: how much the residuals' own scatter raised the noise model's 1-sigma (at least 1;
   /// 1 without a covariance): the design effect of its terms' realised residuals in cells of
   /// kCovarianceCellM against single points (uncertainty/covariance.h, ClusterSandwiches), the
-  /// noise's correlation and the surfaces' bias that the model takes as independent. The
-  /// surface_bias is added after it.
+  /// noise's correlation and the surfaces' bias that the model takes as independent (not
+  /// surface_bias).
   std::vector<SigmaInflation> sigma_inflation;
   /// Per camera: the distinct orientations of the surfaces its correspondences lie on, each
   /// holding a share of its information (StabilityAccumulator::Orientations; 0 when not connected).

@@ -139,10 +139,10 @@ void RefineSurfaces(const RegistrationInputs& in, JointResult* joint, RefineResu
     // The start's information is the noise model's: the inflation (uncertainty/inflation.h)
     // widens the reported 1-sigma, not the prior that holds the bundle at the joint pose.
     if (joint->covariance_ok) {
-      // The surfaces' offsets widen what is reported, not what holds the bundle.
+      // The surfaces' offsets (surface_bias) widen what is reported, not what holds the bundle.
       const SigmaInflation& f = joint->sigma_inflation[i];
-      surfaces[i].start_covariance = Inflated(joint->covariance[i] - joint->surface_bias[i],
-                                              {1.0 / f.rotation, 1.0 / f.translation});
+      surfaces[i].start_covariance =
+          Inflated(joint->covariance[i], {1.0 / f.rotation, 1.0 / f.translation});
       surfaces[i].start_inflation = f;
     }
     // A camera the joint solve could not link keeps its leveled pose, which may be far off:
@@ -205,6 +205,7 @@ void RefineSurfaces(const RegistrationInputs& in, JointResult* joint, RefineResu
     }
     joint->poses[i] = bundle.poses[i];
     joint->covariance[i] = bundle.covariance_ok ? bundle.covariance[i] : Mat6::Zero();
+    joint->surface_bias[i] = Mat6::Zero();  // in the bundle's covariance
     joint->sigma_inflation[i] = bundle.sigma_inflation[i];
     joint->surfaces[i] = bundle.surfaces[i];
   }
@@ -296,7 +297,7 @@ void ReportJointCameras(const JointResult& joint, const IcpOptions& options, con
     report.connected = joint.connected[i];
     report.has_covariance = joint.covariance_ok && joint.connected[i] && !report.reference &&
                             !joint.covariance[i].isZero(0.0);
-    report.covariance = joint.covariance[i];
+    report.covariance = joint.covariance[i] + joint.surface_bias[i];
     if (report.reference) continue;
     report.sigma_inflation = joint.sigma_inflation[i];
     report.surfaces = joint.surfaces[i];
