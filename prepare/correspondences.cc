@@ -141,10 +141,13 @@ ceres::LossFunction* MakeCorrespondenceLoss(const IcpOptions& options) {
   return nullptr;
 }
 
-std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
-    const IcpOptions& options, const CameraView& source, const CameraView& target,
-    const std::vector<Correspondence>& correspondences, const ceres::LossFunction* loss,
-    TermStorage storage) {
+std::unique_ptr<ceres::CostFunction> CorrespondenceCost(const IcpOptions& options,
+                                                        const MatchedViews& m,
+                                                        const ceres::LossFunction* loss,
+                                                        TermStorage storage) {
+  const CameraView& source = *m.source;
+  const CameraView& target = *m.target;
+  const std::vector<Correspondence>& correspondences = *m.matches;
   // term(c) of every correspondence c into `cost`, weighted by the loss at the views' poses
   // (the residuals from the poses' features, computed once).
   const auto add_terms = [&](auto* cost, const auto& term) {
@@ -181,14 +184,13 @@ std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
 }
 
 ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
-                                              const CameraView& source, const CameraView& target,
-                                              const std::vector<Correspondence>& correspondences,
+                                              const MatchedViews& m,
                                               const ceres::LossFunction* loss,
                                               TermStorage storage) {
-  std::unique_ptr<ceres::CostFunction> cost =
-      CorrespondenceCost(options, source, target, correspondences, loss, storage);
+  std::unique_ptr<ceres::CostFunction> cost = CorrespondenceCost(options, m, loss, storage);
   if (cost == nullptr) return nullptr;
-  return problem->AddResidualBlock(cost.release(), nullptr, source.pose_block, target.pose_block);
+  return problem->AddResidualBlock(cost.release(), nullptr, m.source->pose_block,
+                                   m.target->pose_block);
 }
 
 std::unique_ptr<ceres::Problem> NewProblem() {

@@ -37,6 +37,13 @@ struct CameraView {
   double surface_bias = 0.0;
 };
 
+/// The correspondences of one pair direction between two views.
+struct MatchedViews {
+  const CameraView* source = nullptr;
+  const CameraView* target = nullptr;
+  const std::vector<Correspondence>* matches = nullptr;
+};
+
 /// For every source point, the nearest target point at the views' poses, kept when both
 /// points have a valid normal and the normals are within max_normal_angle_deg of each
 /// other (points of different surfaces, such as the faces of a leg or a box corner that
@@ -100,25 +107,24 @@ enum class TermStorage {
 };
 
 /// The terms of the correspondences (point-to-plane or GICP, per options.method) between
-/// the pose blocks of the source and target cameras, each whitened by the depth noise model
+/// the pose blocks of the views of `m` (source and target), each whitened by the depth noise model
 /// of both points (docs/residuals.md, "Weights"): a depth error moves a point along its ray,
 /// so a point p at depth z has covariance k^2 z^2 p p^T in its camera frame, plus the
 /// plane-error share (plane_noise_share k z^2)^2 and min_noise_m^2 per residual. GICP
 /// weights use the poses of the views. All of them form ONE cost function over the blocks
-/// (source.pose_block, target.pose_block), stored as `storage` says, `loss` entering as
+/// (m.source->pose_block, m.target->pose_block), stored as `storage` says, `loss` entering as
 /// iteratively reweighted least squares at the current values of the pose blocks. Null
 /// when there are no correspondences. Reads only, so calls may run concurrently.
-std::unique_ptr<ceres::CostFunction> CorrespondenceCost(
-    const IcpOptions& options, const CameraView& source, const CameraView& target,
-    const std::vector<Correspondence>& correspondences, const ceres::LossFunction* loss,
-    TermStorage storage);
+std::unique_ptr<ceres::CostFunction> CorrespondenceCost(const IcpOptions& options,
+                                                        const MatchedViews& m,
+                                                        const ceres::LossFunction* loss,
+                                                        TermStorage storage);
 
 /// Adds CorrespondenceCost(...) to `problem` between the views' pose blocks (the problem
 /// owns it, the caller `loss`). Returns the residual block (nullptr when there are no
 /// correspondences).
 ceres::ResidualBlockId AddCorrespondenceTerms(ceres::Problem* problem, const IcpOptions& options,
-                                              const CameraView& source, const CameraView& target,
-                                              const std::vector<Correspondence>& correspondences,
+                                              const MatchedViews& m,
                                               const ceres::LossFunction* loss, TermStorage storage);
 
 /// A problem that does not own loss functions or manifolds (they are shared by many

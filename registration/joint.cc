@@ -354,8 +354,7 @@ class JointProblem {
     ParallelFor(
         static_cast<int>(terms.size()), num_threads_,
         [&](int b) {
-          costs[b] = CorrespondenceCost(options_, *terms[b].source, *terms[b].target,
-                                        *terms[b].matches, loss_.get(), TermStorage::kCompressed);
+          costs[b] = CorrespondenceCost(options_, terms[b], loss_.get(), TermStorage::kCompressed);
         },
         /*min_per_thread=*/1);
     const std::vector<double> scales = ResidualScales(terms);
@@ -572,8 +571,7 @@ Eigen::MatrixXd JointInformation(const std::vector<RegistrationCamera>& cameras,
   std::vector<ceres::ResidualBlockId> residual_blocks;
   for (const MatchedViews& t : f.terms) {
     const ceres::ResidualBlockId id =
-        AddCorrespondenceTerms(problem.get(), options, *t.source, *t.target, *t.matches, nullptr,
-                               TermStorage::kCompressed);
+        AddCorrespondenceTerms(problem.get(), options, t, nullptr, TermStorage::kCompressed);
     if (id != nullptr) residual_blocks.push_back(id);
   }
   for (ceres::ResidualBlockId id :

@@ -82,7 +82,7 @@ bool IterateLevels(PairBlocks* pair, const IcpOptions& options, int num_threads,
         return false;
       }
       std::unique_ptr<ceres::Problem> problem = pair->Problem();
-      AddCorrespondenceTerms(problem.get(), options, src, tgt, matches, loss.get(),
+      AddCorrespondenceTerms(problem.get(), options, {&src, &tgt, &matches}, loss.get(),
                              TermStorage::kCompressed);
       if (options.gravity_weight > 0.0) {
         problem->AddResidualBlock(
@@ -143,7 +143,7 @@ PairwiseResult RegisterPair(const RegistrationCamera& source_camera,
   result.converged = true;
   {
     std::unique_ptr<ceres::Problem> problem = pair.Problem();
-    AddCorrespondenceTerms(problem.get(), options, src, tgt, final_matches, nullptr,
+    AddCorrespondenceTerms(problem.get(), options, {&src, &tgt, &final_matches}, nullptr,
                            TermStorage::kStacked);
     std::vector<ceres::ResidualBlockId> blocks;
     problem->GetResidualBlocks(&blocks);

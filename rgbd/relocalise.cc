@@ -42,10 +42,12 @@ bool Accepted(const TrackResult& track, double reference_rmse_m, const Relocalis
 
 }  // namespace
 
-Relocalisation Relocalise(const FramePyramid& frame, const Pose& T_world_held, const Vec3& n_world,
-                          const std::vector<Anchor>& anchors, double reference_rmse_m,
+Relocalisation Relocalise(const HeldFrame& held, const std::vector<Anchor>& anchors,
                           const ProjectiveIcpOptions& icp, const RelocaliseOptions& options,
                           int threads) {
+  const FramePyramid& frame = *held.pyramid;
+  const Pose& T_world_held = held.T_world_held;
+  const Vec3& n_world = held.n_world;
   Relocalisation best;
   if (frame.levels.empty() || !(options.turn_step_deg > 0.0) || !(options.slide_step_m > 0.0)) {
     return best;
@@ -81,7 +83,7 @@ Relocalisation Relocalise(const FramePyramid& frame, const Pose& T_world_held, c
       const Pose T_anchor_start = anchor.T_world_camera.inverse() * scored[c].second;
       const TrackResult track =
           TrackProjective(frame, anchor.pyramid, T_anchor_start, icp, threads);
-      if (!Accepted(track, reference_rmse_m, options)) continue;
+      if (!Accepted(track, held.reference_rmse_m, options)) continue;
       if (best.success && track.matched_ratio <= best.track.matched_ratio) continue;
       best.success = true;
       best.track = track;

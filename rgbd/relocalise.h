@@ -50,6 +50,14 @@ struct Anchor {
   int index = 0;
 };
 
+/// A frame held through a lone-plane stretch: where it is held and what holds it.
+struct HeldFrame {
+  const FramePyramid* pyramid = nullptr;
+  Pose T_world_held = Pose::Identity();
+  Vec3 n_world = Vec3::UnitZ();   ///< the lone plane's unit normal (world)
+  double reference_rmse_m = 0.0;  ///< the RMS distance of the frame's own track
+};
+
 struct Relocalisation {
   bool success = false;
   Pose T_world_camera = Pose::Identity();
@@ -58,11 +66,10 @@ struct Relocalisation {
   int candidates = 0;  ///< scored
 };
 
-/// Searches for `frame` around T_world_held over the free directions of a plane with unit
-/// normal n_world, against each of `anchors`, as the header says; `reference_rmse_m` is the
-/// frame's own track's RMS distance.
-Relocalisation Relocalise(const FramePyramid& frame, const Pose& T_world_held, const Vec3& n_world,
-                          const std::vector<Anchor>& anchors, double reference_rmse_m,
+/// Searches for `held.pyramid` around held.T_world_held over the free directions of the plane
+/// of normal held.n_world, against each of `anchors`, as the header says; a track is accepted
+/// relative to held.reference_rmse_m (RelocaliseOptions::max_rmse_ratio).
+Relocalisation Relocalise(const HeldFrame& held, const std::vector<Anchor>& anchors,
                           const ProjectiveIcpOptions& icp, const RelocaliseOptions& options,
                           int threads);
 

@@ -246,7 +246,7 @@ class ModelTarget : public TrackingTarget {
       const std::vector<std::uint8_t> no_color;
       tracked.fusion = result_->map.FuseFrame(pyramid.levels[0], step.T_world_camera, step.index,
                                               options_.fusion, use_color_ ? frame.color : no_color,
-                                              options_.threads, &view_);
+                                              {options_.threads, &view_});
       result_->fuse_s += SecondsSince(start);
     }
     tracked.map_size = result_->map.size();

@@ -120,18 +120,20 @@ struct FusionCamera {
 
 FusionStats SurfelMap::FuseFrame(const FrameLevel& frame, const Pose& T_world_camera,
                                  int frame_index, const FusionOptions& options,
-                                 const std::vector<std::uint8_t>& color, int threads,
-                                 const MapView* view) {
+                                 const std::vector<std::uint8_t>& color,
+                                 const FusionExecution& execution) {
   CheckFrame(frame, color);
   ++frames_;
   const FusionCamera camera(frame, T_world_camera, options);
   FusionStats stats;
-  stats.projected = Associate(camera, options, threads, view);
+  stats.projected = Associate(camera, options, execution);
   const std::vector<std::uint64_t>& match = zbuffer_.Merge();
   stats.input_points = static_cast<int>(frame.valid_pixels.size());
   input_points_ += stats.input_points;
-  MergeMatched(camera, match, color, frame_index, threads);
-  if (options.fold_overlapping) stats.folded = FoldOverlapping(camera, match, threads);
+  MergeMatched(camera, match, color, frame_index, execution.threads);
+  if (options.fold_overlapping) {
+    stats.folded = FoldOverlapping(camera, match, execution.threads);
+  }
   AddUnmatched(camera, match, options, color, frame_index, &stats);
   // Every valid pixel merged, was covered or was added.
   stats.merged = stats.input_points - stats.covered - stats.added;
@@ -165,13 +167,15 @@ void SurfelMap::CheckFrame(const FrameLevel& frame, const std::vector<std::uint8
 /// 1. Association through projection: per pixel the candidate closest to the camera (each
 /// thread projects its share of the points into its own z-buffer; rgbd/zbuffer.h). Returns the
 /// number of map points projected.
-int SurfelMap::Associate(const FusionCamera& camera, const FusionOptions& options, int threads,
-                         const MapView* view) {
+int SurfelMap::Associate(const FusionCamera& camera, const FusionOptions& options,
+                         const FusionExecution& execution) {
   const FrameLevel& frame = camera.frame;
+  const MapView* view = execution.view;
   const bool use_view =
       view != nullptr && view->Covers(frame, camera.T_world_camera, size(), options.max_distance_m);
   // Through a view: one thread per part of it (the parts the rendering's threads collected).
-  const int chunks = use_view ? static_cast<int>(view->parts.size()) : std::max(1, threads);
+  const int chunks =
+      use_view ? static_cast<int>(view->parts.size()) : std::max(1, execution.threads);
   zbuffer_.Reset(frame.width * frame.height, chunks);
   const auto valid = [&](int j) { return frame.Valid(j); };
   const auto associate = [&](std::uint64_t* keys, int i) {

@@ -98,6 +98,15 @@ struct MapView {
               double max_distance_m) const;
 };
 
+/// How FuseFrame does its work; neither setting changes its result.
+struct FusionExecution {
+  /// The association and the merge are split over this many threads.
+  int threads = 2;
+  /// With a view that covers the frame (MapView::Covers) only its points are projected for the
+  /// association (the others cannot land in the image); null: every map point is.
+  const MapView* view = nullptr;
+};
+
 struct FusionCamera;  // a fused frame's camera (surfel_map.cc)
 
 /// The surfel map, stored as a structure of arrays (one array per property, index = point).
@@ -108,13 +117,11 @@ class SurfelMap {
   /// empty, or [height, width, 3] RGB of the frame's pixels. A map holds colours when its
   /// first fused frame had them; every later frame must then have them too, and a map
   /// without colours takes no frame with colour. Throws std::invalid_argument on a colour
-  /// of the wrong size or presence, or maps of inconsistent sizes. The association and the
-  /// merge are split over `threads` threads; the result does not depend on their number.
-  /// With a `view` that covers the frame (MapView::Covers) only its points are projected for
-  /// the association (the same result: the others cannot land in the image).
+  /// of the wrong size or presence, or maps of inconsistent sizes. `execution`: threads and
+  /// a MapView to project through (FusionExecution; the result does not depend on them).
   FusionStats FuseFrame(const FrameLevel& frame, const Pose& T_world_camera, int frame_index,
                         const FusionOptions& options, const std::vector<std::uint8_t>& color = {},
-                        int threads = 2, const MapView* view = nullptr);
+                        const FusionExecution& execution = {});
 
   /// Moves every point by the world correction of the frame that last saw it (loop closure,
   /// rgbd/loop_closure.h): p <- C p, n <- R_C n with C = correction(last_seen()[i]).
@@ -138,8 +145,8 @@ class SurfelMap {
  private:
   // FuseFrame's steps (surfel_map.cc).
   void CheckFrame(const FrameLevel& frame, const std::vector<std::uint8_t>& color);
-  int Associate(const FusionCamera& camera, const FusionOptions& options, int threads,
-                const MapView* view);
+  int Associate(const FusionCamera& camera, const FusionOptions& options,
+                const FusionExecution& execution);
   void MergeMatched(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
                     const std::vector<std::uint8_t>& color, int frame_index, int threads);
   int FoldOverlapping(const FusionCamera& camera, const std::vector<std::uint64_t>& match,

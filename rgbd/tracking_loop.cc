@@ -134,7 +134,7 @@ class TrackingLoop {
     if (attempts_left_ == 0 || anchors_.empty()) return;
     --attempts_left_;
     const Relocalisation found =
-        rigfit::Relocalise(pyramid, step->T_world_camera, plane_world_, anchors_, track.rmse_m,
+        rigfit::Relocalise({&pyramid, step->T_world_camera, plane_world_, track.rmse_m}, anchors_,
                            options_.icp, options_.relocalise, options_.threads);
     if (!found.success) return;
     const Pose correction = found.T_world_camera * step->T_world_camera.inverse();

@@ -100,8 +100,8 @@ class SharedNoiseTest : public ::testing::Test {
     }
     std::vector<ceres::ResidualBlockId> ids;
     for (const MatchedViews& t : terms) {
-      ids.push_back(AddCorrespondenceTerms(problem.get(), options, *t.source, *t.target, *t.matches,
-                                           nullptr, TermStorage::kStacked));
+      ids.push_back(
+          AddCorrespondenceTerms(problem.get(), options, t, nullptr, TermStorage::kStacked));
     }
     return Information(problem.get(), {blocks_[0].data()}, ids, false).inverse();
   }
@@ -683,8 +683,9 @@ class CorrelatedCorner {
     for (auto& block : blocks_) {
       problem->AddParameterBlock(block.data(), kPoseAmbientSize, SharedPoseManifold());
     }
-    const ceres::ResidualBlockId id = AddCorrespondenceTerms(
-        problem.get(), options, views_[0], views_[1], matches_, nullptr, TermStorage::kStacked);
+    const ceres::ResidualBlockId id =
+        AddCorrespondenceTerms(problem.get(), options, {&views_[0], &views_[1], &matches_}, nullptr,
+                               TermStorage::kStacked);
     std::vector<double> r;
     ceres::CRSMatrix crs;
     EvaluateJacobian(problem.get(), {blocks_[0].data()}, {id}, &r, &crs);

@@ -183,9 +183,9 @@ TEST(RgbdGuard, RelocalisationFindsAFrameTurnedAndSlidAlongTheFloor) {
   Pose held = truth;
   held.linear() = ExpSO3(up * (25.0 * kDegToRad)) * truth.linear();
   held.translation() += Vec3(0.3, 0.0, -0.2);
-  const Relocalisation found =
-      Relocalise(BuildFramePyramid(later, FrameOptions{}), held, up, {anchor}, 0.01,
-                 ProjectiveIcpOptions{}, RelocaliseOptions{}, 2);
+  const FramePyramid pyramid = BuildFramePyramid(later, FrameOptions{});
+  const Relocalisation found = Relocalise({&pyramid, held, up, 0.01}, {anchor},
+                                          ProjectiveIcpOptions{}, RelocaliseOptions{}, 2);
   ASSERT_TRUE(found.success);
   EXPECT_EQ(found.anchor_index, 0);
   const Pose error = truth.inverse() * found.T_world_camera;

@@ -123,8 +123,8 @@ TEST(RgbdRender, ThreadsGiveTheSerialResultExactly) {
   for (int i = 0; i < 10; i += 2) {
     const FrameLevel level =
         BuildFramePyramid(Render(scene, poses[i], 160, 120, 0.01, i), FrameOptions{}).levels[0];
-    const FusionStats one = serial.FuseFrame(level, poses[i], i, FusionOptions{}, {}, 1);
-    const FusionStats three = parallel.FuseFrame(level, poses[i], i, FusionOptions{}, {}, 3);
+    const FusionStats one = serial.FuseFrame(level, poses[i], i, FusionOptions{}, {}, {1});
+    const FusionStats three = parallel.FuseFrame(level, poses[i], i, FusionOptions{}, {}, {3});
     EXPECT_EQ(one.merged, three.merged);
     EXPECT_EQ(one.added, three.added);
     EXPECT_EQ(one.removed, three.removed);
@@ -176,8 +176,8 @@ TEST(RgbdRender, FusingThroughTheRenderedViewEqualsFusingThroughTheWholeMap) {
                 {&zbuffer, &model, &view});
     const bool covers =
         view.Covers(level, poses[k], with_view.size(), FusionOptions{}.max_distance_m);
-    const FusionStats a = with_view.FuseFrame(level, poses[k], k, {}, {}, 2, &view);
-    const FusionStats b = whole.FuseFrame(level, poses[k], k, {}, {}, 2);
+    const FusionStats a = with_view.FuseFrame(level, poses[k], k, {}, {}, {2, &view});
+    const FusionStats b = whole.FuseFrame(level, poses[k], k, {}, {}, {2});
     if (covers) {
       ++used;
       EXPECT_LT(a.projected, b.projected);

@@ -127,13 +127,6 @@ Eigen::MatrixXd MarginalPoseSandwiches(ceres::Problem* problem, const std::vecto
 /// cluster the noise by its sign.
 std::array<int64_t, 3> CellOf(const Vec3& world, double edge_m);
 
-/// The correspondences of one pair direction between two views.
-struct MatchedViews {
-  const CameraView* source = nullptr;
-  const CameraView* target = nullptr;
-  const std::vector<Correspondence>* matches = nullptr;
-};
-
 /// The terms a shared-noise covariance is taken over, and the views they link.
 struct ViewTerms {
   const std::vector<CameraView>& views;    ///< every view, at its pose block
