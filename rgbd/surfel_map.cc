@@ -305,30 +305,47 @@ void SurfelMap::AddUnmatched(const FusionCamera& camera, const std::vector<std::
   }
 }
 
-void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
-  int kept = 0;
-  for (int i = 0; i < size(); ++i) {
-    const bool dormant = options.dormant_frames > 0 &&
-                         frame_index - last_seen_[i] > options.dormant_frames &&
-                         weights_[i] < options.min_stable_weight;
-    if (dormant || weights_[i] == 0.0f) continue;  // weight 0: folded
-    if (kept != i) {
-      positions_[kept] = positions_[i];
-      normals_[kept] = normals_[i];
-      if (has_color_) colors_[kept] = colors_[i];
-      weights_[kept] = weights_[i];
-      radii_[kept] = radii_[i];
-      last_seen_[kept] = last_seen_[i];
-    }
-    ++kept;
+namespace {
+
+/// Removes the elements at the increasing indices `gone` from v, keeping the others' order:
+/// each run between two removed elements is moved down in one copy.
+template <typename T>
+void EraseIndices(const std::vector<int>& gone, std::vector<T>* v) {
+  std::size_t kept = gone.front();
+  for (std::size_t r = 0; r < gone.size(); ++r) {
+    const std::size_t begin = gone[r] + 1;
+    const std::size_t end = r + 1 < gone.size() ? gone[r + 1] : v->size();
+    std::copy(v->begin() + begin, v->begin() + end, v->begin() + kept);
+    kept += end - begin;
   }
-  stats->removed = size() - kept - stats->folded;
-  positions_.resize(kept);
-  normals_.resize(kept);
-  if (has_color_) colors_.resize(kept);
-  weights_.resize(kept);
-  radii_.resize(kept);
-  last_seen_.resize(kept);
+  v->resize(kept);
+}
+
+}  // namespace
+
+void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
+  // frame_index - last_seen > dormant_frames, and weight < min_stable_weight as a float
+  // comparison: below the smallest float not below it.
+  const long last_kept_seen = static_cast<long>(frame_index) - options.dormant_frames;
+  float stable = static_cast<float>(options.min_stable_weight);
+  if (static_cast<double>(stable) < options.min_stable_weight) {
+    stable = std::nextafter(stable, std::numeric_limits<float>::infinity());
+  }
+  const bool remove_dormant = options.dormant_frames > 0;
+  gone_.clear();
+  for (int i = 0; i < size(); ++i) {
+    const float w = weights_[i];
+    const bool dormant = remove_dormant && last_seen_[i] < last_kept_seen && w < stable;
+    if (dormant || w == 0.0f) gone_.push_back(i);  // weight 0: folded
+  }
+  stats->removed = static_cast<int>(gone_.size()) - stats->folded;
+  if (gone_.empty()) return;
+  EraseIndices(gone_, &positions_);
+  EraseIndices(gone_, &normals_);
+  if (has_color_) EraseIndices(gone_, &colors_);
+  EraseIndices(gone_, &weights_);
+  EraseIndices(gone_, &radii_);
+  EraseIndices(gone_, &last_seen_);
 }
 
 }  // namespace rigfit
