@@ -307,14 +307,14 @@ void SurfelMap::AddUnmatched(const FusionCamera& camera, const std::vector<std::
 
 namespace {
 
-/// Removes the elements at the increasing indices `gone` from v, keeping the others' order:
-/// each run between two removed elements is moved down in one copy.
+/// Removes the elements at the `count` (> 0) increasing indices `gone` from v, keeping the
+/// others' order: each run between two removed elements is moved down in one copy.
 template <typename T>
-void EraseIndices(const std::vector<int>& gone, std::vector<T>* v) {
-  std::size_t kept = gone.front();
-  for (std::size_t r = 0; r < gone.size(); ++r) {
+void EraseIndices(const int* gone, int count, std::vector<T>* v) {
+  std::size_t kept = gone[0];
+  for (int r = 0; r < count; ++r) {
     const std::size_t begin = gone[r] + 1;
-    const std::size_t end = r + 1 < gone.size() ? gone[r + 1] : v->size();
+    const std::size_t end = r + 1 < count ? gone[r + 1] : v->size();
     std::copy(v->begin() + begin, v->begin() + end, v->begin() + kept);
     kept += end - begin;
   }
@@ -326,26 +326,34 @@ void EraseIndices(const std::vector<int>& gone, std::vector<T>* v) {
 void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
   // frame_index - last_seen > dormant_frames, and weight < min_stable_weight as a float
   // comparison: below the smallest float not below it.
-  const long last_kept_seen = static_cast<long>(frame_index) - options.dormant_frames;
+  const int last_kept_seen = frame_index - std::max(0, options.dormant_frames);
   float stable = static_cast<float>(options.min_stable_weight);
   if (static_cast<double>(stable) < options.min_stable_weight) {
     stable = std::nextafter(stable, std::numeric_limits<float>::infinity());
   }
   const bool remove_dormant = options.dormant_frames > 0;
-  gone_.clear();
-  for (int i = 0; i < size(); ++i) {
-    const float w = weights_[i];
-    const bool dormant = remove_dormant && last_seen_[i] < last_kept_seen && w < stable;
-    if (dormant || w == 0.0f) gone_.push_back(i);  // weight 0: folded
+  // Without branches (whether a point goes is data, not a pattern): every index is written,
+  // the count moves on past the ones that go.
+  const int n = size();
+  if (static_cast<int>(gone_.size()) < n) gone_.resize(n);
+  const int* last_seen = last_seen_.data();
+  const float* weights = weights_.data();
+  int* gone = gone_.data();
+  int count = 0;
+  for (int i = 0; i < n; ++i) {
+    const float w = weights[i];
+    const bool dormant = remove_dormant & (last_seen[i] < last_kept_seen) & (w < stable);
+    gone[count] = i;
+    count += dormant | (w == 0.0f);  // weight 0: folded
   }
-  stats->removed = static_cast<int>(gone_.size()) - stats->folded;
-  if (gone_.empty()) return;
-  EraseIndices(gone_, &positions_);
-  EraseIndices(gone_, &normals_);
-  if (has_color_) EraseIndices(gone_, &colors_);
-  EraseIndices(gone_, &weights_);
-  EraseIndices(gone_, &radii_);
-  EraseIndices(gone_, &last_seen_);
+  stats->removed = count - stats->folded;
+  if (count == 0) return;
+  EraseIndices(gone, count, &positions_);
+  EraseIndices(gone, count, &normals_);
+  if (has_color_) EraseIndices(gone, count, &colors_);
+  EraseIndices(gone, count, &weights_);
+  EraseIndices(gone, count, &radii_);
+  EraseIndices(gone, count, &last_seen_);
 }
 
 }  // namespace rigfit
