@@ -309,30 +309,55 @@ void SurfelMap::AddUnmatched(const FusionCamera& camera, const std::vector<std::
   }
 }
 
-void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
-  int kept = 0;
-  for (int i = 0; i < size(); ++i) {
-    const bool dormant = options.dormant_frames > 0 &&
-                         frame_index - last_seen_[i] > options.dormant_frames &&
-                         weights_[i] < options.min_stable_weight;
-    if (dormant || weights_[i] == 0.0f) continue;  // weight 0: folded
-    if (kept != i) {
-      positions_[kept] = positions_[i];
-      normals_[kept] = normals_[i];
-      if (has_color_) colors_[kept] = colors_[i];
-      weights_[kept] = weights_[i];
-      radii_[kept] = radii_[i];
-      last_seen_[kept] = last_seen_[i];
-    }
-    ++kept;
+namespace {
+
+/// Removes the elements at the `count` (> 0) increasing indices `gone` from v, keeping the
+/// others' order: each run between two removed elements is moved down in one copy.
+template <typename T>
+void EraseIndices(const int* gone, int count, std::vector<T>* v) {
+  std::size_t kept = gone[0];
+  for (int r = 0; r < count; ++r) {
+    const std::size_t begin = gone[r] + 1;
+    const std::size_t end = r + 1 < count ? gone[r + 1] : v->size();
+    std::copy(v->begin() + begin, v->begin() + end, v->begin() + kept);
+    kept += end - begin;
   }
-  stats->removed = size() - kept - stats->folded;
-  positions_.resize(kept);
-  normals_.resize(kept);
-  if (has_color_) colors_.resize(kept);
-  weights_.resize(kept);
-  radii_.resize(kept);
-  last_seen_.resize(kept);
+  v->resize(kept);
+}
+
+}  // namespace
+
+void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats) {
+  // frame_index - last_seen > dormant_frames, and weight < min_stable_weight as a float
+  // comparison: below the smallest float not below it.
+  const int last_kept_seen = frame_index - std::max(0, options.dormant_frames);
+  float stable = static_cast<float>(options.min_stable_weight);
+  if (static_cast<double>(stable) < options.min_stable_weight) {
+    stable = std::nextafter(stable, std::numeric_limits<float>::infinity());
+  }
+  const bool remove_dormant = options.dormant_frames > 0;
+  // Without branches (whether a point goes is data, not a pattern): every index is written,
+  // the count moves on past the ones that go.
+  const int n = size();
+  if (static_cast<int>(gone_.size()) < n) gone_.resize(n);
+  const int* last_seen = last_seen_.data();
+  const float* weights = weights_.data();
+  int* gone = gone_.data();
+  int count = 0;
+  for (int i = 0; i < n; ++i) {
+    const float w = weights[i];
+    const bool dormant = remove_dormant & (last_seen[i] < last_kept_seen) & (w < stable);
+    gone[count] = i;
+    count += dormant | (w == 0.0f);  // weight 0: folded
+  }
+  stats->removed = count - stats->folded;
+  if (count == 0) return;
+  EraseIndices(gone, count, &positions_);
+  EraseIndices(gone, count, &normals_);
+  if (has_color_) EraseIndices(gone, count, &colors_);
+  EraseIndices(gone, count, &weights_);
+  EraseIndices(gone, count, &radii_);
+  EraseIndices(gone, count, &last_seen_);
 }
 
 }  // namespace rigfit

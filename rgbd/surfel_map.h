@@ -163,6 +163,7 @@ class SurfelMap {
   std::vector<float> radii_;
   std::vector<int> last_seen_;
   std::vector<int> fold_into_;  ///< per point: the point it folds into, or -1 (scratch)
+  std::vector<int> gone_;       ///< RemoveDormant's scratch: the points to remove, increasing
   ZBuffer zbuffer_;             ///< the association's, kept between frames (no reallocation)
   bool has_color_ = false;
   int frames_ = 0;  ///< frames fused

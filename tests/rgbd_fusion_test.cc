@@ -164,6 +164,38 @@ TEST(RgbdFusion, DormantUnstablePointsAreRemoved) {
   EXPECT_EQ(kept.size(), 1);
 }
 
+TEST(RgbdFusion, RemovalKeepsTheOtherPointsInOrderAndComparesWeightsExactly) {
+  // Row v = 2 at depths 2.00 .. 2.04 (u = 0 .. 4): points 0 .. 4; frame 1 sees u = 0, 1, 3
+  // again (weight 2), so frame 2 removes points 2 and 4 (weight 1, unseen for 2 frames).
+  FrameLevel row = EmptyLevel();
+  FrameLevel again = EmptyLevel();
+  for (int u = 0; u < 5; ++u) {
+    SetPixel(&row, u, 2, 2.0f + 0.01f * u, Vec3f(0, 0, -1));
+    if (u != 2 && u != 4) SetPixel(&again, u, 2, 2.0f + 0.01f * u, Vec3f(0, 0, -1));
+  }
+  // A stable weight of 2 keeps the weight-2 points; one just above 2 (not a float: the
+  // nearest float is 2) removes them.
+  for (const double stable : {2.0, 2.0000001}) {
+    FusionOptions options;
+    options.dormant_frames = 1;
+    options.min_stable_weight = stable;
+    SurfelMap map;
+    map.FuseFrame(row, Pose::Identity(), 0, options);
+    map.FuseFrame(again, Pose::Identity(), 1, options);
+    ASSERT_EQ(map.size(), 5);
+    EXPECT_EQ(map.FuseFrame(EmptyLevel(), Pose::Identity(), 2, options).removed, 2);
+    ASSERT_EQ(map.size(), 3);
+    const float z[3] = {2.0f, 2.01f, 2.03f};
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_FLOAT_EQ(map.positions()[i].z(), z[i]) << i;
+      EXPECT_FLOAT_EQ(map.weights()[i], 2.0f) << i;
+      EXPECT_EQ(map.last_seen()[i], 1) << i;
+    }
+    EXPECT_EQ(map.FuseFrame(EmptyLevel(), Pose::Identity(), 3, options).removed,
+              stable == 2.0 ? 0 : 3);
+  }
+}
+
 TEST(RgbdFusion, ColourMustBeGivenForEveryFrameOrNone) {
   SurfelMap map;
   EXPECT_THROW(map.FuseFrame(SinglePixelLevel(2.0f), Pose::Identity(), 0, FusionOptions{},
