@@ -47,6 +47,22 @@ SimulatedRig SimulatedNoisyRig() {
   return SimulateRig(sim);
 }
 
+/// Prints the rig's start and refined errors (RMS over the camera pairs) and expects the
+/// refined ones within kRegression of the measured rotation_deg and translation_mm.
+void ExpectNoRegression(const std::string& name, const SimulatedRig& rig, const RefineResult& r,
+                        double rotation_deg, double translation_mm) {
+  ASSERT_TRUE(r.success) << r.message;
+  const RigErrors before = EvaluateRig(rig.init, rig.gt);
+  const RigErrors after = EvaluateRig(r.refined, rig.gt);
+  const double rotation = after.rms_rotation_rad * kRadToDeg;
+  const double translation = after.rms_translation_m * 1e3;
+  std::printf("%s: start %.3f deg %.2f mm, refined %.4f deg %.3f mm (RMS over the pairs)\n",
+              name.c_str(), before.rms_rotation_rad * kRadToDeg, before.rms_translation_m * 1e3,
+              rotation, translation);
+  EXPECT_LE(rotation, kRegression * rotation_deg);
+  EXPECT_LE(translation, kRegression * translation_mm);
+}
+
 class MethodAccuracy : public ::testing::TestWithParam<MethodCase> {};
 
 TEST_P(MethodAccuracy, WithinThirtyPercentOfTheMeasuredError) {
@@ -56,17 +72,8 @@ TEST_P(MethodAccuracy, WithinThirtyPercentOfTheMeasuredError) {
   options.icp.mode = c.mode;
   options.icp.method = c.method;
   options.icp.surface_bundle = c.surface_bundle;
-  const RefineResult r = Refine(rig.capture, rig.init, options);
-  ASSERT_TRUE(r.success) << r.message;
-  const RigErrors before = EvaluateRig(rig.init, rig.gt);
-  const RigErrors after = EvaluateRig(r.refined, rig.gt);
-  const double rotation_deg = after.rms_rotation_rad * kRadToDeg;
-  const double translation_mm = after.rms_translation_m * 1e3;
-  std::printf("%s: start %.3f deg %.2f mm, refined %.4f deg %.3f mm (RMS over the pairs)\n", c.name,
-              before.rms_rotation_rad * kRadToDeg, before.rms_translation_m * 1e3, rotation_deg,
-              translation_mm);
-  EXPECT_LE(rotation_deg, kRegression * c.rotation_deg);
-  EXPECT_LE(translation_mm, kRegression * c.translation_mm);
+  ExpectNoRegression(c.name, rig, Refine(rig.capture, rig.init, options), c.rotation_deg,
+                     c.translation_mm);
 }
 
 INSTANTIATE_TEST_SUITE_P(
@@ -123,17 +130,9 @@ TEST_P(FamilyAccuracy, DefaultWithinThirtyPercentOfTheMeasuredError) {
   sim.height = 180;
   c.configure(&sim);
   const SimulatedRig rig = SimulateRig(sim);
-  const RefineResult r = Refine(rig.capture, rig.init, RefineOptions{});
-  ASSERT_TRUE(r.success) << r.message;
-  const RigErrors before = EvaluateRig(rig.init, rig.gt);
-  const RigErrors after = EvaluateRig(r.refined, rig.gt);
-  const double rotation_deg = after.rms_rotation_rad * kRadToDeg;
-  const double translation_mm = after.rms_translation_m * 1e3;
-  std::printf("%s, seed %d: start %.3f deg %.2f mm, refined %.4f deg %.3f mm\n", c.name,
-              static_cast<int>(c.seed), before.rms_rotation_rad * kRadToDeg,
-              before.rms_translation_m * 1e3, rotation_deg, translation_mm);
-  EXPECT_LE(rotation_deg, kRegression * c.rotation_deg);
-  EXPECT_LE(translation_mm, kRegression * c.translation_mm);
+  ExpectNoRegression(std::string(c.name) + ", seed " + std::to_string(c.seed), rig,
+                     Refine(rig.capture, rig.init, RefineOptions{}), c.rotation_deg,
+                     c.translation_mm);
 }
 
 // Seeds: correlated 3 (the rig above; its start 1.873 deg / 90.5 mm), stereo 0 (start 2.117 deg /
