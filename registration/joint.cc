@@ -432,10 +432,10 @@ class JointProblem {
     int k = 0;  // the free cameras, in camera order
     for (size_t i = 0; i < n_ && result_.covariance_ok; ++i) {
       if (!free[i]) continue;
-      const Mat6 model = covariance.block<6, 6>(6 * k, 6 * k);
       result_.sigma_inflation[i] = InflationOf(sandwiches, 6 * k);
+      result_.covariance[i] =
+          Inflated(covariance.block<6, 6>(6 * k, 6 * k), result_.sigma_inflation[i]);
       result_.surface_bias[i] = bias.block<6, 6>(6 * k, 6 * k);
-      result_.covariance[i] = Inflated(model, result_.sigma_inflation[i]);
       ++k;
     }
     const std::vector<StabilityAccumulator> stability =

@@ -516,9 +516,9 @@ void RecordUse(const std::vector<PlaneBlock>& planes, const std::vector<ClusterT
 /// sigma give the poses.
 class SurfaceBiasShift final : public ceres::SizedCostFunction<4, kPoseAmbientSize, 4> {
  public:
-  SurfaceBiasShift(const PlaneCluster& cluster, bool ray_model, double sigma)
-      : cost_(cluster.SquareRoot(), ray_model),
-        shift_(sigma * cluster.SquareRoot().row(2).transpose()) {}
+  /// L: the cluster's PlaneCluster::SquareRoot.
+  SurfaceBiasShift(const Mat4& L, bool ray_model, double sigma)
+      : cost_(L, ray_model), shift_(sigma * L.row(2).transpose()) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override {
@@ -960,8 +960,8 @@ Eigen::MatrixXd BundleSolver::SurfaceBiasCovariance(const std::vector<double*>& 
     const ClusterTerm& t = terms_[k];
     const SurfaceCamera& camera = cameras_[t.camera];
     problem->AddResidualBlock(
-        new SurfaceBiasShift(t.cluster, camera.ray_model, camera.surface_bias), nullptr,
-        blocks_[t.camera].data(), planes_[t.plane].x.data());
+        new SurfaceBiasShift(t.cluster.SquareRoot(), camera.ray_model, camera.surface_bias),
+        nullptr, blocks_[t.camera].data(), planes_[t.plane].x.data());
     clusters.fine.push_back(static_cast<int>(k));
     clusters.coarse.push_back(static_cast<int>(k));
   }

@@ -126,29 +126,36 @@ void WarnDepthModel(const CameraReport& camera, const SurfaceCamera& surface, co
   Warn(result, log, name + "not observable: " + why + "; held at scale 1, offset 0");
 }
 
+/// The surface bundle's cameras at the registration's poses (`joint`), free where it linked
+/// them, each with its start's covariance.
+std::vector<SurfaceCamera> BundleCameras(const RegistrationInputs& in, const JointResult& joint) {
+  std::vector<SurfaceCamera> surfaces = in.surfaces;
+  for (size_t i = 0; i < surfaces.size(); ++i) {
+    surfaces[i].T_world_camera = joint.poses[i];
+    surfaces[i].free = joint.connected[i] && static_cast<int>(i) != in.reference;
+    // The start's information is the noise model's: the inflation (uncertainty/inflation.h) and
+    // the surfaces' offsets (surface_bias) widen the reported 1-sigma, not the prior that holds
+    // the bundle at the joint pose.
+    if (joint.covariance_ok) {
+      const SigmaInflation& f = joint.sigma_inflation[i];
+      surfaces[i].start_covariance =
+          Inflated(joint.covariance[i], {1.0 / f.rotation, 1.0 / f.translation});
+      surfaces[i].start_inflation = f;
+    }
+    // A camera the joint solve could not link keeps its leveled pose, which may be far off:
+    // its pixels would pull the planes.
+    if (!joint.connected[i]) surfaces[i].points.clear();
+  }
+  return surfaces;
+}
+
 /// The surface bundle after the registration (`joint`: the joint solve's result, or the pose
 /// graph's poses without a covariance): joint's poses, covariance, inflation and surfaces are
 /// replaced where it refined a camera.
 void RefineSurfaces(const RegistrationInputs& in, JointResult* joint, RefineResult* result) {
   const IcpOptions& options = in.options;
   const Log& log = in.log;
-  std::vector<SurfaceCamera> surfaces = in.surfaces;
-  for (size_t i = 0; i < surfaces.size(); ++i) {
-    surfaces[i].T_world_camera = joint->poses[i];
-    surfaces[i].free = joint->connected[i] && static_cast<int>(i) != in.reference;
-    // The start's information is the noise model's: the inflation (uncertainty/inflation.h)
-    // widens the reported 1-sigma, not the prior that holds the bundle at the joint pose.
-    if (joint->covariance_ok) {
-      // The surfaces' offsets (surface_bias) widen what is reported, not what holds the bundle.
-      const SigmaInflation& f = joint->sigma_inflation[i];
-      surfaces[i].start_covariance =
-          Inflated(joint->covariance[i], {1.0 / f.rotation, 1.0 / f.translation});
-      surfaces[i].start_inflation = f;
-    }
-    // A camera the joint solve could not link keeps its leveled pose, which may be far off:
-    // its pixels would pull the planes.
-    if (!joint->connected[i]) surfaces[i].points.clear();
-  }
+  std::vector<SurfaceCamera> surfaces = BundleCameras(in, *joint);
   const SurfaceBundleResult bundle = RegisterSurfaceBundle(surfaces, options, in.num_threads, log);
   if (!bundle.usable) {
     Warn(result, log, bundle.message + "; the joint point-to-plane poses stand");

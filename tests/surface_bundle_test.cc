@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 
@@ -129,6 +128,36 @@ TEST(SurfaceBundle, MeasuresTheNoisesCorrelationAndWeighsItsPixelsByIt) {
   }
 }
 
+/// Per half (rotation, translation), the sums over the free cameras of (error / 1-sigma)^2
+/// relative to the reference: the reported 1-sigma's and the noise model's (the reported one
+/// without its `inflated` factors), and the cameras summed.
+struct NormalisedSums {
+  double reported[2] = {};
+  double model[2] = {};
+  int cameras = 0;
+
+  void Add(const RefineResult& result, const SimulatedRig& rig) {
+    const Pose& ref_est = result.refined.at(result.reference);
+    const Pose& ref_gt = rig.gt.at(result.reference);
+    for (const CameraReport& c : result.cameras) {
+      if (!c.has_covariance) continue;
+      const RelativePoseError e =
+          RelativeError(ref_est, result.refined.at(c.serial), ref_gt, rig.gt.at(c.serial));
+      const double errors[2] = {e.rotation_rad, e.translation_m};
+      const double inflation[2] = {c.sigma_inflation.rotation, c.sigma_inflation.translation};
+      for (int h = 0; h < 2; ++h) {
+        const double sigma2 = c.covariance.block<3, 3>(3 * h, 3 * h).trace();
+        reported[h] += errors[h] * errors[h] / sigma2;
+        model[h] += std::pow(errors[h] * inflation[h], 2) / sigma2;
+      }
+      ++cameras;
+    }
+  }
+  /// RMS of error / reported 1-sigma for half h.
+  double Reported(int h) const { return std::sqrt(reported[h] / cameras); }
+  double Model(int h) const { return std::sqrt(model[h] / cameras); }
+};
+
 TEST(SurfaceBundle, ReportedSigmaCoversTheErrorOfCorrelatedNoise) {
   // 80 % of the noise correlated over 4 px. The noise model (each pixel weighted by the noise
   // correlation of 32 px tiles) and the start's prior (the joint solve's un-inflated covariance)
@@ -139,60 +168,24 @@ TEST(SurfaceBundle, ReportedSigmaCoversTheErrorOfCorrelatedNoise) {
   constexpr double kMinNormalised = 0.4;
   constexpr double kMaxNormalised = 1.7;
   constexpr double kMinRaised = 1.3;  // the model's normalised error over the reported one
-  double reported2[2] = {}, model2[2] = {};
-  int cameras = 0;
+  NormalisedSums sums;
   for (const unsigned seed : {0u, 1u}) {
     SimOptions sim;
     sim.seed = seed;
     sim.noise_corr_px = 4.0;
     sim.noise_corr_share = 0.8;
     const RefinedRig refined_rig = RefineSmallRig(sim);
-    const RefineResult& result = refined_rig.result;
-    ASSERT_TRUE(result.success) << result.message;
-    const Pose& ref_est = result.refined.at(result.reference);
-    const Pose& ref_gt = refined_rig.rig.gt.at(result.reference);
-    for (const CameraReport& c : result.cameras) {
-      if (!c.has_covariance) continue;
-      const RelativePoseError e = RelativeError(ref_est, result.refined.at(c.serial), ref_gt,
-                                                refined_rig.rig.gt.at(c.serial));
-      const double errors[2] = {e.rotation_rad, e.translation_m};
-      const double inflation[2] = {c.sigma_inflation.rotation, c.sigma_inflation.translation};
-      for (int h = 0; h < 2; ++h) {
-        const double sigma2 = c.covariance.block<3, 3>(3 * h, 3 * h).trace();
-        reported2[h] += errors[h] * errors[h] / sigma2;
-        model2[h] += std::pow(errors[h] * inflation[h], 2) / sigma2;
-      }
-      ++cameras;
-    }
+    ASSERT_TRUE(refined_rig.result.success) << refined_rig.result.message;
+    sums.Add(refined_rig.result, refined_rig.rig);
   }
-  ASSERT_EQ(cameras, 6);
+  ASSERT_EQ(sums.cameras, 6);
   for (int h = 0; h < 2; ++h) {
     SCOPED_TRACE(h == 0 ? "rotation" : "translation");
-    const double reported = std::sqrt(reported2[h] / cameras);
+    const double reported = sums.Reported(h);
     EXPECT_GT(reported, kMinNormalised);
     EXPECT_LT(reported, kMaxNormalised);
-    EXPECT_GT(std::sqrt(model2[h] / cameras) / reported, kMinRaised);
+    EXPECT_GT(sums.Model(h) / reported, kMinRaised);
   }
-}
-
-/// RMS over the free cameras of error / reported 1-sigma relative to the reference, per half
-/// (rotation, translation).
-std::array<double, 2> NormalisedErrors(const RefineResult& result, const SimulatedRig& rig) {
-  double sum2[2] = {};
-  int cameras = 0;
-  const Pose& ref_est = result.refined.at(result.reference);
-  const Pose& ref_gt = rig.gt.at(result.reference);
-  for (const CameraReport& c : result.cameras) {
-    if (!c.has_covariance) continue;
-    const RelativePoseError e =
-        RelativeError(ref_est, result.refined.at(c.serial), ref_gt, rig.gt.at(c.serial));
-    const double errors[2] = {e.rotation_rad, e.translation_m};
-    for (int h = 0; h < 2; ++h) {
-      sum2[h] += errors[h] * errors[h] / c.covariance.block<3, 3>(3 * h, 3 * h).trace();
-    }
-    ++cameras;
-  }
-  return {std::sqrt(sum2[0] / cameras), std::sqrt(sum2[1] / cameras)};
 }
 
 TEST(SurfaceBias, WidensAStereoRigsOneSigmaWithoutMovingItsPoses) {
@@ -218,11 +211,12 @@ TEST(SurfaceBias, WidensAStereoRigsOneSigmaWithoutMovingItsPoses) {
   for (const auto& [serial, pose] : with_bias.refined) {
     EXPECT_TRUE(pose.matrix() == without.refined.at(serial).matrix()) << serial;
   }
-  const std::array<double, 2> a = NormalisedErrors(with_bias, rig);
-  const std::array<double, 2> b = NormalisedErrors(without, rig);
-  EXPECT_LT(a[0], kMaxWithBias);
-  EXPECT_LT(a[1], kMaxWithBias);
-  EXPECT_GT(b[1] / a[1], kMinRaised);
+  NormalisedSums a, b;
+  a.Add(with_bias, rig);
+  b.Add(without, rig);
+  EXPECT_LT(a.Reported(0), kMaxWithBias);
+  EXPECT_LT(a.Reported(1), kMaxWithBias);
+  EXPECT_GT(b.Reported(1) / a.Reported(1), kMinRaised);
 }
 
 TEST(SurfaceBundle, KeptDiagnosticsHoldEveryPixelOfTheLastRound) {

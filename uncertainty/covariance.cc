@@ -551,21 +551,14 @@ class SharedNoise {
   void AddSurfaceBias(int v, const std::vector<Score>& scores, Eigen::MatrixXd* B) const {
     const CameraView& view = views_[v];
     if (!(view.surface_bias > 0.0)) return;
-    CellScores cubes;
+    ClusterScores shifts(view, static_cast<int>(B->rows()));
     for (size_t i = 0; i < view.level->points.size(); ++i) {
       const Vec3& p = view.level->points[i];
       const Vec3 shift = -view.surface_bias * p.z() * p;
-      Eigen::VectorXd* g = nullptr;
-      for (int w = 0; w < free_; ++w) {
-        const Score& s = scores[i * free_ + w];
-        if (s.isZero(0.0)) continue;
-        if (g == nullptr) {
-          const std::array<int64_t, 3> key = CellOf(view.T_world_camera * p, kCovarianceCellM);
-          g = &cubes.try_emplace(key, Eigen::VectorXd::Zero(B->rows())).first->second;
-        }
-        g->segment<6>(6 * w) += s * shift;
-      }
+      for (int w = 0; w < free_; ++w) shifts.Add(i, 6 * w, scores[i * free_ + w] * shift);
     }
+    CellScores cubes;
+    shifts.AddToCells(kCovarianceCellM, &cubes);
     for (const auto& [key, g] : cubes) *B += g * g.transpose();
   }
 
