@@ -265,6 +265,8 @@ TEST(OptionProblems, DefaultsAreValidAndEachRuleNamesItsKey) {
               ElementsAre("icp.min_fitness must be in [0, 1], got 1.5"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.gravity_weight = -1.0; }),
               ElementsAre("icp.gravity_weight must be >= 0, got -1"));
+  EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.surface_bias_px = -0.1; }),
+              ElementsAre("icp.surface_bias_px must be >= 0, got -0.1"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.icp.degeneracy_threshold = 1.0; }),
               ElementsAre("icp.degeneracy_threshold must be in [0, 1), got 1"));
   EXPECT_THAT(problems_of([](RefineOptions& o) { o.ground.max_normal_angle_deg = 95.0; }),
