@@ -3,7 +3,7 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | speed | real | micro | rgbd (default: all five, in that order)
+#   SECTION  accuracy | families | speed | real | micro | rgbd (default: all six, in that order)
 #   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
@@ -18,6 +18,11 @@
 #   accuracy  bench/rig_accuracy over seeds 0..9: joint and pairwise x point_to_plane and gicp
 #             on the default rig, noise 0, the --bare rig and the wide start (yaw 3 deg, 10 cm).
 #             Runs under nice: accuracy does not depend on the load.
+#   families  bench/rig_accuracy --sigma on the four depth families (white, correlated, stereo
+#             matching, stereo with one camera's disparity off by 0.1 px): joint point_to_plane,
+#             joint surface_bundle (the default) and pairwise; seeds 0..9 x 2 noise draws (stereo
+#             0..4), then the default on held-out seeds 10..14. Error, bias share, runs worse
+#             than their start, normalised error (error / reported 1-sigma). Niced, 1 thread.
 #   speed     whole-process rigfit refine on rigfit simulate captures, wall time and peak RSS
 #             (/usr/bin/time) and the stage times of _meta.icp_refined.timings_s (joint, pairwise
 #             and, for the stage breakdown and the camera counts, the surface bundle), median of
@@ -51,13 +56,13 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | speed | real | micro | rgbd) sections+=("$1") ;;
+    accuracy | families | speed | real | micro | rgbd) sections+=("$1") ;;
     -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy speed real micro rgbd)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy families speed real micro rgbd)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
@@ -184,6 +189,93 @@ run_accuracy() {
     cat "$details"
   } >>"$file"
   echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end." >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# families
+
+# One markdown row of the four-family table from one rig_accuracy output (--sigma; bias share
+# only with more than one noise draw).
+family_row() {
+  python3 - "$@" <<'PY'
+import re, sys
+raw, family, method, runs = sys.argv[1:5]
+text = open(raw).read()
+def num(pattern, group=1):
+    m = re.search(pattern, text)
+    return m.group(group) if m else "-"
+summary = r"RMS relative rotation ([0-9.]+) deg, RMS relative translation ([0-9.]+) mm \(worst pair ([0-9.]+) mm\), RMS tilt ([0-9.]+) deg"
+bias = r"share of the mean squared error[^:]*: ([0-9.-]+) rotation, ([0-9.-]+) translation"
+worse = r"worse than their start: (\d+) in RMS rotation, (\d+) in RMS translation"
+normalised = r"normalised errors[^:]*: RMS ([0-9.]+) rotation, ([0-9.]+) translation"
+cells = [family, method, runs] + [num(summary, g) for g in (1, 2, 3, 4)]
+cells += ["%s / %s" % (num(bias, 1), num(bias, 2)) if re.search(bias, text) else "-"]
+cells += ["%s / %s" % (num(worse, 1), num(worse, 2))]
+cells += ["%s / %s" % (num(normalised, 1), num(normalised, 2)) if re.search(normalised, text) else "-"]
+print("| " + " | ".join(cells) + " |")
+PY
+}
+
+run_families() {
+  local file size=() table="$out/raw/families-table.md"
+  file="$(header families)"
+  : >"$table"
+  local white="" correlated="--noise-corr-px 4 --noise-corr-share 0.8"
+  local stereo="--depth-model stereo --stereo-upsample 2"
+  local miscalibrated="$stereo --disparity-offset-px 0.1 --miscalibrated-cameras 1"
+  # family|flags|first seed|seeds|draws|mode|method
+  local cases=(
+    "white|$white|0|10|2|joint|point_to_plane"
+    "white|$white|0|10|2|joint|surface_bundle"
+    "white|$white|0|10|1|pairwise|point_to_plane"
+    "correlated|$correlated|0|10|2|joint|point_to_plane"
+    "correlated|$correlated|0|10|2|joint|surface_bundle"
+    "correlated|$correlated|0|10|1|pairwise|point_to_plane"
+    "stereo|$stereo|0|5|2|joint|point_to_plane"
+    "stereo|$stereo|0|5|2|joint|surface_bundle"
+    "stereo|$stereo|0|5|1|pairwise|point_to_plane"
+    "stereo, camera 1 +0.1 px|$miscalibrated|0|5|1|joint|point_to_plane"
+    "stereo, camera 1 +0.1 px|$miscalibrated|0|5|1|joint|surface_bundle"
+    "white, held out|$white|10|5|1|joint|surface_bundle"
+    "correlated, held out|$correlated|10|5|1|joint|surface_bundle"
+    "stereo, held out|$stereo|10|5|1|joint|surface_bundle"
+    "stereo, camera 1 +0.1 px, held out|$miscalibrated|10|5|1|joint|surface_bundle"
+  )
+  if [ $quick = 1 ]; then
+    size=(--width 160 --height 90)
+    cases=(
+      "white|$white|0|1|2|joint|surface_bundle"
+      "stereo, camera 1 +0.1 px|$miscalibrated|0|1|1|joint|surface_bundle"
+    )
+  fi
+  local c family flags first seeds draws mode method
+  for c in "${cases[@]}"; do
+    IFS='|' read -r family flags first seeds draws mode method <<<"$c"
+    local raw="$out/raw/families-$(echo "$family $mode $method" | tr -c 'a-zA-Z0-9' '_').txt"
+    local args=(--mode "$mode" --method "$method" --first-seed "$first" --seeds "$seeds"
+      --noise-draws "$draws" --sigma --threads 1 "${size[@]}")
+    # shellcheck disable=SC2086 # flags holds several flags
+    echo "+ rig_accuracy ${args[*]} $flags" | tee "$raw" >&2
+    # shellcheck disable=SC2086
+    nice "$build/bench/rig_accuracy" "${args[@]}" $flags >>"$raw" 2>&1
+    family_row "$raw" "$family" "$mode, $method" \
+      "$seeds x $draws (seeds $first..$((first + seeds - 1)))" >>"$table"
+  done
+  {
+    echo "Command per row: \`bench/rig_accuracy --mode M --method X --first-seed F --seeds N"
+    echo "--noise-draws D --sigma --threads 1${size[*]:+ ${size[*]}}\` plus the family's flags: white (none),"
+    echo "correlated (\`$correlated\`), stereo (\`$stereo\`), stereo"
+    echo "miscalibrated (\`$miscalibrated\`). 4 cameras, default config. \"worse\": runs ending worse"
+    echo "than their start (rotation / translation). Bias share: the part of the mean squared error"
+    echo "every noise draw repeats (two draws or more). Normalised: error / reported 1-sigma, RMS over"
+    echo "the cameras (rotation / translation)."
+    echo
+    echo "| family | method | runs | rotation deg | translation mm | worst pair mm | tilt deg | bias share rot / trans | worse | normalised rot / trans |"
+    echo "|---|---|---|---|---|---|---|---|---|---|"
+    cat "$table"
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
 }
 
 # ---------------------------------------------------------------------------------------------
