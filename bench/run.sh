@@ -3,7 +3,8 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | families | speed | real | micro | rgbd (default: all six, in that order)
+#   SECTION  accuracy | families | speed | real | micro | rgbd | loops (default: all seven, in
+#            that order)
 #   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
@@ -44,6 +45,10 @@
 #             frames and the TUM fr1/xyz subset with the default halving (to 320x240) and at
 #             640x480 (--halve 0), median of 3 runs by frames/s with loading, peak RSS from
 #             /usr/bin/time. Not niced.
+#   loops     rigfit track and slam on synthetic closed loops (seeds 1..3, 600 frames 320x240;
+#             seed 1 at 640x480) and the real sequences: loop closure's counts, ATE, RPE and end
+#             drift without and with it; then the same loops with a lone-plane stretch (floor
+#             only for 0.7 s): ATE against the loop without it. Not niced (about an hour).
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -56,13 +61,13 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | families | speed | real | micro | rgbd) sections+=("$1") ;;
+    accuracy | families | speed | real | micro | rgbd | loops) sections+=("$1") ;;
     -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy families speed real micro rgbd)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy families speed real micro rgbd loops)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
@@ -642,6 +647,128 @@ run_rgbd() {
   [ $quick = 1 ] && { reps=2; quick_time=(--benchmark_min_time=0.01); }
   micro_table rgbd_bench "$file" --benchmark_repetitions=$reps "${quick_time[@]}"
   echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end." >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# loops
+
+# One run of `rigfit track|slam SEQUENCE --evaluate` under /usr/bin/time; its output in $1.
+loop_run() {
+  local raw="$1"
+  shift
+  echo "+ rigfit $*" | tee "$raw" >&2
+  /usr/bin/time -f "wall %e s" "$rigfit" "$@" --out "$raw.traj" --evaluate --quiet >>"$raw" 2>&1
+}
+
+# The markdown row of one loop_run output: counts, ATE, RPE and end drift without and with the
+# loop closure, wall time (closure time).
+loop_row() {
+  python3 - "$@" <<'PY'
+import re, sys
+raw, label, run = sys.argv[1:4]
+text = open(raw).read()
+def num(pattern, unclosed=False):
+    lines = [l for l in text.splitlines() if l.startswith("without loop closure: ") == unclosed]
+    found = re.findall(pattern, "\n".join(lines))
+    return found[-1] if found else None
+counts = num(r"loop closure: (\d+) keyframes, (\d+) candidate\(s\), (\d+) loop\(s\) accepted, (\d+) rejected")
+ate = r"ATE RMSE ([0-9.]+) mm"
+rpe = r"RPE per frame ([0-9.]+) mm"
+drift = r"closed loop: end drift ([0-9.]+) mm / ([0-9.]+) deg"
+closed = num(ate, True) is not None  # the unclosed lines exist only when the closure applied
+def pair(pattern):
+    now = num(pattern)
+    before = num(pattern, True) if closed else now
+    if now is None:
+        return "-"
+    if isinstance(now, tuple):
+        return "%s / %s -> **%s / %s**" % (before + now)
+    return "%s / **%s**" % (before, now)
+print("| %s | %s | %s | %s | %s | %s | %s (%s) |" % (
+    label, run, " / ".join(counts) if counts else "-", pair(ate), pair(rpe), pair(drift),
+    num(r"wall ([0-9.]+) s"), num(r"loop closure: .*\(([0-9.]+) s\)")))
+PY
+}
+
+# The markdown row of the lone-plane guard: ATE without and with the stretch, and its counts.
+lone_row() {
+  python3 - "$@" <<'PY'
+import re, sys
+without, lone, seed, run = sys.argv[1:5]
+def ate(path):
+    lines = [l for l in open(path) if not l.startswith("without loop closure: ")]
+    found = re.findall(r"ATE RMSE ([0-9.]+) mm", "".join(lines))
+    return float(found[-1]) if found else float("nan")
+guard = re.findall(r"degenerate views: (\d+) frame\(s\) with weak directions held, (\d+) relocalised",
+                   open(lone).read())
+a, b = ate(without), ate(lone)
+print("| %s | %s | %.2f | **%.2f (%.1fx)** | %s |" % (
+    seed, run, a, b, b / a, " / ".join(guard[-1]) if guard else "-"))
+PY
+}
+
+run_loops() {
+  local file sim="$out/raw/loops" data="$root/../shared/data" seeds=(1 2 3) frames=600
+  local size=(--width 320 --height 240) intrinsics=(--intrinsics 262.5,262.5,159.5,119.5)
+  local lone=(--lone-plane floor --lone-plane-start 5.4 --lone-plane-seconds 0.7)
+  file="$(header loops)"
+  if [ $quick = 1 ]; then
+    # A smoke run: 60 frames are too few for the 9 m loop to be tracked (numbers meaningless).
+    seeds=(2) frames=60 size=(--width 160 --height 120)
+    intrinsics=(--intrinsics 131.25,131.25,79.5,59.5)
+    lone=(--lone-plane floor --lone-plane-start 1 --lone-plane-seconds 0.3)
+  fi
+  mkdir -p "$sim"
+  local loops="$out/raw/loops-table.md" guard="$out/raw/lone-table.md" s run
+  : >"$loops"
+  : >"$guard"
+  for s in "${seeds[@]}"; do
+    local common=(--frames "$frames" --closed-loop --seed "$s" "${size[@]}" --no-color --force)
+    "$rigfit" simulate-sequence --out "$sim/loop$s" "${common[@]}" >/dev/null
+    "$rigfit" simulate-sequence --out "$sim/lone$s" "${common[@]}" "${lone[@]}" >/dev/null
+    for run in track slam; do
+      loop_run "$out/raw/loops-$run-loop$s.txt" "$run" "$sim/loop$s" "${intrinsics[@]}"
+      loop_run "$out/raw/loops-$run-lone$s.txt" "$run" "$sim/lone$s" "${intrinsics[@]}"
+      loop_row "$out/raw/loops-$run-loop$s.txt" "loop seed $s, ${size[1]}x${size[3]}" "$run" >>"$loops"
+      lone_row "$out/raw/loops-$run-loop$s.txt" "$out/raw/loops-$run-lone$s.txt" "$s" "$run" >>"$guard"
+    done
+  done
+  if [ $quick = 0 ]; then
+    "$rigfit" simulate-sequence --out "$sim/loop1-640" --frames 600 --closed-loop --seed 1 \
+      --no-color --force >/dev/null
+    loop_run "$out/raw/loops-track-640.txt" track "$sim/loop1-640"
+    loop_row "$out/raw/loops-track-640.txt" "loop seed 1, 640x480" track >>"$loops"
+    loop_run "$out/raw/loops-slam-640.txt" slam "$sim/loop1-640"
+    loop_row "$out/raw/loops-slam-640.txt" "loop seed 1, 640x480" "slam (halved)" >>"$loops"
+    for run in track slam; do
+      loop_run "$out/raw/loops-$run-kitchen.txt" "$run" "$data/sevenscenes_kitchen"
+      loop_row "$out/raw/loops-$run-kitchen.txt" "7-Scenes kitchen 200-599" "$run" >>"$loops"
+      loop_run "$out/raw/loops-$run-tum.txt" "$run" "$data/tum_fr1_xyz_subset"
+      loop_row "$out/raw/loops-$run-tum.txt" "TUM fr1/xyz subset" "$run" >>"$loops"
+    done
+  fi
+  {
+    echo "Synthetic loops: \`rigfit simulate-sequence --out loopS --frames $frames --closed-loop --seed S"
+    echo "${size[*]} --no-color\`, then \`rigfit track|slam loopS --out t.txt --evaluate --quiet"
+    echo "${intrinsics[*]}\` (640x480: no size, no intrinsics); real data: \`rigfit track|slam DATA"
+    echo "--out t.txt --evaluate --quiet\`. Counts: keyframes / loop candidates / accepted / rejected after"
+    echo "the solve. Each cell: without loop closure (the summary's \`without loop closure:\` lines) /"
+    echo "**with** (the default). Wall time of the whole run under \`/usr/bin/time\` (closure s)."
+    echo
+    echo "| sequence | run | counts | ATE mm | RPE per frame mm | end drift mm / deg | run s (closure s) |"
+    echo "|---|---|---|---|---|---|---|"
+    cat "$loops"
+    echo
+    echo "Lone-plane stretches: the same sequences with \`${lone[*]}\` (the camera sees only the"
+    echo "floor for that long), the same \`track|slam\` command; ATE mm (x the sequence without the"
+    echo "stretch); held / relocalised: the summary's \`degenerate views:\` counts."
+    echo
+    echo "| seed | run | without the stretch | with it (ratio) | frames held / relocalised |"
+    echo "|---|---|---|---|---|"
+    cat "$guard"
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
 }
 
 for section in "${sections[@]}"; do
