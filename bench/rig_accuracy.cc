@@ -733,7 +733,7 @@ int main(int argc, char** argv) {
   }
   if (normalised > 0) {
     std::printf(
-        "normalised errors (error / predicted 1-sigma, joint covariance): RMS %.2f "
+        "normalised errors (error / reported 1-sigma): RMS %.2f "
         "rotation, %.2f translation over %d cameras\n",
         std::sqrt(sum_nr2 / normalised), std::sqrt(sum_nt2 / normalised), normalised);
     std::printf(

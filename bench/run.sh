@@ -3,8 +3,8 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | families | speed | real | micro | rgbd | loops (default: all seven, in
-#            that order)
+#   SECTION  accuracy | families | bounds | speed | real | micro | rgbd | loops (default: all
+#            eight, in that order)
 #   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
@@ -24,6 +24,10 @@
 #             joint surface_bundle (the default) and pairwise; seeds 0..9 x 2 noise draws (stereo
 #             0..4), then the default on held-out seeds 10..14. Error, bias share, runs worse
 #             than their start, normalised error (error / reported 1-sigma). Niced, 1 thread.
+#   bounds    bench/rig_accuracy --crlb: the Cramer-Rao bounds (docs/uncertainty.md section 9) and
+#             error / bound, white noise (seeds 0..9 x 3 draws; point_to_plane and the surface
+#             bundle) and correlated noise (the bundle, seeds 0..2, also without the pixels next
+#             to another face). Niced, 2 threads (the bounds' 2000 draws; over an hour).
 #   speed     whole-process rigfit refine on rigfit simulate captures, wall time and peak RSS
 #             (/usr/bin/time) and the stage times of _meta.icp_refined.timings_s (joint, pairwise
 #             and, for the stage breakdown and the camera counts, the surface bundle), median of
@@ -61,13 +65,13 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | families | speed | real | micro | rgbd | loops) sections+=("$1") ;;
+    accuracy | families | bounds | speed | real | micro | rgbd | loops) sections+=("$1") ;;
     -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy families speed real micro rgbd loops)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy families bounds speed real micro rgbd loops)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
@@ -277,6 +281,78 @@ run_families() {
     echo
     echo "| family | method | runs | rotation deg | translation mm | worst pair mm | tilt deg | bias share rot / trans | worse | normalised rot / trans |"
     echo "|---|---|---|---|---|---|---|---|---|---|"
+    cat "$table"
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# bounds
+
+# Markdown rows of one rig_accuracy --crlb output: the estimator's error, then each bound with
+# the RMS over the runs of error / bound.
+bound_rows() {
+  python3 - "$@" <<'PY'
+import re, sys
+raw, label = sys.argv[1:3]
+text = open(raw).read()
+m = re.search(r"RMS relative rotation ([0-9.]+) deg, RMS relative translation ([0-9.]+) mm.*RMS tilt ([0-9.]+) deg", text)
+error = "%s / %s / %s" % m.groups() if m else "-"
+names = [(r"^surface-model bound", "surface-model bound"),
+         (r"^correlated-noise surface bound", "surface-model bound, correlated noise"),
+         (r"^  without the pixels within (\d+) px", "the same without the %s-px ring"),
+         (r"^point-to-plane information bound", "point-to-plane information bound"),
+         (r"^estimator under shared point noise", "the estimator's own sandwich under shared noise")]
+numbers = re.compile(r"RMS ([0-9.]+) deg ([0-9.]+) mm(?: tilt ([0-9.]+) deg)?;.*: ([0-9.]+) rotation, ([0-9.]+) translation")
+for line in text.splitlines():
+    for pattern, name in names:
+        head = re.match(pattern, line)
+        found = numbers.search(line)
+        if not head or not found:
+            continue
+        rot, trans, tilt, ratio_r, ratio_t = found.groups()
+        print("| %s | %s | %s | %s / %s / %s | %s / %s |" % (
+            label, error, name % head.groups() if head.groups() else name, rot, trans,
+            tilt or "-", ratio_r, ratio_t))
+PY
+}
+
+run_bounds() {
+  local file size=() table="$out/raw/bounds-table.md"
+  file="$(header bounds)"
+  : >"$table"
+  local correlated="--noise-corr-px 4 --noise-corr-share 0.8"
+  # label|flags
+  local cases=(
+    "white, joint point_to_plane, 10 x 3|--seeds 10 --noise-draws 3"
+    "white, joint surface_bundle, 10 x 3|--seeds 10 --noise-draws 3 --method surface_bundle"
+    "correlated, joint surface_bundle, 3 x 1|--seeds 3 --method surface_bundle $correlated --bound-boundary-px 1 2"
+  )
+  if [ $quick = 1 ]; then
+    size=(--width 160 --height 90)
+    # The correlated-noise bound takes minutes even at 160x90: the white case only.
+    cases=("white, joint surface_bundle, 1 x 1|--seeds 1 --method surface_bundle")
+  fi
+  local c label flags
+  for c in "${cases[@]}"; do
+    IFS='|' read -r label flags <<<"$c"
+    local raw="$out/raw/bounds-$(echo "$label" | tr -c 'a-zA-Z0-9' '_').txt"
+    # shellcheck disable=SC2086 # flags holds several flags
+    echo "+ rig_accuracy --crlb --threads 2 ${size[*]} $flags" | tee "$raw" >&2
+    # shellcheck disable=SC2086
+    nice "$build/bench/rig_accuracy" --crlb --threads 2 "${size[@]}" $flags >>"$raw" 2>&1
+    bound_rows "$raw" "$label" >>"$table"
+  done
+  {
+    echo "Command per row: \`bench/rig_accuracy --crlb --threads 2${size[*]:+ ${size[*]}}\` plus the case's flags"
+    echo "(\`--seeds 10 --noise-draws 3 [--method surface_bundle]\`; correlated: \`--seeds 3 --method"
+    echo "surface_bundle $correlated --bound-boundary-px 1 2\`), 4 cameras, default config;"
+    echo "docs/uncertainty.md section 9 defines each bound. Error and bound: RMS over the runs, rotation"
+    echo "deg / translation mm / tilt deg; error / bound: RMS over the runs of each run's ratio."
+    echo
+    echo "| case | error | bound | bound value | error / bound rot / trans |"
+    echo "|---|---|---|---|---|"
     cat "$table"
     echo
     echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
