@@ -3,8 +3,8 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | families | bounds | speed | real | micro | rgbd | loops (default: all
-#            eight, in that order)
+#   SECTION  accuracy | families | variants | bounds | speed | real | micro | rgbd | loops
+#            (default: all nine, in that order)
 #   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
@@ -24,6 +24,9 @@
 #             joint surface_bundle (the default) and pairwise; seeds 0..9 x 2 noise draws (stereo
 #             0..4), then the default on held-out seeds 10..14. Error, bias share, runs worse
 #             than their start, normalised error (error / reported 1-sigma). Niced, 1 thread.
+#   variants  bench/rig_accuracy --sigma on variants of the default (seeds 0..4): depth models on
+#             miscalibrated cameras, stereo at 320x180, pairwise with the bundle, the bare room,
+#             a 3-camera rig. Niced, 1 thread.
 #   bounds    bench/rig_accuracy --crlb: the Cramer-Rao bounds (docs/uncertainty.md section 9) and
 #             error / bound, white noise (seeds 0..9 x 3 draws; point_to_plane and the surface
 #             bundle) and correlated noise (the bundle, seeds 0..2, also without the pixels next
@@ -65,13 +68,13 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | families | bounds | speed | real | micro | rgbd | loops) sections+=("$1") ;;
+    accuracy | families | variants | bounds | speed | real | micro | rgbd | loops) sections+=("$1") ;;
     -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy families bounds speed real micro rgbd loops)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy families variants bounds speed real micro rgbd loops)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
@@ -221,6 +224,10 @@ cells = [family, method, runs] + [num(summary, g) for g in (1, 2, 3, 4)]
 cells += ["%s / %s" % (num(bias, 1), num(bias, 2)) if re.search(bias, text) else "-"]
 cells += ["%s / %s" % (num(worse, 1), num(worse, 2))]
 cells += ["%s / %s" % (num(normalised, 1), num(normalised, 2)) if re.search(normalised, text) else "-"]
+if len(sys.argv) > 5:  # the depth models' offsets against the truth
+    offsets = r"miscalibrated cameras mean ([0-9.-]+) RMS ([0-9.]+) \((\d+)\), the others mean [0-9.-]+ RMS ([0-9.]+) \((\d+)\); not observable: (\d+)"
+    m = re.search(offsets, text)
+    cells += ["%s (RMS %s, %s cameras) / %s (%s) / %s" % m.groups() if m else "-"]
 print("| " + " | ".join(cells) + " |")
 PY
 }
@@ -281,6 +288,77 @@ run_families() {
     echo
     echo "| family | method | runs | rotation deg | translation mm | worst pair mm | tilt deg | bias share rot / trans | worse | normalised rot / trans |"
     echo "|---|---|---|---|---|---|---|---|---|---|"
+    cat "$table"
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
+}
+
+# The variants of the default: depth models, low resolution, the bare room, a small rig,
+# pairwise with the bundle; rows as run_families', plus the depth models' offsets.
+run_variants() {
+  local file size=() table="$out/raw/variants-table.md" seeds=5
+  file="$(header variants)"
+  : >"$table"
+  local offset="$out/raw/depth-offset.yaml" scale="$out/raw/depth-scale-offset.yaml"
+  echo "icp: {depth_model: offset}" >"$offset"
+  echo "icp: {depth_model: scale_offset}" >"$scale"
+  local correlated="--noise-corr-px 4 --noise-corr-share 0.8" stereo="--depth-model stereo --stereo-upsample 2"
+  local off="--disparity-offset-px 0.1 --miscalibrated-cameras 1"
+  local low="--width 320 --height 180"
+  # label|method column|flags (each also gets --seeds and --sigma --threads 1)
+  local cases=(
+    "white|offset|--method surface_bundle --config $offset"
+    "white, camera 1 +0.1 px|none|--method surface_bundle $off"
+    "white, camera 1 +0.1 px|offset|--method surface_bundle $off --config $offset"
+    "white, camera 1 +0.1 px|scale_offset|--method surface_bundle $off --config $scale"
+    "white, camera 1 depth x1.01|none|--method surface_bundle --depth-scale 1.01 --miscalibrated-cameras 1"
+    "white, camera 1 depth x1.01|scale_offset|--method surface_bundle --depth-scale 1.01 --miscalibrated-cameras 1 --config $scale"
+    "stereo|offset|--method surface_bundle $stereo --config $offset"
+    "stereo, camera 1 +0.1 px|offset|--method surface_bundle $stereo $off --config $offset"
+    "stereo 320x180|joint, surface_bundle|--method surface_bundle $stereo $low"
+    "stereo 320x180|joint, point_to_plane|$stereo $low"
+    "stereo 320x180|pairwise, point_to_plane|--mode pairwise $stereo $low"
+    "stereo 320x180|joint, gicp|--method gicp $stereo $low"
+    "stereo 320x180, camera 1 +0.1 px|joint, surface_bundle|--method surface_bundle $stereo $off $low"
+    "stereo 320x180, camera 1 +0.1 px|joint, point_to_plane|$stereo $off $low"
+    "white|pairwise, surface_bundle|--mode pairwise --method surface_bundle"
+    "correlated|pairwise, surface_bundle|--mode pairwise --method surface_bundle $correlated"
+    "stereo|pairwise, surface_bundle|--mode pairwise --method surface_bundle $stereo"
+    "bare room, 10 seeds|joint, point_to_plane|--bare --seeds 10"
+    "bare room, 10 seeds|joint, surface_bundle|--bare --seeds 10 --method surface_bundle"
+    "3 cameras 320x180, 8 seeds|joint, point_to_plane|--cameras 3 $low --seeds 8"
+    "3 cameras 320x180, 8 seeds|joint, surface_bundle|--cameras 3 $low --seeds 8 --method surface_bundle"
+  )
+  if [ $quick = 1 ]; then
+    seeds=1
+    size=(--width 160 --height 90)
+    cases=("white, camera 1 +0.1 px|offset|--method surface_bundle $off --config $offset")
+  fi
+  local c label method flags
+  for c in "${cases[@]}"; do
+    IFS='|' read -r label method flags <<<"$c"
+    local raw="$out/raw/variants-$(echo "$label $method" | tr -c 'a-zA-Z0-9' '_').txt"
+    # shellcheck disable=SC2086 # flags holds several flags; a later --seeds or size wins
+    echo "+ rig_accuracy --seeds $seeds --sigma --threads 1 ${size[*]} $flags" | tee "$raw" >&2
+    # shellcheck disable=SC2086
+    nice "$build/bench/rig_accuracy" --seeds "$seeds" --sigma --threads 1 "${size[@]}" $flags \
+      >>"$raw" 2>&1
+    family_row "$raw" "$label" "$method" "$(sed -n 's/^summary over \([0-9]* [a-z]*\):.*/\1/p' "$raw")" \
+      offsets >>"$table"
+  done
+  {
+    echo "Command per row: \`bench/rig_accuracy --seeds $seeds --sigma --threads 1${size[*]:+ ${size[*]}}\` plus the row's"
+    echo "flags (raw/variants-*.txt start with them): a depth model is \`--config\` with \`icp:"
+    echo "{depth_model: offset}\` or \`scale_offset\` (docs/residuals.md section 11); \"camera 1 +0.1 px\" is"
+    echo "\`$off\`, \"depth x1.01\" \`--depth-scale 1.01 --miscalibrated-cameras 1\`; stereo"
+    echo "\`$stereo\`; 320x180 \`$low\`. Columns as in the families table; depth"
+    echo "model: the error of the offset estimates in px (estimate - truth; a camera not observable keeps"
+    echo "0), mean over the miscalibrated cameras (RMS, count) / RMS over the others (count) / cameras"
+    echo "not observable."
+    echo
+    echo "| variant | method | runs | rotation deg | translation mm | worst pair mm | tilt deg | bias share rot / trans | worse | normalised rot / trans | depth model offset error px: miscalibrated mean (RMS, n) / others RMS (n) / not observable |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|"
     cat "$table"
     echo
     echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
