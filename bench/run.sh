@@ -3,8 +3,8 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | families | variants | bounds | speed | real | micro | rgbd | loops
-#            (default: all nine, in that order)
+#   SECTION  accuracy | families | variants | bounds | speed | real | micro | rgbd | loops |
+#            view3d (default: all but view3d, in that order)
 #   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
@@ -56,6 +56,9 @@
 #             seed 1 at 640x480) and the real sequences: loop closure's counts, ATE, RPE and end
 #             drift without and with it; then the same loops with a lone-plane stretch (floor
 #             only for 0.7 s): ATE against the loop without it. Not niced (about an hour).
+#   view3d    the reports' 3-D view: folder size and time to interactive in headless Chromium
+#             (bench/view3d_ready.sh) of refine, compare, fuse and slam reports. Needs chromium;
+#             only when named.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -68,7 +71,7 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | families | variants | bounds | speed | real | micro | rgbd | loops) sections+=("$1") ;;
+    accuracy | families | variants | bounds | speed | real | micro | rgbd | loops | view3d) sections+=("$1") ;;
     -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
@@ -920,6 +923,54 @@ run_loops() {
     echo "| seed | run | without the stretch | with it (ratio) | frames held / relocalised |"
     echo "|---|---|---|---|---|"
     cat "$guard"
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# view3d
+
+# One row: a report folder's size and its 3-D view's time to interactive (bench/view3d_ready.sh).
+view3d_row() {
+  local label="$1" command="$2" dir="$3" runs="$4" hash="${5:-}" ready="$out/raw/view3d-ready.txt"
+  bash "$root/bench/view3d_ready.sh" "$dir" "$runs" "$hash" >"$ready"
+  echo "| $label | \`$command\` | $(du -sb "$dir" | awk '{printf "%.1f", $1 / 1e6}') |" \
+    "$(sed -n 's/^median (ms): //p' "$ready") ms ($(sed -n 's/^runs (ms): //p' "$ready" | tr ' ' '/')) |" \
+    "$(sed -n 's/^load average: //p' "$ready") |"
+}
+
+# Not in the default list: needs Debian's chromium (headless, SwiftShader WebGL).
+run_view3d() {
+  local file sim="$out/raw/view3d" runs=5 slam=(--halve 0)
+  command -v chromium >/dev/null || { echo "bench/run.sh: view3d needs chromium" >&2; exit 2; }
+  file="$(header view3d)"
+  [ $quick = 1 ] && { runs=1; slam=(--max-frames 10); }
+  mkdir -p "$sim"
+  "$rigfit" simulate --out "$sim/rig" --seed 0 --force >/dev/null
+  local rig=(--capture "$sim/rig/capture.h5" --extrinsics "$sim/rig/init.json")
+  "$rigfit" refine "${rig[@]}" --out "$sim/rig/refined.json" --report "$sim/refine" --quiet \
+    >/dev/null 2>&1
+  "$rigfit" compare "${rig[@]}" --gt "$sim/rig/gt.json" --report "$sim/compare" -q >/dev/null 2>&1
+  "$rigfit" fuse --capture "$sim/rig/capture.h5" --extrinsics "$sim/rig/gt.json" \
+    --map "$sim/map.ply" --force --report "$sim/fuse" >/dev/null 2>&1
+  "$rigfit" slam "$root/../shared/data/sevenscenes_kitchen" --out "$sim/kitchen.txt" \
+    --report "$sim/slam" --quiet "${slam[@]}" >/dev/null 2>&1
+  {
+    echo "Report folders of \`rigfit simulate --out rig --seed 0\` (4 cameras 640x360) and of the 7-Scenes"
+    echo "kitchen (400 frames 640x480). Size: \`du -sb\`; time to interactive: \`bench/view3d_ready.sh DIR"
+    echo "$runs [HASH]\` (headless Chromium, SwiftShader WebGL, 1200x800): from navigation to the first frame"
+    echo "with every switched-on layer loaded, median (runs)."
+    echo
+    echo "| report | command | folder MB | time to interactive | load average |"
+    echo "|---|---|---|---|---|"
+    view3d_row "rig, refine" "rigfit refine ... --report DIR" "$sim/refine" "$runs"
+    view3d_row "rig, refine, whole views on" "rigfit refine ... --report DIR; #layers=band,whole&color=rgb" \
+      "$sim/refine" "$runs" '#layers=band,whole&color=rgb'
+    view3d_row "rig, compare" "rigfit compare ... --gt rig/gt.json --report DIR" "$sim/compare" "$runs"
+    view3d_row "rig, fuse (true poses)" "rigfit fuse ... --report DIR" "$sim/fuse" "$runs"
+    view3d_row "7-Scenes kitchen, slam" "rigfit slam DATA/sevenscenes_kitchen --report DIR ${slam[*]}" \
+      "$sim/slam" "$runs"
     echo
     echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
   } >>"$file"
