@@ -4,7 +4,7 @@
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
 #   SECTION  accuracy | families | variants | bounds | speed | real | micro | rgbd | loops |
-#            view3d (default: all but view3d, in that order)
+#            view3d (default: all but view3d, in docs/benchmarks.md's order)
 #   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
@@ -77,7 +77,7 @@ while [ $# -gt 0 ]; do
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy families variants bounds speed real micro rgbd loops)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy families variants bounds real speed rgbd loops micro)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
