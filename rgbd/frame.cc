@@ -92,23 +92,31 @@ std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width,
     for (std::size_t i = 0; i < depth.size(); ++i) in[i] = std::isnan(depth[i]) ? kFar : depth[i];
     std::vector<float> out(in.size(), kNaN);
     ForEachRow(height, threads, [&](int v) {
-      const int n = along_x ? width : height;
-      const std::ptrdiff_t stride = along_x ? 1 : width;
-      for (int u = 0; u < width; ++u) {
-        const std::size_t i = static_cast<std::size_t>(v) * width + u;
-        const float z = in[i];
-        if (z == kFar) continue;
-        const int c = along_x ? u : v;
-        float sum = 0.0f;
-        float weight = 0.0f;
-        for (int d = std::max(-radius, -c); d <= std::min(radius, n - 1 - c); ++d) {
-          const float zn = in[i + d * stride];
-          const float step = std::min(std::abs(zn - z) * steps_per_m, last_step);
-          const float w = spatial[d + radius] * range[static_cast<int>(step + 0.5f)];
-          sum += w * zn;
-          weight += w;
+      // Tap by tap over the whole row: each pixel adds its taps in the order d = -radius..
+      // radius (the bits of a loop over one pixel's window), and the pixels' sums do not wait
+      // on one another.
+      const float* row = in.data() + static_cast<std::size_t>(v) * width;
+      std::vector<float> sum(width, 0.0f);
+      std::vector<float> weight(width, 0.0f);
+      for (int d = -radius; d <= radius; ++d) {
+        // The pixels whose neighbour d is in the image.
+        const int begin = along_x ? std::max(0, -d) : 0;
+        const int end =
+            along_x ? std::min(width, width - d) : (v + d >= 0 && v + d < height) * width;
+        if (begin >= end) continue;
+        const std::ptrdiff_t offset = along_x ? d : static_cast<std::ptrdiff_t>(d) * width;
+        const float spatial_weight = spatial[d + radius];
+        for (int u = begin; u < end; ++u) {
+          const float zn = row[u + offset];
+          const float step = std::min(std::abs(zn - row[u]) * steps_per_m, last_step);
+          const float w = spatial_weight * range[static_cast<int>(step + 0.5f)];
+          sum[u] += w * zn;
+          weight[u] += w;
         }
-        out[i] = sum / weight;
+      }
+      float* filtered = out.data() + static_cast<std::size_t>(v) * width;
+      for (int u = 0; u < width; ++u) {
+        if (row[u] != kFar) filtered[u] = sum[u] / weight[u];
       }
     });
     return out;
