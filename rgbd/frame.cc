@@ -28,32 +28,32 @@ PinholeIntrinsics Halved(const PinholeIntrinsics& k) {
 }
 
 // Half-resolution depth: per 2x2 block, the mean of the valid depths within the jump ratio
-// of the block's nearest valid depth (the foreground, so a silhouette is not smeared).
+// of the block's nearest valid depth (the foreground, so a silhouette is not smeared). Without
+// branches on the data (whether a sample is valid, near or far has no pattern): an invalid
+// sample is infinitely far, and a sample not taken adds 0 to the sum, which leaves it as it
+// is, so the mean has the bits of a sum over the samples taken, in their order.
 std::vector<float> Downsample(const std::vector<float>& depth, int width, int height,
                               double jump_ratio) {
+  constexpr float kInfinity = std::numeric_limits<float>::infinity();
   const int w = width / 2;
   const int h = height / 2;
   std::vector<float> out(static_cast<std::size_t>(w) * h, kNaN);
   for (int v = 0; v < h; ++v) {
+    const float* top = depth.data() + static_cast<std::size_t>(2 * v) * width;
+    const float* bottom = top + width;
     for (int u = 0; u < w; ++u) {
-      float samples[4];
-      int n = 0;
-      for (int dv = 0; dv < 2; ++dv) {
-        for (int du = 0; du < 2; ++du) {
-          const float z = depth[static_cast<std::size_t>(2 * v + dv) * width + 2 * u + du];
-          if (!std::isnan(z)) samples[n++] = z;
-        }
-      }
-      if (n == 0) continue;
-      const float nearest = *std::min_element(samples, samples + n);
+      float samples[4] = {top[2 * u], top[2 * u + 1], bottom[2 * u], bottom[2 * u + 1]};
+      for (float& z : samples) z = std::isnan(z) ? kInfinity : z;
+      const float nearest =
+          std::min(std::min(samples[0], samples[1]), std::min(samples[2], samples[3]));
+      if (nearest == kInfinity) continue;
       const double gate = jump_ratio * nearest;
       double sum = 0.0;
       int count = 0;
-      for (int k = 0; k < n; ++k) {
-        if (samples[k] - nearest <= gate) {
-          sum += samples[k];
-          ++count;
-        }
+      for (const float z : samples) {
+        const bool taken = z - nearest <= gate;
+        sum += taken ? z : 0.0;
+        count += taken;
       }
       out[static_cast<std::size_t>(v) * w + u] = static_cast<float>(sum / count);
     }
@@ -166,15 +166,11 @@ void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int
       const std::size_t i = static_cast<std::size_t>(v) * width + u;
       const float z = depth[i];
       if (std::isnan(z) || std::isnan(level->depth_m[i])) continue;
-      const std::size_t neighbours[4] = {i - 1, i + 1, i - width, i + width};
-      bool usable = true;
-      for (const std::size_t j : neighbours) {
-        const float zj = depth[j];
-        if (std::isnan(zj) || std::abs(zj - z) > ratio * z) {
-          usable = false;
-          break;
-        }
-      }
+      // Usable when no neighbour is invalid (NaN fails every comparison) or across a jump.
+      const float jump = ratio * z;
+      const bool usable =
+          (std::abs(depth[i - 1] - z) <= jump) & (std::abs(depth[i + 1] - z) <= jump) &
+          (std::abs(depth[i - width] - z) <= jump) & (std::abs(depth[i + width] - z) <= jump);
       if (!usable) continue;
       const Vec3f du = vertices[i + 1] - vertices[i - 1];
       const Vec3f dv = vertices[i + width] - vertices[i - width];

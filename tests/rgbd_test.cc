@@ -214,6 +214,43 @@ TEST(RgbdFrame, BilateralFilterHasTheBitsOfTheOnePixelWindowLoop) {
   }
 }
 
+TEST(RgbdFrame, HalvingHasTheBitsOfTheOneBlockLoop) {
+  const int w = 24, h = 18;
+  RgbdFrame frame;
+  frame.width = w;
+  frame.height = h;
+  frame.intrinsics = {100.0, 100.0, 11.5, 8.5};
+  frame.depth_m = RoughDepth(w, h);
+  const double ratio = 0.03;
+  const RgbdFrame half = HalveFrame(frame, ratio);
+  for (int v = 0; v < h / 2; ++v) {
+    for (int u = 0; u < w / 2; ++u) {
+      // The valid samples of the block in row order; the mean of those within the ratio of the
+      // nearest, summed in double.
+      std::vector<float> samples;
+      for (int k = 0; k < 4; ++k) {
+        const float z = frame.depth_m[(2 * v + k / 2) * w + 2 * u + k % 2];
+        if (!std::isnan(z)) samples.push_back(z);
+      }
+      const float z = half.depth_m[v * (w / 2) + u];
+      if (samples.empty()) {
+        EXPECT_TRUE(std::isnan(z));
+        continue;
+      }
+      const float nearest = *std::min_element(samples.begin(), samples.end());
+      double sum = 0.0;
+      int count = 0;
+      for (const float s : samples) {
+        if (s - nearest <= ratio * nearest) {
+          sum += s;
+          ++count;
+        }
+      }
+      EXPECT_EQ(z, static_cast<float>(sum / count)) << u << ", " << v;
+    }
+  }
+}
+
 TEST(RgbdAssociation, EachConditionIsTested) {
   const FrameLevel target = SinglePixelLevel(2.0f);
   AssociationOptions options;
