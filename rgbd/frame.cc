@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "core/errors.h"
 #include "core/parallel.h"
@@ -61,67 +62,113 @@ std::vector<float> Downsample(const std::vector<float>& depth, int width, int he
   return out;
 }
 
+/// The bilateral filter as two 1D passes, along x then along y, over depth whose invalid
+/// samples are kFar (so far that their range weight is 0: no branch per neighbour).
+class BilateralPasses {
+ public:
+  static constexpr float kFar = 1e30f;
+
+  BilateralPasses(int width, int height, double sigma_px, double sigma_m, int threads)
+      : width_(width),
+        height_(height),
+        threads_(threads),
+        radius_(std::max(1, static_cast<int>(std::ceil(2.0 * sigma_px)))),
+        spatial_(2 * radius_ + 1),
+        range_(kRangeSteps * kRangeSigmas + 1),
+        steps_per_m_(static_cast<float>(kRangeSteps / sigma_m)),
+        last_step_(static_cast<float>(range_.size() - 1)),
+        pairs_(radius_) {
+    for (int d = -radius_; d <= radius_; ++d) {
+      spatial_[d + radius_] = static_cast<float>(std::exp(-d * d / (2.0 * sigma_px * sigma_px)));
+    }
+    // exp(-dz^2 / 2 sigma_m^2) every kRangeSteps-th of sigma_m up to 4 sigma_m; every step at
+    // or beyond it lands on the last entry, 0 (the weight there is below 3.4e-4).
+    for (std::size_t k = 0; k + 1 < range_.size(); ++k) {
+      const double t = static_cast<double>(k) / kRangeSteps;
+      range_[k] = static_cast<float>(std::exp(-0.5 * t * t));
+    }
+    range_.back() = 0.0f;
+  }
+
+  /// One pass along x or y, the range weight taken against each pixel's own depth: the weight
+  /// of two samples d pixels apart is the same from either (|a - b| = |b - a|), so it is
+  /// computed once per pair; each pixel then sums its taps d = -radius..radius in order.
+  std::vector<float> Pass(const std::vector<float>& in, bool along_x) {
+    stride_ = along_x ? 1 : width_;
+    along_x_ = along_x;
+    for (std::vector<float>& pair : pairs_) pair.resize(in.size());
+    ForEachRow(height_, threads_, [&](int v) { PairWeights(in, v); });
+    std::vector<float> out(in.size(), kNaN);
+    ForEachRow(height_, threads_, [&](int v) { FilterRow(in, v, &out); });
+    return out;
+  }
+
+ private:
+  static constexpr int kRangeSteps = 64;
+  static constexpr int kRangeSigmas = 4;
+
+  /// The pixels [first, second) of row v whose neighbour d is in the image.
+  std::pair<int, int> Span(int v, int d) const {
+    if (along_x_) return {std::max(0, -d), std::min(width_, width_ - d)};
+    return {0, v + d >= 0 && v + d < height_ ? width_ : 0};
+  }
+
+  /// pairs_[d - 1][i]: the weight of pixel i and its neighbour d > 0, in row v.
+  void PairWeights(const std::vector<float>& in, int v) {
+    const std::size_t row = static_cast<std::size_t>(v) * width_;
+    for (int d = 1; d <= radius_; ++d) {
+      const auto [begin, end] = Span(v, d);
+      const std::size_t offset = d * stride_;
+      float* pair = pairs_[d - 1].data();
+      for (std::size_t i = row + begin; i < row + end; ++i) {
+        const float step = std::min(std::abs(in[i + offset] - in[i]) * steps_per_m_, last_step_);
+        pair[i] = spatial_[d + radius_] * range_[static_cast<int>(step + 0.5f)];
+      }
+    }
+  }
+
+  /// Row v of the pass: per pixel sum_d w_d z_d / sum_d w_d (NaN where `in` is invalid).
+  void FilterRow(const std::vector<float>& in, int v, std::vector<float>* out) const {
+    const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * width_;
+    std::vector<float> sum(width_, 0.0f);
+    std::vector<float> weight(width_, 0.0f);
+    const float centre = spatial_[radius_] * range_[0];  // d = 0: no depth difference
+    for (int d = -radius_; d <= radius_; ++d) {
+      const auto [begin, end] = Span(v, d);
+      const std::ptrdiff_t offset = d * stride_;
+      // A pair's weight is kept at its first pixel: the neighbour's when d < 0.
+      const float* pair = d == 0 ? nullptr : pairs_[std::abs(d) - 1].data();
+      const std::ptrdiff_t at = row + std::min<std::ptrdiff_t>(offset, 0);
+      for (int u = begin; u < end; ++u) {
+        const float w = pair ? pair[at + u] : centre;
+        sum[u] += w * in[row + offset + u];
+        weight[u] += w;
+      }
+    }
+    for (int u = 0; u < width_; ++u) {
+      if (in[row + u] != kFar) (*out)[row + u] = sum[u] / weight[u];
+    }
+  }
+
+  int width_, height_, threads_, radius_;
+  std::vector<float> spatial_;
+  std::vector<float> range_;
+  float steps_per_m_, last_step_;
+  std::vector<std::vector<float>> pairs_;  // per d = 1..radius, reused by both passes
+  std::ptrdiff_t stride_ = 1;
+  bool along_x_ = true;
+};
+
 }  // namespace
 
 std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
                                    double sigma_px, double sigma_m, int threads) {
-  const int radius = std::max(1, static_cast<int>(std::ceil(2.0 * sigma_px)));
-  std::vector<float> spatial(2 * radius + 1);
-  for (int d = -radius; d <= radius; ++d) {
-    spatial[d + radius] = static_cast<float>(std::exp(-d * d / (2.0 * sigma_px * sigma_px)));
-  }
-  // The range weight exp(-dz^2 / 2 sigma_m^2) tabulated every kRangeSteps-th of sigma_m up to
-  // 4 sigma_m (beyond: 0, below 3.4e-4).
-  constexpr int kRangeSteps = 64;
-  constexpr int kRangeSigmas = 4;
-  std::vector<float> range(kRangeSteps * kRangeSigmas + 1);
-  for (std::size_t k = 0; k < range.size(); ++k) {
-    const double t = static_cast<double>(k) / kRangeSteps;
-    range[k] = static_cast<float>(std::exp(-0.5 * t * t));
-  }
-  const float steps_per_m = static_cast<float>(kRangeSteps / sigma_m);
-  const float last_step = static_cast<float>(range.size() - 1);
-  // One pass along x (dx = 1) or y (dx = width): the 2D filter as two 1D ones, the range
-  // weight taken against the pass's centre pixel.
-  range.back() = 0.0f;  // every step at or beyond 4 sigma lands here
-  // Invalid samples become a depth so far that their range weight is 0: the inner loop needs
-  // no branch per neighbour.
-  constexpr float kFar = 1e30f;
-  const auto pass = [&](const std::vector<float>& depth, bool along_x) {
-    std::vector<float> in(depth.size());
-    for (std::size_t i = 0; i < depth.size(); ++i) in[i] = std::isnan(depth[i]) ? kFar : depth[i];
-    std::vector<float> out(in.size(), kNaN);
-    ForEachRow(height, threads, [&](int v) {
-      // Tap by tap over the whole row: each pixel adds its taps in the order d = -radius..
-      // radius (the bits of a loop over one pixel's window), and the pixels' sums do not wait
-      // on one another.
-      const float* row = in.data() + static_cast<std::size_t>(v) * width;
-      std::vector<float> sum(width, 0.0f);
-      std::vector<float> weight(width, 0.0f);
-      for (int d = -radius; d <= radius; ++d) {
-        // The pixels whose neighbour d is in the image.
-        const int begin = along_x ? std::max(0, -d) : 0;
-        const int end =
-            along_x ? std::min(width, width - d) : (v + d >= 0 && v + d < height) * width;
-        if (begin >= end) continue;
-        const std::ptrdiff_t offset = along_x ? d : static_cast<std::ptrdiff_t>(d) * width;
-        const float spatial_weight = spatial[d + radius];
-        for (int u = begin; u < end; ++u) {
-          const float zn = row[u + offset];
-          const float step = std::min(std::abs(zn - row[u]) * steps_per_m, last_step);
-          const float w = spatial_weight * range[static_cast<int>(step + 0.5f)];
-          sum[u] += w * zn;
-          weight[u] += w;
-        }
-      }
-      float* filtered = out.data() + static_cast<std::size_t>(v) * width;
-      for (int u = 0; u < width; ++u) {
-        if (row[u] != kFar) filtered[u] = sum[u] / weight[u];
-      }
-    });
-    return out;
+  BilateralPasses passes(width, height, sigma_px, sigma_m, threads);
+  const auto far_invalid = [](std::vector<float> depth) {
+    for (float& z : depth) z = std::isnan(z) ? BilateralPasses::kFar : z;
+    return depth;
   };
-  return pass(pass(depth_m, true), false);
+  return passes.Pass(far_invalid(passes.Pass(far_invalid(depth_m), true)), false);
 }
 
 namespace {
