@@ -29,8 +29,8 @@ PinholeIntrinsics Halved(const PinholeIntrinsics& k) {
 }
 
 // Half-resolution depth: per 2x2 block, the mean of the valid depths within the jump ratio
-// of the block's nearest valid depth (the foreground, so a silhouette is not smeared). Without
-// branches on the data (whether a sample is valid, near or far has no pattern): an invalid
+// of the block's nearest valid depth (the foreground, so a silhouette is not smeared). No
+// branch per sample (whether a sample is valid, near or far has no pattern): an invalid
 // sample is infinitely far, and a sample not taken adds 0 to the sum, which leaves it as it
 // is, so the mean has the bits of a sum over the samples taken, in their order.
 std::vector<float> Downsample(const std::vector<float>& depth, int width, int height,
