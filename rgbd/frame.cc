@@ -120,7 +120,8 @@ class BilateralPasses {
       const auto [begin, end] = Span(v, d);
       const std::size_t offset = d * stride_;
       float* pair = pairs_[d - 1].data();
-      for (std::size_t i = row + begin; i < row + end; ++i) {
+      for (int u = begin; u < end; ++u) {
+        const std::size_t i = row + u;
         const float step = std::min(std::abs(in[i + offset] - in[i]) * steps_per_m_, last_step_);
         pair[i] = spatial_[d + radius_] * range_[static_cast<int>(step + 0.5f)];
       }

@@ -169,8 +169,8 @@ std::vector<float> RoughDepth(int w, int h) {
   return depth;
 }
 
-TEST(RgbdFrame, BilateralFilterHasTheBitsOfTheOnePixelWindowLoop) {
-  const int w = 23, h = 17;
+// BilateralFilter of RoughDepth(w, h) against the filter written pixel by pixel.
+void ExpectBilateralBitsOfTheOnePixelWindowLoop(int w, int h) {
   const double sigma_px = 2.0, sigma_m = 0.03;
   const std::vector<float> depth = RoughDepth(w, h);
   // The documented filter, pixel by pixel: the range weight tabulated every 64th of sigma_m up
@@ -209,9 +209,14 @@ TEST(RgbdFrame, BilateralFilterHasTheBitsOfTheOnePixelWindowLoop) {
     if (std::isnan(expected[i])) {
       EXPECT_TRUE(std::isnan(filtered[i])) << i;
     } else {
-      EXPECT_EQ(filtered[i], expected[i]) << i;  // the same bits, not only close
+      EXPECT_EQ(filtered[i], expected[i]) << w << "x" << h << ": " << i;  // same bits
     }
   }
+}
+
+TEST(RgbdFrame, BilateralFilterHasTheBitsOfTheOnePixelWindowLoop) {
+  ExpectBilateralBitsOfTheOnePixelWindowLoop(23, 17);
+  ExpectBilateralBitsOfTheOnePixelWindowLoop(3, 2);  // narrower than the window
 }
 
 TEST(RgbdFrame, HalvingHasTheBitsOfTheOneBlockLoop) {
