@@ -102,13 +102,7 @@ class PngSequence final : public RgbdSequence {
     frame.width = depth.width;
     frame.height = depth.height;
     frame.intrinsics = layout_.intrinsics;
-    frame.depth_m.resize(depth.values.size());
-    for (size_t i = 0; i < depth.values.size(); ++i) {
-      const std::uint16_t v = depth.values[i];
-      const bool invalid = v == 0 || (layout_.max_value_invalid && v == kSevenScenesNoDepth);
-      frame.depth_m[i] = invalid ? std::numeric_limits<float>::quiet_NaN()
-                                 : static_cast<float>(v * layout_.metres_per_unit);
-    }
+    frame.depth_m = DepthMetres(depth.values);
     if (!files.color.empty()) {
       RgbRaster color = ReadPng(files.color);
       if (color.width != depth.width || color.height != depth.height) {
@@ -138,6 +132,20 @@ class PngSequence final : public RgbdSequence {
   }
 
  private:
+  /// The depth in metres of the PNG's values, NaN for no measurement (0, and 65535 in
+  /// 7-Scenes). The settings in locals: the loop then reads nothing but the values.
+  std::vector<float> DepthMetres(const std::vector<std::uint16_t>& values) const {
+    const double metres_per_unit = layout_.metres_per_unit;
+    const std::uint16_t no_depth = layout_.max_value_invalid ? kSevenScenesNoDepth : 0;
+    std::vector<float> depth_m(values.size());
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      const std::uint16_t v = values[i];
+      depth_m[i] = v == 0 || v == no_depth ? std::numeric_limits<float>::quiet_NaN()
+                                           : static_cast<float>(v * metres_per_unit);
+    }
+    return depth_m;
+  }
+
   PngSequenceLayout layout_;
 };
 

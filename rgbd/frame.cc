@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <utility>
 
 #include "core/errors.h"
 #include "core/parallel.h"
@@ -28,32 +29,32 @@ PinholeIntrinsics Halved(const PinholeIntrinsics& k) {
 }
 
 // Half-resolution depth: per 2x2 block, the mean of the valid depths within the jump ratio
-// of the block's nearest valid depth (the foreground, so a silhouette is not smeared).
+// of the block's nearest valid depth (the foreground, so a silhouette is not smeared). No
+// branch per sample (whether a sample is valid, near or far has no pattern): an invalid
+// sample is infinitely far, and a sample not taken adds 0 to the sum, which leaves it as it
+// is, so the mean has the bits of a sum over the samples taken, in their order.
 std::vector<float> Downsample(const std::vector<float>& depth, int width, int height,
                               double jump_ratio) {
+  constexpr float kInfinity = std::numeric_limits<float>::infinity();
   const int w = width / 2;
   const int h = height / 2;
   std::vector<float> out(static_cast<std::size_t>(w) * h, kNaN);
   for (int v = 0; v < h; ++v) {
+    const float* top = depth.data() + static_cast<std::size_t>(2 * v) * width;
+    const float* bottom = top + width;
     for (int u = 0; u < w; ++u) {
-      float samples[4];
-      int n = 0;
-      for (int dv = 0; dv < 2; ++dv) {
-        for (int du = 0; du < 2; ++du) {
-          const float z = depth[static_cast<std::size_t>(2 * v + dv) * width + 2 * u + du];
-          if (!std::isnan(z)) samples[n++] = z;
-        }
-      }
-      if (n == 0) continue;
-      const float nearest = *std::min_element(samples, samples + n);
+      float samples[4] = {top[2 * u], top[2 * u + 1], bottom[2 * u], bottom[2 * u + 1]};
+      for (float& z : samples) z = std::isnan(z) ? kInfinity : z;
+      const float nearest =
+          std::min(std::min(samples[0], samples[1]), std::min(samples[2], samples[3]));
+      if (nearest == kInfinity) continue;
       const double gate = jump_ratio * nearest;
       double sum = 0.0;
       int count = 0;
-      for (int k = 0; k < n; ++k) {
-        if (samples[k] - nearest <= gate) {
-          sum += samples[k];
-          ++count;
-        }
+      for (const float z : samples) {
+        const bool taken = z - nearest <= gate;
+        sum += taken ? z : 0.0;
+        count += taken;
       }
       out[static_cast<std::size_t>(v) * w + u] = static_cast<float>(sum / count);
     }
@@ -61,59 +62,114 @@ std::vector<float> Downsample(const std::vector<float>& depth, int width, int he
   return out;
 }
 
+/// The bilateral filter as two 1D passes, along x then along y, over depth whose invalid
+/// samples are kFar (so far that their range weight is 0: no branch per neighbour).
+class BilateralPasses {
+ public:
+  static constexpr float kFar = 1e30f;
+
+  BilateralPasses(int width, int height, double sigma_px, double sigma_m, int threads)
+      : width_(width),
+        height_(height),
+        threads_(threads),
+        radius_(std::max(1, static_cast<int>(std::ceil(2.0 * sigma_px)))),
+        spatial_(2 * radius_ + 1),
+        range_(kRangeSteps * kRangeSigmas + 1),
+        steps_per_m_(static_cast<float>(kRangeSteps / sigma_m)),
+        last_step_(static_cast<float>(range_.size() - 1)),
+        pairs_(radius_) {
+    for (int d = -radius_; d <= radius_; ++d) {
+      spatial_[d + radius_] = static_cast<float>(std::exp(-d * d / (2.0 * sigma_px * sigma_px)));
+    }
+    // exp(-dz^2 / 2 sigma_m^2) every kRangeSteps-th of sigma_m up to 4 sigma_m; every step at
+    // or beyond it lands on the last entry, 0 (the weight there is below 3.4e-4).
+    for (std::size_t k = 0; k + 1 < range_.size(); ++k) {
+      const double t = static_cast<double>(k) / kRangeSteps;
+      range_[k] = static_cast<float>(std::exp(-0.5 * t * t));
+    }
+    range_.back() = 0.0f;
+  }
+
+  /// One pass along x or y, the range weight taken against each pixel's own depth: the weight
+  /// of two samples d pixels apart is the same from either (|a - b| = |b - a|), so it is
+  /// computed once per pair; each pixel then sums its taps d = -radius..radius in order.
+  std::vector<float> Pass(const std::vector<float>& in, bool along_x) {
+    stride_ = along_x ? 1 : width_;
+    along_x_ = along_x;
+    for (std::vector<float>& pair : pairs_) pair.resize(in.size());
+    ForEachRow(height_, threads_, [&](int v) { PairWeights(in, v); });
+    std::vector<float> out(in.size(), kNaN);
+    ForEachRow(height_, threads_, [&](int v) { FilterRow(in, v, &out); });
+    return out;
+  }
+
+ private:
+  static constexpr int kRangeSteps = 64;
+  static constexpr int kRangeSigmas = 4;
+
+  /// The pixels [first, second) of row v whose neighbour d is in the image.
+  std::pair<int, int> Span(int v, int d) const {
+    if (along_x_) return {std::max(0, -d), std::min(width_, width_ - d)};
+    return {0, v + d >= 0 && v + d < height_ ? width_ : 0};
+  }
+
+  /// pairs_[d - 1][i]: the weight of pixel i and its neighbour d > 0, in row v.
+  void PairWeights(const std::vector<float>& in, int v) {
+    const std::size_t row = static_cast<std::size_t>(v) * width_;
+    for (int d = 1; d <= radius_; ++d) {
+      const auto [begin, end] = Span(v, d);
+      const std::size_t offset = d * stride_;
+      float* pair = pairs_[d - 1].data();
+      for (int u = begin; u < end; ++u) {
+        const std::size_t i = row + u;
+        const float step = std::min(std::abs(in[i + offset] - in[i]) * steps_per_m_, last_step_);
+        pair[i] = spatial_[d + radius_] * range_[static_cast<int>(step + 0.5f)];
+      }
+    }
+  }
+
+  /// Row v of the pass: per pixel sum_d w_d z_d / sum_d w_d (NaN where `in` is invalid).
+  void FilterRow(const std::vector<float>& in, int v, std::vector<float>* out) const {
+    const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(v) * width_;
+    std::vector<float> sum(width_, 0.0f);
+    std::vector<float> weight(width_, 0.0f);
+    const float centre = spatial_[radius_] * range_[0];  // d = 0: no depth difference
+    for (int d = -radius_; d <= radius_; ++d) {
+      const auto [begin, end] = Span(v, d);
+      const std::ptrdiff_t offset = d * stride_;
+      // A pair's weight is kept at its first pixel: the neighbour's when d < 0.
+      const float* pair = d == 0 ? nullptr : pairs_[std::abs(d) - 1].data();
+      const std::ptrdiff_t at = row + std::min<std::ptrdiff_t>(offset, 0);
+      for (int u = begin; u < end; ++u) {
+        const float w = pair ? pair[at + u] : centre;
+        sum[u] += w * in[row + offset + u];
+        weight[u] += w;
+      }
+    }
+    for (int u = 0; u < width_; ++u) {
+      if (in[row + u] != kFar) (*out)[row + u] = sum[u] / weight[u];
+    }
+  }
+
+  int width_, height_, threads_, radius_;
+  std::vector<float> spatial_;
+  std::vector<float> range_;
+  float steps_per_m_, last_step_;
+  std::vector<std::vector<float>> pairs_;  // per d = 1..radius, reused by both passes
+  std::ptrdiff_t stride_ = 1;
+  bool along_x_ = true;
+};
+
 }  // namespace
 
 std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
                                    double sigma_px, double sigma_m, int threads) {
-  const int radius = std::max(1, static_cast<int>(std::ceil(2.0 * sigma_px)));
-  std::vector<float> spatial(2 * radius + 1);
-  for (int d = -radius; d <= radius; ++d) {
-    spatial[d + radius] = static_cast<float>(std::exp(-d * d / (2.0 * sigma_px * sigma_px)));
-  }
-  // The range weight exp(-dz^2 / 2 sigma_m^2) tabulated every kRangeSteps-th of sigma_m up to
-  // 4 sigma_m (beyond: 0, below 3.4e-4).
-  constexpr int kRangeSteps = 64;
-  constexpr int kRangeSigmas = 4;
-  std::vector<float> range(kRangeSteps * kRangeSigmas + 1);
-  for (std::size_t k = 0; k < range.size(); ++k) {
-    const double t = static_cast<double>(k) / kRangeSteps;
-    range[k] = static_cast<float>(std::exp(-0.5 * t * t));
-  }
-  const float steps_per_m = static_cast<float>(kRangeSteps / sigma_m);
-  const float last_step = static_cast<float>(range.size() - 1);
-  // One pass along x (dx = 1) or y (dx = width): the 2D filter as two 1D ones, the range
-  // weight taken against the pass's centre pixel.
-  range.back() = 0.0f;  // every step at or beyond 4 sigma lands here
-  // Invalid samples become a depth so far that their range weight is 0: the inner loop needs
-  // no branch per neighbour.
-  constexpr float kFar = 1e30f;
-  const auto pass = [&](const std::vector<float>& depth, bool along_x) {
-    std::vector<float> in(depth.size());
-    for (std::size_t i = 0; i < depth.size(); ++i) in[i] = std::isnan(depth[i]) ? kFar : depth[i];
-    std::vector<float> out(in.size(), kNaN);
-    ForEachRow(height, threads, [&](int v) {
-      const int n = along_x ? width : height;
-      const std::ptrdiff_t stride = along_x ? 1 : width;
-      for (int u = 0; u < width; ++u) {
-        const std::size_t i = static_cast<std::size_t>(v) * width + u;
-        const float z = in[i];
-        if (z == kFar) continue;
-        const int c = along_x ? u : v;
-        float sum = 0.0f;
-        float weight = 0.0f;
-        for (int d = std::max(-radius, -c); d <= std::min(radius, n - 1 - c); ++d) {
-          const float zn = in[i + d * stride];
-          const float step = std::min(std::abs(zn - z) * steps_per_m, last_step);
-          const float w = spatial[d + radius] * range[static_cast<int>(step + 0.5f)];
-          sum += w * zn;
-          weight += w;
-        }
-        out[i] = sum / weight;
-      }
-    });
-    return out;
+  BilateralPasses passes(width, height, sigma_px, sigma_m, threads);
+  const auto far_invalid = [](std::vector<float> depth) {
+    for (float& z : depth) z = std::isnan(z) ? BilateralPasses::kFar : z;
+    return depth;
   };
-  return pass(pass(depth_m, true), false);
+  return passes.Pass(far_invalid(passes.Pass(far_invalid(depth_m), true)), false);
 }
 
 namespace {
@@ -158,15 +214,11 @@ void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int
       const std::size_t i = static_cast<std::size_t>(v) * width + u;
       const float z = depth[i];
       if (std::isnan(z) || std::isnan(level->depth_m[i])) continue;
-      const std::size_t neighbours[4] = {i - 1, i + 1, i - width, i + width};
-      bool usable = true;
-      for (const std::size_t j : neighbours) {
-        const float zj = depth[j];
-        if (std::isnan(zj) || std::abs(zj - z) > ratio * z) {
-          usable = false;
-          break;
-        }
-      }
+      // Usable when no neighbour is invalid (NaN fails every comparison) or across a jump.
+      const float jump = ratio * z;
+      const bool usable =
+          (std::abs(depth[i - 1] - z) <= jump) & (std::abs(depth[i + 1] - z) <= jump) &
+          (std::abs(depth[i - width] - z) <= jump) & (std::abs(depth[i + width] - z) <= jump);
       if (!usable) continue;
       const Vec3f du = vertices[i + 1] - vertices[i - 1];
       const Vec3f dv = vertices[i + width] - vertices[i - width];

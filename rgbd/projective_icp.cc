@@ -81,9 +81,9 @@ struct Accumulator {
     const Vec3 c = moved.cross(n);
     const double A[6] = {c.x(), c.y(), c.z(), n.x(), n.y(), n.z()};
     double w = weighting.depth_noise ? DepthNoiseWeight(z_p, q.z()) : 1.0;
-    const double whitened = std::sqrt(w) * std::abs(b);
-    if (weighting.huber_delta_m > 0.0 && whitened > weighting.huber_delta_m) {
-      w *= weighting.huber_delta_m / whitened;
+    if (weighting.huber_delta_m > 0.0) {
+      const double whitened = std::sqrt(w) * std::abs(b);
+      if (whitened > weighting.huber_delta_m) w *= weighting.huber_delta_m / whitened;
     }
     int k = 0;
     for (int r = 0; r < 6; ++r) {
@@ -118,10 +118,6 @@ bool Converged(const Vec6& x, const ProjectiveIcpOptions& options) {
 }
 
 }  // namespace
-
-double DepthNoiseWeight(double z_p, double z_q) {
-  return 2.0 / (z_p * z_p * z_p * z_p + z_q * z_q * z_q * z_q);
-}
 
 AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLevel& target,
                                   const Pose& T_target_source, const AssociationOptions& options,

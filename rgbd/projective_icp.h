@@ -82,7 +82,9 @@ struct PairWeighting {
 inline constexpr PairWeighting kTrackingWeighting{0.0, true};
 
 /// The noise weight 1 / sigma^2 of a pair (PairWeighting::depth_noise): 2 / (z_p^4 + z_q^4).
-double DepthNoiseWeight(double z_p, double z_q);
+inline double DepthNoiseWeight(double z_p, double z_q) {
+  return 2.0 / (z_p * z_p * z_p * z_p + z_q * z_q * z_q * z_q);
+}
 
 /// The normal equations of one Gauss-Newton step at T_target_source: H = sum w A^T A,
 /// g = sum w A^T b, w the pair's weight (PairWeighting).

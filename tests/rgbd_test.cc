@@ -2,9 +2,11 @@
 // of the point-to-plane Gauss-Newton, coarse-to-fine tracking and odometry on rendered frames.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "core/errors.h"
 #include "core/pose.h"
@@ -151,6 +153,106 @@ TEST(RgbdFrame, BilateralFilterSmoothsAPlaneButNotAStep) {
   for (int v = 0; v < h; ++v) {
     EXPECT_NEAR(filtered[v * w + 9], 1.0, 0.02);  // the step is 1 m, the range sigma 3 cm
     EXPECT_NEAR(filtered[v * w + 10], 2.0, 0.02);
+  }
+}
+
+// A depth image with noise, a step, invalid pixels and a pixel across a jump, for the filters'
+// comparisons with their one-pixel loops.
+std::vector<float> RoughDepth(int w, int h) {
+  std::vector<float> depth(w * h);
+  SimRng rng(5, 1);
+  for (int i = 0; i < w * h; ++i) {
+    depth[i] = static_cast<float>((i % w < w / 2 ? 1.0 : 1.04) + 0.01 * rng.Normal());
+    if (rng.Uniform() < 0.1) depth[i] = std::numeric_limits<float>::quiet_NaN();
+  }
+  depth[w + 1] = 3.0f;
+  return depth;
+}
+
+// BilateralFilter of RoughDepth(w, h) against the filter written pixel by pixel.
+void ExpectBilateralBitsOfTheOnePixelWindowLoop(int w, int h) {
+  const double sigma_px = 2.0, sigma_m = 0.03;
+  const std::vector<float> depth = RoughDepth(w, h);
+  // The documented filter, pixel by pixel: the range weight tabulated every 64th of sigma_m up
+  // to 4 sigma_m (0 there and beyond), taps d = -4..4 in order, x then y.
+  std::vector<float> range(4 * 64 + 1);
+  for (std::size_t k = 0; k < range.size(); ++k) {
+    range[k] = static_cast<float>(std::exp(-0.5 * (k / 64.0) * (k / 64.0)));
+  }
+  range.back() = 0.0f;
+  const auto pass = [&](const std::vector<float>& in, bool along_x) {
+    std::vector<float> out(in.size(), std::numeric_limits<float>::quiet_NaN());
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) {
+        const float z = in[v * w + u];
+        if (std::isnan(z)) continue;
+        float sum = 0.0f, weight = 0.0f;
+        for (int d = -4; d <= 4; ++d) {
+          const int un = along_x ? u + d : u, vn = along_x ? v : v + d;
+          if (un < 0 || vn < 0 || un >= w || vn >= h || std::isnan(in[vn * w + un])) continue;
+          const float zn = in[vn * w + un];
+          const float step = std::min(std::abs(zn - z) * static_cast<float>(64 / sigma_m), 256.0f);
+          const float weight_d =
+              static_cast<float>(std::exp(-d * d / (2.0 * sigma_px * sigma_px))) *
+              range[static_cast<int>(step + 0.5f)];
+          sum += weight_d * zn;
+          weight += weight_d;
+        }
+        out[v * w + u] = sum / weight;
+      }
+    }
+    return out;
+  };
+  const std::vector<float> expected = pass(pass(depth, true), false);
+  const std::vector<float> filtered = BilateralFilter(depth, w, h, sigma_px, sigma_m, 2);
+  for (int i = 0; i < w * h; ++i) {
+    if (std::isnan(expected[i])) {
+      EXPECT_TRUE(std::isnan(filtered[i])) << i;
+    } else {
+      EXPECT_EQ(filtered[i], expected[i]) << w << "x" << h << ": " << i;  // same bits
+    }
+  }
+}
+
+TEST(RgbdFrame, BilateralFilterHasTheBitsOfTheOnePixelWindowLoop) {
+  ExpectBilateralBitsOfTheOnePixelWindowLoop(23, 17);
+  ExpectBilateralBitsOfTheOnePixelWindowLoop(3, 2);  // narrower than the window
+}
+
+TEST(RgbdFrame, HalvingHasTheBitsOfTheOneBlockLoop) {
+  const int w = 24, h = 18;
+  RgbdFrame frame;
+  frame.width = w;
+  frame.height = h;
+  frame.intrinsics = {100.0, 100.0, 11.5, 8.5};
+  frame.depth_m = RoughDepth(w, h);
+  const double ratio = 0.03;
+  const RgbdFrame half = HalveFrame(frame, ratio);
+  for (int v = 0; v < h / 2; ++v) {
+    for (int u = 0; u < w / 2; ++u) {
+      // The valid samples of the block in row order; the mean of those within the ratio of the
+      // nearest, summed in double.
+      std::vector<float> samples;
+      for (int k = 0; k < 4; ++k) {
+        const float z = frame.depth_m[(2 * v + k / 2) * w + 2 * u + k % 2];
+        if (!std::isnan(z)) samples.push_back(z);
+      }
+      const float z = half.depth_m[v * (w / 2) + u];
+      if (samples.empty()) {
+        EXPECT_TRUE(std::isnan(z));
+        continue;
+      }
+      const float nearest = *std::min_element(samples.begin(), samples.end());
+      double sum = 0.0;
+      int count = 0;
+      for (const float s : samples) {
+        if (s - nearest <= ratio * nearest) {
+          sum += s;
+          ++count;
+        }
+      }
+      EXPECT_EQ(z, static_cast<float>(sum / count)) << u << ", " << v;
+    }
   }
 }
 
