@@ -258,7 +258,7 @@ class ModelTarget : public TrackingTarget {
 
  private:
   bool Fuses(const TrackedStep& step, const RgbdFrame& frame) {
-    if (!step.track.success && !step.restart) return false;
+    if ((!step.track.success || step.unverified) && !step.restart) return false;
     if (!use_color_ || !frame.color.empty()) return true;
     // A coloured map takes no colourless points (TUM: a depth image without a colour image
     // within the association's time window): tracked, not fused.

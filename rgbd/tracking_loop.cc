@@ -122,6 +122,7 @@ class TrackingLoop {
   /// previous pose moves with it (the velocity stays), and the frames since the stretch began
   /// are blended between their poses and the corrected ones (InterpolatedCorrections), from
   /// the anchor it was found against (the frames before the stretch may have drifted too).
+  /// A frame tried in vain while attempts remain is left unverified (SLAM does not fuse it).
   void Relocalise(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     const TrackResult& track = step->track;
     if (!options_.guard.enabled || !options_.relocalise.enabled || !track.success) return;
@@ -136,7 +137,10 @@ class TrackingLoop {
     const Relocalisation found =
         rigfit::Relocalise({&pyramid, step->T_world_camera, plane_world_, track.rmse_m}, anchors_,
                            options_.icp, options_.relocalise, options_.threads);
-    if (!found.success) return;
+    if (!found.success) {
+      step->unverified = attempts_left_ > 0;
+      return;
+    }
     const Pose correction = found.T_world_camera * step->T_world_camera.inverse();
     log_.Warning(FrameName(*step, frame) + ": relocalised against frame " +
                  std::to_string(found.anchor_index) + " after the lone-plane stretch: moved " +

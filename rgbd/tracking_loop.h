@@ -71,6 +71,9 @@ struct TrackedStep {
   bool diverged = false;     ///< so was the re-track: kept the last good pose (a failure)
   bool restart = false;      ///< the track was lost: the target restarts from this frame
   bool relocalised = false;  ///< its pose found anew after a lone-plane stretch
+  /// Structure again after a lone-plane stretch, not relocalised yet: its pose along the
+  /// plane is still the held prediction (SLAM does not fuse it into the map).
+  bool unverified = false;
 };
 
 /// What a frame is tracked against, and what happens once its pose is known.
