@@ -309,7 +309,7 @@ run_variants() {
   local correlated="--noise-corr-px 4 --noise-corr-share 0.8" stereo="--depth-model stereo --stereo-upsample 2"
   local off="--disparity-offset-px 0.1 --miscalibrated-cameras 1"
   local low="--width 320 --height 180"
-  # label|method column|flags (each also gets --seeds and --sigma --threads 1)
+  # label|method column|flags[|seeds] (each also gets --sigma --threads 1; seeds default 5)
   local cases=(
     "white|offset|--method surface_bundle --config $offset"
     "white, camera 1 +0.1 px|none|--method surface_bundle $off"
@@ -328,30 +328,32 @@ run_variants() {
     "white|pairwise, surface_bundle|--mode pairwise --method surface_bundle"
     "correlated|pairwise, surface_bundle|--mode pairwise --method surface_bundle $correlated"
     "stereo|pairwise, surface_bundle|--mode pairwise --method surface_bundle $stereo"
-    "bare room, 10 seeds|joint, point_to_plane|--bare --seeds 10"
-    "bare room, 10 seeds|joint, surface_bundle|--bare --seeds 10 --method surface_bundle"
-    "3 cameras 320x180, 8 seeds|joint, point_to_plane|--cameras 3 $low --seeds 8"
-    "3 cameras 320x180, 8 seeds|joint, surface_bundle|--cameras 3 $low --seeds 8 --method surface_bundle"
+    "bare room|joint, point_to_plane|--bare|10"
+    "bare room|joint, surface_bundle|--bare --method surface_bundle|10"
+    "3 cameras 320x180|joint, point_to_plane|--cameras 3 $low|8"
+    "3 cameras 320x180|joint, surface_bundle|--cameras 3 $low --method surface_bundle|8"
   )
   if [ $quick = 1 ]; then
     seeds=1
     size=(--width 160 --height 90)
     cases=("white, camera 1 +0.1 px|offset|--method surface_bundle $off --config $offset")
   fi
-  local c label method flags
+  local c label method flags n
   for c in "${cases[@]}"; do
-    IFS='|' read -r label method flags <<<"$c"
+    IFS='|' read -r label method flags n <<<"$c"
+    n="${n:-$seeds}"
+    [ $quick = 1 ] && n=1
     local raw="$out/raw/variants-$(echo "$label $method" | tr -c 'a-zA-Z0-9' '_').txt"
-    # shellcheck disable=SC2086 # flags holds several flags; a later --seeds or size wins
-    echo "+ rig_accuracy --seeds $seeds --sigma --threads 1 ${size[*]} $flags" | tee "$raw" >&2
+    # shellcheck disable=SC2086 # flags holds several flags; a later size wins
+    echo "+ rig_accuracy --seeds $n --sigma --threads 1 ${size[*]} $flags" | tee "$raw" >&2
     # shellcheck disable=SC2086
-    nice "$build/bench/rig_accuracy" --seeds "$seeds" --sigma --threads 1 "${size[@]}" $flags \
+    nice "$build/bench/rig_accuracy" --seeds "$n" --sigma --threads 1 "${size[@]}" $flags \
       >>"$raw" 2>&1
     family_row "$raw" "$label" "$method" "$(sed -n 's/^summary over \([0-9]* [a-z]*\):.*/\1/p' "$raw")" \
       offsets >>"$table"
   done
   {
-    echo "Command per row: \`bench/rig_accuracy --seeds $seeds --sigma --threads 1${size[*]:+ ${size[*]}}\` plus the row's"
+    echo "Command per row: \`bench/rig_accuracy --seeds N --sigma --threads 1${size[*]:+ ${size[*]}}\` plus the row's"
     echo "flags (raw/variants-*.txt start with them): a depth model is \`--config\` with \`icp:"
     echo "{depth_model: offset}\` or \`scale_offset\` (docs/residuals.md section 11); \"camera 1 +0.1 px\" is"
     echo "\`$off\`, \"depth x1.01\" \`--depth-scale 1.01 --miscalibrated-cameras 1\`; stereo"
