@@ -5,8 +5,8 @@
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
 #   SECTION  accuracy | families | variants | bounds | speed | real | micro | rgbd | loops |
 #            view3d (default: all but view3d, in docs/benchmarks.md's order)
-#   --quick  a smoke run (about 30 s on 2 idle cores; ctest's bench_quick): every program
-#            once on small inputs (1 seed, 160x90 rigs, 10 frames, one case per method, the
+#   --quick  a smoke run (about a minute on 2 cores; ctest's bench_quick): every program
+#            once on small inputs (1 seed, 160x90 rigs, 10-60 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
 #            script and the programs, its numbers are not for the docs
 #   --build  Release build directory (default: <repo>/build) with rigfit, rig_accuracy, sequence_rig,
