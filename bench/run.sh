@@ -209,6 +209,16 @@ run_accuracy() {
 # ---------------------------------------------------------------------------------------------
 # families
 
+# Runs bench/rig_accuracy niced with ARGS (flags may come as one word each), its command line
+# first in RAW and on stderr, then its output and errors in RAW.
+accuracy_run() {
+  local raw="$1"
+  shift
+  echo "+ rig_accuracy $*" | tee "$raw" >&2
+  # shellcheck disable=SC2048,SC2086 # a case's flags arrive as one word: split them
+  nice "$build/bench/rig_accuracy" $* >>"$raw" 2>&1
+}
+
 # One markdown row of the four-family table from one rig_accuracy output (--sigma; bias share
 # only with more than one noise draw).
 family_row() {
@@ -271,12 +281,8 @@ run_families() {
   for c in "${cases[@]}"; do
     IFS='|' read -r family flags first seeds draws mode method <<<"$c"
     local raw="$out/raw/families-$(echo "$family $mode $method" | tr -c 'a-zA-Z0-9' '_').txt"
-    local args=(--mode "$mode" --method "$method" --first-seed "$first" --seeds "$seeds"
-      --noise-draws "$draws" --sigma --threads 1 "${size[@]}")
-    # shellcheck disable=SC2086 # flags holds several flags
-    echo "+ rig_accuracy ${args[*]} $flags" | tee "$raw" >&2
-    # shellcheck disable=SC2086
-    nice "$build/bench/rig_accuracy" "${args[@]}" $flags >>"$raw" 2>&1
+    accuracy_run "$raw" --mode "$mode" --method "$method" --first-seed "$first" --seeds "$seeds" \
+      --noise-draws "$draws" --sigma --threads 1 "${size[@]}" "$flags"
     family_row "$raw" "$family" "$mode, $method" \
       "$seeds x $draws (seeds $first..$((first + seeds - 1)))" >>"$table"
   done
@@ -344,11 +350,7 @@ run_variants() {
     n="${n:-$seeds}"
     [ $quick = 1 ] && n=1
     local raw="$out/raw/variants-$(echo "$label $method" | tr -c 'a-zA-Z0-9' '_').txt"
-    # shellcheck disable=SC2086 # flags holds several flags; a later size wins
-    echo "+ rig_accuracy --seeds $n --sigma --threads 1 ${size[*]} $flags" | tee "$raw" >&2
-    # shellcheck disable=SC2086
-    nice "$build/bench/rig_accuracy" --seeds "$n" --sigma --threads 1 "${size[@]}" $flags \
-      >>"$raw" 2>&1
+    accuracy_run "$raw" --seeds "$n" --sigma --threads 1 "${size[@]}" "$flags"
     family_row "$raw" "$label" "$method" "$(sed -n 's/^summary over \([0-9]* [a-z]*\):.*/\1/p' "$raw")" \
       offsets >>"$table"
   done
@@ -421,10 +423,7 @@ run_bounds() {
   for c in "${cases[@]}"; do
     IFS='|' read -r label flags <<<"$c"
     local raw="$out/raw/bounds-$(echo "$label" | tr -c 'a-zA-Z0-9' '_').txt"
-    # shellcheck disable=SC2086 # flags holds several flags
-    echo "+ rig_accuracy --crlb --threads 2 ${size[*]} $flags" | tee "$raw" >&2
-    # shellcheck disable=SC2086
-    nice "$build/bench/rig_accuracy" --crlb --threads 2 "${size[@]}" $flags >>"$raw" 2>&1
+    accuracy_run "$raw" --crlb --threads 2 "${size[@]}" "$flags"
     bound_rows "$raw" "$label" >>"$table"
   done
   {
