@@ -94,7 +94,6 @@ class BilateralPasses {
   /// of two samples d pixels apart is the same from either (|a - b| = |b - a|), so it is
   /// computed once per pair; each pixel then sums its taps d = -radius..radius in order.
   std::vector<float> Pass(const std::vector<float>& in, bool along_x) {
-    stride_ = along_x ? 1 : width_;
     along_x_ = along_x;
     for (std::vector<float>& pair : pairs_) pair.resize(in.size());
     ForEachRow(height_, threads_, [&](int v) { PairWeights(in, v); });
@@ -107,6 +106,9 @@ class BilateralPasses {
   static constexpr int kRangeSteps = 64;
   static constexpr int kRangeSigmas = 4;
 
+  /// The step from a pixel to its next neighbour in this pass.
+  std::ptrdiff_t Stride() const { return along_x_ ? 1 : width_; }
+
   /// The pixels [first, second) of row v whose neighbour d is in the image.
   std::pair<int, int> Span(int v, int d) const {
     if (along_x_) return {std::max(0, -d), std::min(width_, width_ - d)};
@@ -118,7 +120,7 @@ class BilateralPasses {
     const std::size_t row = static_cast<std::size_t>(v) * width_;
     for (int d = 1; d <= radius_; ++d) {
       const auto [begin, end] = Span(v, d);
-      const std::size_t offset = d * stride_;
+      const std::size_t offset = d * Stride();
       float* pair = pairs_[d - 1].data();
       for (int u = begin; u < end; ++u) {
         const std::size_t i = row + u;
@@ -136,7 +138,7 @@ class BilateralPasses {
     const float centre = spatial_[radius_] * range_[0];  // d = 0: no depth difference
     for (int d = -radius_; d <= radius_; ++d) {
       const auto [begin, end] = Span(v, d);
-      const std::ptrdiff_t offset = d * stride_;
+      const std::ptrdiff_t offset = d * Stride();
       // A pair's weight is kept at its first pixel: the neighbour's when d < 0.
       const float* pair = d == 0 ? nullptr : pairs_[std::abs(d) - 1].data();
       const std::ptrdiff_t at = row + std::min<std::ptrdiff_t>(offset, 0);
@@ -156,8 +158,7 @@ class BilateralPasses {
   std::vector<float> range_;
   float steps_per_m_, last_step_;
   std::vector<std::vector<float>> pairs_;  // per d = 1..radius, reused by both passes
-  std::ptrdiff_t stride_ = 1;
-  bool along_x_ = true;
+  bool along_x_ = true;                    // the pass in progress (Pass)
 };
 
 }  // namespace
