@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "analysis/crlb.h"
+#include "analysis/face_oracle.h"
 #include "bench/bench_util.h"
 #include "core/evaluate.h"
 #include "core/format.h"
@@ -88,6 +89,64 @@ struct AgainstReference {
   double RmsRatioRotation() const { return std::sqrt(ratio_r2 / seeds); }
   double RmsRatioTranslation() const { return std::sqrt(ratio_t2 / seeds); }
 };
+
+/// RMS over the runs of the face oracle's errors.
+struct OracleSums {
+  double r2 = 0.0, t2 = 0.0, tilt2 = 0.0;
+  int runs = 0;
+  void Add(const rigfit::RigErrors& e) {
+    r2 += e.rms_rotation_rad * e.rms_rotation_rad;
+    t2 += e.rms_translation_m * e.rms_translation_m;
+    tilt2 += e.rms_tilt_rad * e.rms_tilt_rad;
+    ++runs;
+  }
+  void Print(const char* name) const {
+    if (runs == 0) return;
+    std::printf(
+        "face oracle, %s: RMS relative rotation %.4f deg, RMS relative translation %.2f mm, "
+        "RMS tilt %.4f deg over %d runs\n",
+        name, std::sqrt(r2 / runs) * rigfit::kRadToDeg, std::sqrt(t2 / runs) * 1e3,
+        std::sqrt(tilt2 / runs) * rigfit::kRadToDeg, runs);
+  }
+};
+
+/// The face oracle of one run (--face-oracle): the run's rig labelled noise-free at the truth,
+/// solved from `start` with independent pixels and, with correlated noise, whitened; a line
+/// each, added to the sums.
+void RunFaceOracle(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& rig,
+                   const rigfit::PoseMap& start, const std::string& reference, OracleSums* white,
+                   OracleSums* whitened) {
+  using namespace rigfit;
+  SimOptions clean = sim;
+  clean.noise = 0.0;
+  clean.depth_model = DepthModel::kGaussian;
+  clean.disparity_offset_px = 0.0;
+  clean.depth_scale = 1.0;
+  const SimulatedRig truth = SimulateRig(clean);
+  std::vector<PlanarFace> faces;
+  const FaceLabeler labeler = [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f,
+                                  std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); };
+  const std::vector<FacePixels> labelled =
+      RigFacePixels(truth.capture, truth.gt, RefineOptions{}.region, labeler, &faces);
+  FaceOracleOptions options;
+  options.depth_noise = sim.noise;
+  const auto run = [&](const char* name, OracleSums* sums) {
+    PoseMap oracle_start = start;  // the gauge at the truth (SolveWithTrueFaces)
+    oracle_start[reference] = rig.gt.at(reference);
+    const FaceOracleResult o =
+        SolveWithTrueFaces(rig.capture, labelled, faces, oracle_start, reference, options);
+    const RigErrors e = EvaluateRig(o.poses, rig.gt);
+    std::printf("       face oracle, %s: %.4f deg %.2f mm tilt %.4f deg (%d pixels, %d gated)%s\n",
+                name, e.rms_rotation_rad * kRadToDeg, e.rms_translation_m * 1e3,
+                e.rms_tilt_rad * kRadToDeg, o.pixels, o.gated, o.ok ? "" : " failed");
+    sums->Add(e);
+  };
+  run("independent pixels", white);
+  if (sim.noise_corr_share > 0.0) {
+    options.correlated = {sim.noise_corr_px, sim.noise_corr_share};
+    run("whitened", whitened);
+  }
+}
 
 /// Bias against variance over draws of the pixel noise: per seed and camera pair, the
 /// relative pose errors (RelativeErrorPose, as rotation vector and translation) of every
@@ -510,6 +569,11 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--crlb", crlb,
                "also the Cramer-Rao bound of each seed (analysis/crlb.h) and RMS of error / bound");
+  bool face_oracle = false;
+  app.add_flag("--face-oracle", face_oracle,
+               "also the face oracle (analysis/face_oracle.h): poses and faces solved from the "
+               "start with each pixel's true face, independent pixels and, with "
+               "--noise-corr-share, whitened by the true correlation");
   app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
   app.add_flag("--from-gt", from_gt, "start at the true poses (measures the estimator's bias)");
   app.add_flag("--verbose", verbose, "solver progress to stderr");
@@ -552,6 +616,7 @@ int main(int argc, char** argv) {
   int pairs = 0, cameras = 0, failures = 0, normalised = 0;
   double sum_nr2 = 0, sum_nt2 = 0, sum_model_nr2 = 0, sum_model_nt2 = 0;
   int few_surfaces = 0;
+  OracleSums oracle_white, oracle_whitened;
   BiasSplit bias;
   SegmentationDiagnostic diagnostic;
   DepthModelTally depth_models;
@@ -592,6 +657,7 @@ int main(int argc, char** argv) {
     for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
     runs_with_weak += weak > 0 ? 1 : 0;
     if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
+    if (face_oracle) RunFaceOracle(sim, rig, start, r.reference, &oracle_white, &oracle_whitened);
     if (crlb) {
       // The bound of this run's rig: the same scene, cameras, dropout and noise model,
       // noise-free (with several draws, once per draw: their dropout differs).
@@ -718,6 +784,8 @@ int main(int argc, char** argv) {
       runs, unit, std::sqrt(sum_r2 / pairs) * kRadToDeg, std::sqrt(sum_t2 / pairs) * 1e3,
       worst_t * 1e3, std::sqrt(sum_tilt2 / cameras) * kRadToDeg, failures);
   std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, runs);
+  oracle_white.Print("independent pixels");
+  oracle_whitened.Print("whitened");
   depth_models.Print();
   std::printf(
       "runs ending worse than their start: %d in RMS rotation, %d in RMS translation, of %d\n",

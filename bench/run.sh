@@ -3,7 +3,7 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | families | variants | bounds | speed | real | micro | rgbd | loops |
+#   SECTION  accuracy | families | variants | bounds | oracle | speed | real | micro | rgbd | loops |
 #            view3d (default: all but view3d, in docs/benchmarks.md's order)
 #   --quick  a smoke run (about a minute on 2 cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10-60 frames, one case per method, the
@@ -27,6 +27,10 @@
 #   variants  bench/rig_accuracy --sigma on variants of the default (seeds 0..4): depth models on
 #             miscalibrated cameras, stereo at 320x180, pairwise with the bundle, the bare room,
 #             a 3-camera rig. Niced, 1 thread.
+#   oracle    bench/rig_accuracy --face-oracle: the default against the face oracle (the
+#             bundle's estimator told each pixel's true face: analysis/face_oracle.h), with
+#             independent pixels and whitened, on white, correlated and stereo rigs. Niced, 1
+#             thread (a few minutes).
 #   bounds    bench/rig_accuracy --crlb: the Cramer-Rao bounds (docs/uncertainty.md section 9) and
 #             error / bound, white noise (seeds 0..9 x 3 draws; point_to_plane and the surface
 #             bundle) and correlated noise (the bundle, seeds 0..2, also without the pixels next
@@ -71,13 +75,13 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | families | variants | bounds | speed | real | micro | rgbd | loops | view3d) sections+=("$1") ;;
+    accuracy | families | variants | bounds | oracle | speed | real | micro | rgbd | loops | view3d) sections+=("$1") ;;
     -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy families variants bounds real speed rgbd loops micro)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy families variants bounds oracle real speed rgbd loops micro)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
@@ -434,6 +438,61 @@ run_bounds() {
     echo "deg / translation mm / tilt deg; error / bound: RMS over the runs of each run's ratio."
     echo
     echo "| case | error | bound | bound value | error / bound rot / trans |"
+    echo "|---|---|---|---|---|"
+    cat "$table"
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
+}
+
+# ---------------------------------------------------------------------------------------------
+# oracle
+
+# The markdown row of one rig_accuracy --face-oracle output: the default's error, then the
+# oracle's with independent pixels and whitened (RMS rotation deg / translation mm / tilt deg).
+oracle_row() {
+  python3 - "$@" <<'PY'
+import re, sys
+raw, label = sys.argv[1:3]
+text = open(raw).read()
+rms = r"RMS relative rotation ([0-9.]+) deg, RMS relative translation ([0-9.]+) mm.*RMS tilt ([0-9.]+) deg"
+def cell(prefix):
+    m = re.search(prefix + rms, text)
+    return "%s / %s / %s" % m.groups() if m else "-"
+gated = sum(int(g) for g in re.findall(r"independent pixels: .*, (\d+) gated", text))
+print("| %s | %s | %s | %s | %d |" % (label, cell(r"summary over \d+ seeds: "),
+      cell(r"face oracle, independent pixels: "), cell(r"face oracle, whitened: "), gated))
+PY
+}
+
+run_oracle() {
+  local file size=() seeds=(10 10 5) table="$out/raw/oracle-table.md"
+  file="$(header oracle)"
+  : >"$table"
+  [ $quick = 1 ] && size=(--width 160 --height 90) && seeds=(1 1 1)
+  # label|flags
+  local cases=(
+    "white, seeds 0..$((seeds[0] - 1))|--seeds ${seeds[0]}"
+    "correlated, seeds 0..$((seeds[1] - 1))|--seeds ${seeds[1]} --noise-corr-px 4 --noise-corr-share 0.8"
+    "stereo, seeds 0..$((seeds[2] - 1))|--seeds ${seeds[2]} --depth-model stereo --stereo-upsample 2"
+  )
+  local c label flags
+  for c in "${cases[@]}"; do
+    IFS='|' read -r label flags <<<"$c"
+    local raw="$out/raw/oracle-$(echo "$label" | tr -c 'a-zA-Z0-9' '_').txt"
+    accuracy_run "$raw" --face-oracle --method surface_bundle --threads 1 "${size[@]}" "$flags"
+    oracle_row "$raw" "$label" >>"$table"
+  done
+  {
+    echo "Command per row: \`bench/rig_accuracy --face-oracle --method surface_bundle --threads 1${size[*]:+ ${size[*]}}\`"
+    echo "plus the case's flags (correlated: \`--noise-corr-px 4 --noise-corr-share 0.8\`; stereo:"
+    echo "\`--depth-model stereo --stereo-upsample 2\`), 4 cameras, default config, one noise draw."
+    echo "Each cell: RMS over the runs, rotation deg / translation mm / tilt deg. Oracle: the true"
+    echo "faces, the same start, the reference at its true pose, no gravity prior; whitened: the"
+    echo "true correlation (correlated rigs only). Gated: pixels left out, more than 5 sigma_w from"
+    echo "their face's depth."
+    echo
+    echo "| rigs | default (surface bundle) | oracle, independent pixels | oracle, whitened | gated |"
     echo "|---|---|---|---|---|"
     cat "$table"
     echo
