@@ -6,6 +6,7 @@
 #include <ceres/solver.h>
 #include <ceres/sphere_manifold.h>
 
+#include <array>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -27,6 +28,8 @@ struct OraclePixels {
   int gated = 0;
 };
 
+/// Camera c's labelled pixels on the faces `counted` keeps, read from its noisy depth: those
+/// with a valid depth within `gate` sigma_w of their face's (the noise-free point's).
 OraclePixels MeasuredPixels(const CameraCapture& camera, const FacePixels& labelled,
                             const BoundFaces& counted, size_t c, double sigma_w, double gate) {
   OraclePixels out;
