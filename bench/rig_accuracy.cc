@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <tuple>
@@ -110,31 +111,47 @@ struct OracleSums {
   }
 };
 
-/// The face oracle of one run (--face-oracle): the run's rig labelled noise-free at the truth,
-/// solved from `start` with independent pixels and, with correlated noise, whitened; a line
-/// each, added to the sums.
-void RunFaceOracle(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& rig,
-                   const rigfit::PoseMap& start, const std::string& reference, OracleSums* white,
-                   OracleSums* whitened) {
+/// A run's noise-free twin: the same scene, cameras, dropout and noise model, ray-cast and
+/// calibrated depth (with several draws, one per draw: their dropout differs), and every band
+/// pixel of it (`region`) labelled with its face (analysis/crlb.h RigFacePixels). The bounds
+/// (--crlb) and the face oracle (--face-oracle) share it.
+struct NoiseFreeTwin {
+  rigfit::SimulatedRig truth;
+  std::vector<rigfit::PlanarFace> faces;
+  std::vector<rigfit::FacePixels> pixels;
+};
+
+NoiseFreeTwin MakeNoiseFreeTwin(const rigfit::SimOptions& sim,
+                                const rigfit::RegionOptions& region) {
   using namespace rigfit;
   SimOptions clean = sim;
   clean.noise = 0.0;
   clean.depth_model = DepthModel::kGaussian;
   clean.disparity_offset_px = 0.0;
   clean.depth_scale = 1.0;
-  const SimulatedRig truth = SimulateRig(clean);
-  std::vector<PlanarFace> faces;
+  NoiseFreeTwin twin{SimulateRig(clean), {}, {}};
   const FaceLabeler labeler = [&](const Pose& T, const PointCloud& p, std::vector<PlanarFace>* f,
-                                  std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); };
-  const std::vector<FacePixels> labelled =
-      RigFacePixels(truth.capture, truth.gt, RefineOptions{}.region, labeler, &faces);
+                                  std::vector<int>* l) {
+    LabelFaces(twin.truth.scene, T, p, f, l);
+  };
+  twin.pixels = RigFacePixels(twin.truth.capture, twin.truth.gt, region, labeler, &twin.faces);
+  return twin;
+}
+
+/// The face oracle of one run (--face-oracle) on its twin's labels: solved from `start` (the
+/// reference at its true pose, the gauge) with independent pixels and, with correlated noise,
+/// whitened; a line each, added to the sums.
+void RunFaceOracle(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& rig,
+                   const NoiseFreeTwin& twin, const rigfit::PoseMap& start,
+                   const std::string& reference, OracleSums* white, OracleSums* whitened) {
+  using namespace rigfit;
+  PoseMap oracle_start = start;
+  oracle_start[reference] = rig.gt.at(reference);
   FaceOracleOptions options;
   options.depth_noise = sim.noise;
   const auto run = [&](const char* name, OracleSums* sums) {
-    PoseMap oracle_start = start;  // the gauge at the truth (SolveWithTrueFaces)
-    oracle_start[reference] = rig.gt.at(reference);
     const FaceOracleResult o =
-        SolveWithTrueFaces(rig.capture, labelled, faces, oracle_start, reference, options);
+        SolveWithTrueFaces(rig.capture, twin.pixels, twin.faces, oracle_start, reference, options);
     const RigErrors e = EvaluateRig(o.poses, rig.gt);
     std::printf("       face oracle, %s: %.4f deg %.2f mm tilt %.4f deg (%d pixels, %d gated)%s\n",
                 name, e.rms_rotation_rad * kRadToDeg, e.rms_translation_m * 1e3,
@@ -657,16 +674,14 @@ int main(int argc, char** argv) {
     for (const CameraReport& c : r.cameras) weak += static_cast<int>(c.weak_directions.size());
     runs_with_weak += weak > 0 ? 1 : 0;
     if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
-    if (face_oracle) RunFaceOracle(sim, rig, start, r.reference, &oracle_white, &oracle_whitened);
+    std::optional<NoiseFreeTwin> twin;
+    if (crlb || face_oracle) twin = MakeNoiseFreeTwin(sim, options.region);
+    if (face_oracle) {
+      RunFaceOracle(sim, rig, *twin, start, r.reference, &oracle_white, &oracle_whitened);
+    }
     if (crlb) {
-      // The bound of this run's rig: the same scene, cameras, dropout and noise model,
-      // noise-free (with several draws, once per draw: their dropout differs).
-      SimOptions clean = sim;
-      clean.noise = 0.0;
-      clean.depth_model = DepthModel::kGaussian;  // the truth: ray-cast depth, calibrated
-      clean.disparity_offset_px = 0.0;
-      clean.depth_scale = 1.0;
-      const SimulatedRig truth = SimulateRig(clean);
+      // The bound of this run's rig, on its noise-free twin.
+      const SimulatedRig& truth = twin->truth;
       RefineOptions bound_options = options;
       bound_options.icp.reference = r.reference;
       const CramerRaoBound b =
@@ -681,13 +696,9 @@ int main(int argc, char** argv) {
                     after.rms_translation_m / e.translation_m);
         sum->Add(e, after);
       };
-      const FaceLabeler labeler = [&](const Pose& T, const PointCloud& p,
-                                      std::vector<PlanarFace>* f,
-                                      std::vector<int>* l) { LabelFaces(truth.scene, T, p, f, l); };
       // The band's pixels and faces, labelled once for the white and the correlated bounds.
-      std::vector<PlanarFace> faces;
-      const std::vector<FacePixels> pixels =
-          RigFacePixels(truth.capture, truth.gt, bound_options.region, labeler, &faces);
+      const std::vector<PlanarFace>& faces = twin->faces;
+      const std::vector<FacePixels>& pixels = twin->pixels;
       const CramerRaoBound s = ComputeSurfaceCramerRaoBound(pixels, faces, truth.gt, r.reference,
                                                             {sim.noise}, {2000, sim.seed});
       if (s.ok) {
