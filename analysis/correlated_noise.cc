@@ -19,18 +19,10 @@ constexpr std::array<double, 3> kBlurScales = {0.5, 1.0, 2.0};
 /// Frequencies per axis over [0, 1/2] cycles per pixel for the filter's fit.
 constexpr int kFrequencies = 65;
 
-/// The 1-D spectrum at frequency f of symmetric taps (centred: taps[k + r] at offset k).
-double Spectrum(const std::vector<double>& taps, double f) {
-  const int radius = static_cast<int>(taps.size()) / 2;
-  double sum = 0.0;
-  for (int k = -radius; k <= radius; ++k) sum += taps[k + radius] * std::cos(2.0 * M_PI * f * k);
-  return sum;
-}
-
-/// The 1-D spectrum at frequency f of a one-sided correlation rho(0..R).
-double CorrelationSpectrum(const std::vector<double>& rho, double f) {
-  double sum = rho[0];
-  for (size_t d = 1; d < rho.size(); ++d) sum += 2.0 * rho[d] * std::cos(2.0 * M_PI * f * d);
+/// The 1-D spectrum at frequency f of a symmetric kernel given by its one side, k(0..R).
+double Spectrum(const std::vector<double>& side, double f) {
+  double sum = side[0];
+  for (size_t d = 1; d < side.size(); ++d) sum += 2.0 * side[d] * std::cos(2.0 * M_PI * f * d);
   return sum;
 }
 
@@ -259,10 +251,11 @@ WhiteningFilter FitWhiteningFilter(const CorrelatedNoiseModel& noise) {
   const double S = noise.share;
   WhiteningFilter filter;
   const std::vector<double> rho = NoiseFieldCorrelation(noise.corr_px);
-  std::array<std::vector<double>, 3> taps;
+  std::array<std::vector<double>, 3> sides;  // each blur's taps 0..r (NoiseFieldKernel: -r..r)
   for (size_t m = 0; m < kBlurScales.size(); ++m) {
     filter.sigma_px[m] = kBlurScales[m] * noise.corr_px;
-    taps[m] = NoiseFieldKernel(filter.sigma_px[m]);
+    const std::vector<double> taps = NoiseFieldKernel(filter.sigma_px[m]);
+    sides[m].assign(taps.begin() + static_cast<long>(taps.size() / 2), taps.end());
   }
   // Weighted least squares over the (fx, fy) grid: sqrt(s) (W - s^-1/2) -> 0.
   Eigen::MatrixXd A(kFrequencies * kFrequencies, 4);
@@ -271,8 +264,8 @@ WhiteningFilter FitWhiteningFilter(const CorrelatedNoiseModel& noise) {
   std::array<std::vector<double>, 3> beta;
   for (int i = 0; i < kFrequencies; ++i) {
     const double f = 0.5 * i / (kFrequencies - 1);
-    kappa[i] = CorrelationSpectrum(rho, f);
-    for (size_t m = 0; m < taps.size(); ++m) beta[m].push_back(Spectrum(taps[m], f));
+    kappa[i] = Spectrum(rho, f);
+    for (size_t m = 0; m < sides.size(); ++m) beta[m].push_back(Spectrum(sides[m], f));
   }
   for (int i = 0; i < kFrequencies; ++i) {
     for (int j = 0; j < kFrequencies; ++j) {
@@ -280,13 +273,13 @@ WhiteningFilter FitWhiteningFilter(const CorrelatedNoiseModel& noise) {
       const double s = (1.0 - S) + S * kappa[i] * kappa[j];
       const double w = std::sqrt(s);
       A(row, 0) = w;
-      for (size_t m = 0; m < taps.size(); ++m) A(row, 1 + m) = -w * beta[m][i] * beta[m][j];
+      for (size_t m = 0; m < sides.size(); ++m) A(row, 1 + m) = -w * beta[m][i] * beta[m][j];
       b(row) = 1.0;  // w * s^-1/2
     }
   }
   const Eigen::Vector4d x = A.colPivHouseholderQr().solve(b);
   filter.identity = x(0);
-  for (size_t m = 0; m < taps.size(); ++m) filter.weight[m] = x(1 + m);
+  for (size_t m = 0; m < sides.size(); ++m) filter.weight[m] = x(1 + m);
   return filter;
 }
 
