@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "analysis/crlb.h"
+#include "analysis/face_finder.h"
 #include "analysis/face_oracle.h"
 #include "bench/bench_util.h"
 #include "core/evaluate.h"
@@ -101,12 +102,12 @@ struct OracleSums {
     tilt2 += e.rms_tilt_rad * e.rms_tilt_rad;
     ++runs;
   }
-  void Print(const char* name) const {
+  void Print(const char* what, const char* name) const {
     if (runs == 0) return;
     std::printf(
-        "face oracle, %s: RMS relative rotation %.4f deg, RMS relative translation %.2f mm, "
+        "%s, %s: RMS relative rotation %.4f deg, RMS relative translation %.2f mm, "
         "RMS tilt %.4f deg over %d runs\n",
-        name, std::sqrt(r2 / runs) * rigfit::kRadToDeg, std::sqrt(t2 / runs) * 1e3,
+        what, name, std::sqrt(r2 / runs) * rigfit::kRadToDeg, std::sqrt(t2 / runs) * 1e3,
         std::sqrt(tilt2 / runs) * rigfit::kRadToDeg, runs);
   }
 };
@@ -138,12 +139,15 @@ NoiseFreeTwin MakeNoiseFreeTwin(const rigfit::SimOptions& sim,
   return twin;
 }
 
-/// The face oracle of one run (--face-oracle) on its twin's labels: solved from `start` (the
-/// reference at its true pose, the gauge) with independent pixels and, with correlated noise,
-/// whitened; a line each, added to the sums.
+/// The face oracle of one run on `labels` (its twin's, --face-oracle, or a face finder's,
+/// --face-finder) and their faces: solved from `start` (the reference at its true pose, the
+/// gauge) with independent pixels and, with correlated noise, whitened; a line each, added to
+/// the sums.
 void RunFaceOracle(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& rig,
-                   const NoiseFreeTwin& twin, const rigfit::PoseMap& start,
-                   const std::string& reference, OracleSums* white, OracleSums* whitened) {
+                   const std::vector<rigfit::FacePixels>& labels,
+                   const std::vector<rigfit::PlanarFace>& faces, const rigfit::PoseMap& start,
+                   const std::string& reference, const char* what, OracleSums* white,
+                   OracleSums* whitened) {
   using namespace rigfit;
   PoseMap oracle_start = start;
   oracle_start[reference] = rig.gt.at(reference);
@@ -151,9 +155,9 @@ void RunFaceOracle(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& ri
   options.depth_noise = sim.noise;
   const auto run = [&](const char* name, OracleSums* sums) {
     const FaceOracleResult o =
-        SolveWithTrueFaces(rig.capture, twin.pixels, twin.faces, oracle_start, reference, options);
+        SolveWithTrueFaces(rig.capture, labels, faces, oracle_start, reference, options);
     const RigErrors e = EvaluateRig(o.poses, rig.gt);
-    std::printf("       face oracle, %s: %.4f deg %.2f mm tilt %.4f deg (%d pixels, %d gated)%s\n",
+    std::printf("       %s, %s: %.4f deg %.2f mm tilt %.4f deg (%d pixels, %d gated)%s\n", what,
                 name, e.rms_rotation_rad * kRadToDeg, e.rms_translation_m * 1e3,
                 e.rms_tilt_rad * kRadToDeg, o.pixels, o.gated, o.ok ? "" : " failed");
     sums->Add(e);
@@ -163,6 +167,93 @@ void RunFaceOracle(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& ri
     options.correlated = {sim.noise_corr_px, sim.noise_corr_share};
     run("whitened", whitened);
   }
+}
+
+/// The true labels of `twin` on the pixels `found` labels (its selection, the truth's labels).
+std::vector<rigfit::FacePixels> TruthOnPixels(const NoiseFreeTwin& twin,
+                                              const rigfit::FoundFaces& found) {
+  std::vector<rigfit::FacePixels> out(twin.pixels.size());
+  for (size_t c = 0; c < twin.pixels.size(); ++c) {
+    std::set<std::pair<int, int>> chosen;
+    for (const Eigen::Vector2i& q : found.cameras[c].pixels) chosen.emplace(q.x(), q.y());
+    const rigfit::FacePixels& in = twin.pixels[c];
+    out[c].serial = in.serial;
+    for (size_t k = 0; k < in.pixels.size(); ++k) {
+      if (!chosen.count({in.pixels[k].x(), in.pixels[k].y()})) continue;
+      out[c].points.push_back(in.points[k]);
+      out[c].faces.push_back(in.faces[k]);
+      out[c].pixels.push_back(in.pixels[k]);
+    }
+  }
+  return out;
+}
+
+/// `truth` (TruthOnPixels) with each true face split where `found` splits it: a face per
+/// (true face, found face) pair, the true plane; `faces` receives them.
+std::vector<rigfit::FacePixels> TruthSplitAsFound(std::vector<rigfit::FacePixels> truth,
+                                                  const NoiseFreeTwin& twin,
+                                                  const rigfit::FoundFaces& found,
+                                                  std::vector<rigfit::PlanarFace>* faces) {
+  std::map<std::pair<int, int>, int> pair_face;
+  for (size_t c = 0; c < truth.size(); ++c) {
+    std::map<std::pair<int, int>, int> found_label;
+    for (size_t k = 0; k < found.cameras[c].pixels.size(); ++k) {
+      const Eigen::Vector2i& q = found.cameras[c].pixels[k];
+      found_label[{q.x(), q.y()}] = found.cameras[c].faces[k];
+    }
+    for (size_t k = 0; k < truth[c].pixels.size(); ++k) {
+      int& t = truth[c].faces[k];
+      if (t < 0) continue;
+      const Eigen::Vector2i& q = truth[c].pixels[k];
+      const auto key = std::make_pair(t, found_label.at({q.x(), q.y()}));
+      const auto [it, added] = pair_face.emplace(key, static_cast<int>(faces->size()));
+      if (added) faces->push_back(twin.faces[t]);
+      t = it->second;
+    }
+  }
+  return truth;
+}
+
+/// The face oracle's sums of --face-finder: the finder's faces, the truth on its pixels, the
+/// truth split as it splits the faces.
+struct FinderTally {
+  OracleSums found_white, found_whitened, pixels_white, pixels_whitened, split_white,
+      split_whitened;
+  void Print() const {
+    found_white.Print("face finder", "independent pixels");
+    found_whitened.Print("face finder", "whitened");
+    pixels_white.Print("true faces on the finder's pixels", "independent pixels");
+    pixels_whitened.Print("true faces on the finder's pixels", "whitened");
+    split_white.Print("true faces split as the finder's", "independent pixels");
+    split_whitened.Print("true faces split as the finder's", "whitened");
+  }
+};
+
+/// The face finder of one run (--face-finder): its faces at the default's result (in the
+/// truth's gauge: the reference at its true pose), solved by the face oracle's estimator from
+/// there; then the true faces on the finder's pixels and split as the finder splits them,
+/// solved from the run's start as the oracle is.
+void RunFaceFinder(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& rig,
+                   const NoiseFreeTwin& twin, const rigfit::RefineResult& r,
+                   const rigfit::RegionOptions& region, FinderTally* tally) {
+  using namespace rigfit;
+  const Pose gauge = rig.gt.at(r.reference) * r.refined.at(r.reference).inverse();
+  PoseMap at_result;
+  for (const auto& [serial, T] : r.refined) at_result[serial] = gauge * T;
+  FaceFinderOptions finder;
+  finder.depth_noise = sim.noise;
+  const FoundFaces found = FindFaces(rig.capture, at_result, region, finder);
+  std::printf("       face finder: %d faces (%d in the cameras' images)\n",
+              static_cast<int>(found.faces.size()), found.camera_faces);
+  RunFaceOracle(sim, rig, found.cameras, found.faces, at_result, r.reference, "face finder",
+                &tally->found_white, &tally->found_whitened);
+  const std::vector<FacePixels> truth = TruthOnPixels(twin, found);
+  RunFaceOracle(sim, rig, truth, twin.faces, at_result, r.reference,
+                "true faces on the finder's pixels", &tally->pixels_white, &tally->pixels_whitened);
+  std::vector<PlanarFace> split_faces;
+  const std::vector<FacePixels> split = TruthSplitAsFound(truth, twin, found, &split_faces);
+  RunFaceOracle(sim, rig, split, split_faces, at_result, r.reference,
+                "true faces split as the finder's", &tally->split_white, &tally->split_whitened);
 }
 
 /// Bias against variance over draws of the pixel noise: per seed and camera pair, the
@@ -586,11 +677,15 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_flag("--crlb", crlb,
                "also the Cramer-Rao bound of each seed (analysis/crlb.h) and RMS of error / bound");
-  bool face_oracle = false;
+  bool face_oracle = false, face_finder = false;
   app.add_flag("--face-oracle", face_oracle,
                "also the face oracle (analysis/face_oracle.h): poses and faces solved from the "
                "start with each pixel's true face, independent pixels and, with "
                "--noise-corr-share, whitened by the true correlation");
+  app.add_flag("--face-finder", face_finder,
+               "also the face oracle's estimator on the faces of the image face finder "
+               "(analysis/face_finder.h) at the default's result, and on the true faces with "
+               "the finder's pixels and split where the finder splits them");
   app.add_flag("--sigma", verbose_sigma, "print each camera's error and predicted 1-sigma");
   app.add_flag("--from-gt", from_gt, "start at the true poses (measures the estimator's bias)");
   app.add_flag("--verbose", verbose, "solver progress to stderr");
@@ -634,6 +729,7 @@ int main(int argc, char** argv) {
   double sum_nr2 = 0, sum_nt2 = 0, sum_model_nr2 = 0, sum_model_nt2 = 0;
   int few_surfaces = 0;
   OracleSums oracle_white, oracle_whitened;
+  FinderTally finder_tally;
   BiasSplit bias;
   SegmentationDiagnostic diagnostic;
   DepthModelTally depth_models;
@@ -675,10 +771,12 @@ int main(int argc, char** argv) {
     runs_with_weak += weak > 0 ? 1 : 0;
     if (weak > 0) std::printf("       %d weakly constrained directions\n", weak);
     std::optional<NoiseFreeTwin> twin;
-    if (crlb || face_oracle) twin = MakeNoiseFreeTwin(sim, options.region);
+    if (crlb || face_oracle || face_finder) twin = MakeNoiseFreeTwin(sim, options.region);
     if (face_oracle) {
-      RunFaceOracle(sim, rig, *twin, start, r.reference, &oracle_white, &oracle_whitened);
+      RunFaceOracle(sim, rig, twin->pixels, twin->faces, start, r.reference, "face oracle",
+                    &oracle_white, &oracle_whitened);
     }
+    if (face_finder) RunFaceFinder(sim, rig, *twin, r, options.region, &finder_tally);
     if (crlb) {
       // The bound of this run's rig, on its noise-free twin.
       const SimulatedRig& truth = twin->truth;
@@ -795,8 +893,9 @@ int main(int argc, char** argv) {
       runs, unit, std::sqrt(sum_r2 / pairs) * kRadToDeg, std::sqrt(sum_t2 / pairs) * 1e3,
       worst_t * 1e3, std::sqrt(sum_tilt2 / cameras) * kRadToDeg, failures);
   std::printf("runs with weakly constrained directions: %d of %d\n", runs_with_weak, runs);
-  oracle_white.Print("independent pixels");
-  oracle_whitened.Print("whitened");
+  oracle_white.Print("face oracle", "independent pixels");
+  oracle_whitened.Print("face oracle", "whitened");
+  finder_tally.Print();
   depth_models.Print();
   std::printf(
       "runs ending worse than their start: %d in RMS rotation, %d in RMS translation, of %d\n",

@@ -27,10 +27,11 @@
 #   variants  bench/rig_accuracy --sigma on variants of the default (seeds 0..4): depth models on
 #             miscalibrated cameras, stereo at 320x180, pairwise with the bundle, the bare room,
 #             a 3-camera rig. Niced, 1 thread.
-#   oracle    bench/rig_accuracy --face-oracle: the default against the face oracle (the
-#             bundle's estimator told each pixel's true face: analysis/face_oracle.h), with
-#             independent pixels and whitened, on white, correlated and stereo rigs. Niced, 1
-#             thread (a few minutes).
+#   oracle    bench/rig_accuracy --face-oracle --face-finder: the default against the face oracle
+#             (the bundle's estimator told each pixel's true face: analysis/face_oracle.h), with
+#             independent pixels and whitened, on white, correlated and stereo rigs; and the same
+#             estimator on the image face finder's faces (analysis/face_finder.h), on the true
+#             faces with its pixels, and split where it splits them. Niced, 1 thread (minutes).
 #   bounds    bench/rig_accuracy --crlb: the Cramer-Rao bounds (docs/uncertainty.md section 9) and
 #             error / bound, white noise (seeds 0..9 x 3 draws; point_to_plane and the surface
 #             bundle) and correlated noise (the bundle, seeds 0..2, also without the pixels next
@@ -448,8 +449,10 @@ run_bounds() {
 # ---------------------------------------------------------------------------------------------
 # oracle
 
-# The markdown row of one rig_accuracy --face-oracle output: the default's error, then the
-# oracle's with independent pixels and whitened (RMS rotation deg / translation mm / tilt deg).
+# The markdown row of one rig_accuracy --face-oracle --face-finder output: the default's error,
+# the oracle's, the face finder's, and the truth split as the finder's, each with independent
+# pixels and whitened (RMS rotation deg / translation mm / tilt deg; translation mm alone for
+# the finder's decomposition).
 oracle_row() {
   python3 - "$@" <<'PY'
 import re, sys
@@ -459,16 +462,25 @@ rms = r"RMS relative rotation ([0-9.]+) deg, RMS relative translation ([0-9.]+) 
 def cell(prefix):
     m = re.search(prefix + rms, text)
     return "%s / %s / %s" % m.groups() if m else "-"
-gated = sum(int(g) for g in re.findall(r"independent pixels: .*, (\d+) gated", text))
+def mm(prefix):
+    m = re.search(prefix + rms, text)
+    return m.group(2) if m else "-"
+gated = sum(int(g) for g in re.findall(r"face oracle, independent pixels: .*, (\d+) gated", text))
 print("| %s | %s | %s | %s | %d |" % (label, cell(r"summary over \d+ seeds: "),
       cell(r"face oracle, independent pixels: "), cell(r"face oracle, whitened: "), gated))
+print("| %s | %s | %s | %s | %s | %s |" % (label, mm(r"face finder, independent pixels: "),
+      mm(r"face finder, whitened: "), mm(r"true faces on the finder's pixels, whitened: "),
+      mm(r"true faces split as the finder's, independent pixels: "),
+      mm(r"true faces split as the finder's, whitened: ")), file=sys.stderr)
 PY
 }
 
 run_oracle() {
   local file size=() seeds=(10 10 5) table="$out/raw/oracle-table.md"
+  local finder="$out/raw/oracle-finder-table.md"
   file="$(header oracle)"
   : >"$table"
+  : >"$finder"
   [ $quick = 1 ] && size=(--width 160 --height 90) && seeds=(1 1 1)
   # label|flags
   local cases=(
@@ -480,11 +492,12 @@ run_oracle() {
   for c in "${cases[@]}"; do
     IFS='|' read -r label flags <<<"$c"
     local raw="$out/raw/oracle-$(echo "$label" | tr -c 'a-zA-Z0-9' '_').txt"
-    accuracy_run "$raw" --face-oracle --method surface_bundle --threads 1 "${size[@]}" "$flags"
-    oracle_row "$raw" "$label" >>"$table"
+    accuracy_run "$raw" --face-oracle --face-finder --method surface_bundle --threads 1 \
+      "${size[@]}" "$flags"
+    oracle_row "$raw" "$label" >>"$table" 2>>"$finder"
   done
   {
-    echo "Command per row: \`bench/rig_accuracy --face-oracle --method surface_bundle --threads 1${size[*]:+ ${size[*]}}\`"
+    echo "Command per row: \`bench/rig_accuracy --face-oracle --face-finder --method surface_bundle --threads 1${size[*]:+ ${size[*]}}\`"
     echo "plus the case's flags (correlated: \`--noise-corr-px 4 --noise-corr-share 0.8\`; stereo:"
     echo "\`--depth-model stereo --stereo-upsample 2\`), 4 cameras, default config, one noise draw."
     echo "Each cell: RMS over the runs, rotation deg / translation mm / tilt deg. Oracle: the true"
@@ -495,6 +508,14 @@ run_oracle() {
     echo "| rigs | default (surface bundle) | oracle, independent pixels | oracle, whitened | gated |"
     echo "|---|---|---|---|---|"
     cat "$table"
+    echo
+    echo "The face finder (analysis/face_finder.h) at the default's result, solved by the oracle's"
+    echo "estimator; then the true faces on the finder's pixels, and split where the finder splits"
+    echo "them (a face per true face and finder face). RMS translation mm."
+    echo
+    echo "| rigs | finder, independent | finder, whitened | truth on its pixels, whitened | truth split as its faces, independent | the same, whitened |"
+    echo "|---|---|---|---|---|---|"
+    cat "$finder"
     echo
     echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
   } >>"$file"
