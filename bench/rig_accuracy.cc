@@ -231,8 +231,8 @@ struct FinderTally {
 
 /// The face finder of one run (--face-finder): its faces at the default's result (in the
 /// truth's gauge: the reference at its true pose), solved by the face oracle's estimator from
-/// there; then the true faces on the finder's pixels and split as the finder splits them,
-/// solved from the run's start as the oracle is.
+/// there; then, from the same poses, the true faces on the finder's pixels and split as the
+/// finder splits them.
 void RunFaceFinder(const rigfit::SimOptions& sim, const rigfit::SimulatedRig& rig,
                    const NoiseFreeTwin& twin, const rigfit::RefineResult& r,
                    const rigfit::RegionOptions& region, FinderTally* tally) {
