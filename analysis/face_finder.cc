@@ -181,12 +181,15 @@ std::vector<std::vector<int>> Members(const std::vector<int>& label, size_t face
   return members;
 }
 
-/// A camera's faces: grown from its seeds (best first), refitted on their points, those under
-/// min_pixels dropped. Returns the models; `label` per point.
+/// A camera's faces: the floor (the points `label` gives face 0, if any), then faces grown from
+/// its seeds (best first), refitted on their points, those under min_pixels dropped. Returns the
+/// models; `label` per point; *floor whether face 0 is the floor.
 std::vector<AffineFit> CameraFaces(const ImageGrid& g, const std::vector<Eigen::Vector2i>& pixels,
-                                   const FaceFinderOptions& o, std::vector<int>* label) {
-  label->assign(pixels.size(), kNone);
+                                   const FaceFinderOptions& o, std::vector<int>* label,
+                                   bool* floor) {
   std::vector<AffineFit> models;
+  const std::vector<int> floor_points = Members(*label, 1).front();
+  if (!floor_points.empty()) models.push_back(FitPoints(g, floor_points, floor_points.front()));
   for (const int seed : Seeds(g, pixels, o)) {
     if ((*label)[seed] != kNone) continue;
     const int face = static_cast<int>(models.size());
@@ -202,7 +205,24 @@ std::vector<AffineFit> CameraFaces(const ImageGrid& g, const std::vector<Eigen::
     kept.push_back(FitPoints(g, members[f], members[f].front()));
   }
   for (int& l : *label) l = l == kNone ? kNone : renumber[l];
+  *floor = !floor_points.empty() && renumber[0] == 0;
   return kept;
+}
+
+/// Per point of a camera at pose T: 0 where its w lies within the gate and a pose error of
+/// pose_tolerance_m of the leveled floor's (y = 0) along its ray, kNone elsewhere.
+std::vector<int> FloorPoints(const ImageGrid& g, const Pose& T, const FaceFinderOptions& o) {
+  std::vector<int> label(g.w.size(), kNone);
+  for (size_t i = 0; i < g.w.size(); ++i) {
+    const Vec3 ray = T.linear() * Vec3(g.x[i], g.y[i], 1.0);
+    const double z = RayPlaneDepth(T.translation(), ray, Vec3::UnitY(), 0.0);
+    if (!(z > 0.0) || !std::isfinite(z)) continue;
+    const double w = g.w[i];
+    if (std::abs(w - 1.0 / z) <= o.gate_sigmas * o.depth_noise + o.pose_tolerance_m * w * w) {
+      label[i] = 0;
+    }
+  }
+  return label;
 }
 
 /// The mean normalised coordinates of each face's points.
@@ -294,6 +314,7 @@ struct CameraFaceSet {
   ImageGrid grid;
   std::vector<int> label;
   std::vector<AffineFit> models;
+  bool floor = false;  ///< face 0 is the leveled floor
 };
 
 /// Votes of camera a's faces for camera b's: each labelled point of a, seen from b at the start
@@ -342,6 +363,12 @@ std::vector<int> Associate(const std::vector<CameraFaceSet>& sets, const FaceFin
   std::vector<int> parent(first.back());
   std::iota(parent.begin(), parent.end(), 0);
   const double cos_angle = std::cos(o.merge_angle_deg * kDegToRad);
+  int floor = kNone;  // the leveled floor: one face
+  for (size_t a = 0; a < sets.size(); ++a) {
+    if (!sets[a].floor) continue;
+    if (floor != kNone) parent[Root(&parent, first[a])] = Root(&parent, floor);
+    floor = first[a];
+  }
   for (size_t a = 0; a < sets.size(); ++a) {
     for (size_t b = 0; b < sets.size(); ++b) {
       if (a == b || sets[a].models.empty() || sets[b].models.empty()) continue;
@@ -432,7 +459,9 @@ FoundFaces FindFaces(const RigCapture& capture, const PoseMap& start, const Regi
     set.T = start.at(set.camera->serial);
     set.pixels.points = NearFloorBand(RegistrationPoints(*set.camera, wide), set.T, wide);
     set.grid = GridOf(*set.camera, set.pixels.points, &set.pixels.pixels);
-    set.models = CameraFaces(set.grid, set.pixels.pixels, options, &set.label);
+    set.label = options.leveled_floor ? FloorPoints(set.grid, set.T, options)
+                                      : std::vector<int>(set.pixels.points.size(), kNone);
+    set.models = CameraFaces(set.grid, set.pixels.pixels, options, &set.label, &set.floor);
     if (options.crease_sides) {
       CreaseSides(set.grid, set.pixels.pixels, options, &set.models, &set.label);
     }

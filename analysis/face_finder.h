@@ -1,11 +1,13 @@
 // A face finder in each camera's image (issue 33 point 3), scored by the face oracle
 // (analysis/face_oracle.h: its labels in place of the true ones). A plane's inverse depth is
 // affine in the image, w = 1 / z = p0 + p1 x + p2 y (x, y the normalised pixel coordinates), and
-// with sigma_z = k z^2 every pixel's w has the same noise k: so each camera's faces are grown in
-// its image from planar seed windows, a neighbour joining a face when its w lies within
-// gate_sigmas k of the face's affine model (refitted as the face grows), up to where the faces
-// meet. The faces of all cameras are then associated by overlap: a camera's face seen from
-// another camera at the start poses falls on that camera's face: one plane.
+// with sigma_z = k z^2 every pixel's w has the same noise k: so each camera's faces (after the
+// leveled floor, whose pixels its plane y = 0 predicts) are grown in its image from planar seed
+// windows, a neighbour joining a face when its w lies within gate_sigmas k of the face's affine
+// model (refitted as the face grows); where two faces meet, each pixel goes to the face on whose
+// side of their planes' intersection it lies. The faces of all cameras are then associated by
+// overlap: a camera's face seen from another camera at the start poses falls on that camera's
+// face: one plane.
 // Band pixels are kept by where their face's plane puts them (their ray meets it inside the
 // band), not by their measured height, which their noise moves.
 #pragma once
@@ -35,6 +37,10 @@ struct FaceFinderOptions {
   /// Where two faces of a camera meet (their planes' predictions within gate_sigmas k of each
   /// other), a pixel goes to the face on whose side of the planes' intersection it lies.
   bool crease_sides = true;
+  /// The world is leveled (the floor y = 0): each camera's points within the gate (and
+  /// pose_tolerance_m) of the floor are its first face, before any face grows, and the floors of
+  /// all cameras one face.
+  bool leveled_floor = true;
 };
 
 struct FoundFaces {
