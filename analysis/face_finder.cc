@@ -396,24 +396,23 @@ std::vector<int> Associate(const std::vector<CameraFaceSet>& sets, const FaceFin
   return face_of;
 }
 
-/// The world plane through points (least squares: the scatter's smallest eigenvector), its
-/// normal on the side of `towards`; the floor (+Y) when it lies within 3 degrees of level and
-/// 5 cm of y = 0.
+/// The world plane through points (core/geometry.h FitPlane), its normal on the side of
+/// `towards`; the floor (+Y) when it lies within 3 degrees of level and 5 cm of y = 0.
 PlanarFace FitWorldPlane(const std::vector<Vec3>& points, const Vec3& towards) {
-  Vec3 mean = Vec3::Zero();
-  for (const Vec3& p : points) mean += p;
-  mean /= static_cast<double>(std::max<size_t>(points.size(), 1));
-  Mat3 scatter = Mat3::Zero();
-  for (const Vec3& p : points) scatter += (p - mean) * (p - mean).transpose();
-  const Eigen::SelfAdjointEigenSolver<Mat3> eig(scatter);
-  PlanarFace f;
-  f.normal = eig.eigenvectors().col(0);
-  if (f.normal.dot(towards) < 0.0) f.normal = -f.normal;
-  f.offset = -f.normal.dot(mean);
-  if (f.normal.y() > std::cos(3.0 * kDegToRad) && std::abs(mean.y()) < 0.05) {
+  if (points.empty()) return PlanarFace{};
+  PlanarFace f = FitPlane(
+      points.size(), [&](size_t k) { return points[k]; }, [](size_t) { return 1.0; });
+  if (f.normal.dot(towards) < 0.0) {
+    f.normal = -f.normal;
+    f.offset = -f.offset;
+  }
+  double mean_y = 0.0;
+  for (const Vec3& p : points) mean_y += p.y();
+  mean_y /= static_cast<double>(points.size());
+  if (f.normal.y() > std::cos(3.0 * kDegToRad) && std::abs(mean_y) < 0.05) {
     f.floor = true;
     f.normal = Vec3::UnitY();
-    f.offset = -mean.y();
+    f.offset = -mean_y;
   }
   return f;
 }
@@ -424,9 +423,11 @@ FacePixels BandPixels(const CameraFaceSet& set, const std::vector<int>& face_of,
                       const RegionOptions& region) {
   FacePixels kept;
   kept.serial = set.pixels.serial;
+  std::vector<PlanarFace> planes;
+  for (const AffineFit& model : set.models) planes.push_back(model.Plane());
   for (size_t i = 0; i < set.pixels.points.size(); ++i) {
     if (set.label[i] == kNone) continue;
-    const PlanarFace local = set.models[set.label[i]].Plane();
+    const PlanarFace& local = planes[set.label[i]];
     const Vec3 ray = set.pixels.points[i] / set.pixels.points[i].z();
     const Vec3 p = RayPlaneDepth(Vec3::Zero(), ray, local.normal, local.offset) * ray;
     const double height = (set.T * p).y();
