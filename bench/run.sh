@@ -3,8 +3,8 @@
 # memory, real data, micro-benchmarks) and prints them as markdown.
 #
 # Usage: bench/run.sh [--quick] [--build DIR] [--out DIR] [SECTION...]
-#   SECTION  accuracy | families | variants | bounds | oracle | speed | real | micro | rgbd | loops |
-#            view3d (default: all but view3d, in docs/benchmarks.md's order)
+#   SECTION  accuracy | families | faces | variants | bounds | oracle | speed | real | micro | rgbd |
+#            loops | view3d (default: all but view3d, in docs/benchmarks.md's order)
 #   --quick  a smoke run (about a minute on 2 cores; ctest's bench_quick): every program
 #            once on small inputs (1 seed, 160x90 rigs, 10-60 frames, one case per method, the
 #            bunny's registration left out), also view_bias, which has no table; checks the
@@ -24,6 +24,10 @@
 #             joint surface_bundle (the default) and pairwise; seeds 0..9 x 2 noise draws (stereo
 #             0..4), then the default on held-out seeds 10..14. Error, bias share, runs worse
 #             than their start, normalised error (error / reported 1-sigma). Niced, 1 thread.
+#   faces     the surface bundle's faces by rays (the default) and found in the depth images
+#             (icp.surface_faces: image), side by side at one commit on the families' cases:
+#             seeds 0..9 x 2 draws (stereo 0..4; miscalibrated x 1) and held-out 10..14 x 1.
+#             Niced, 1 thread.
 #   variants  bench/rig_accuracy --sigma on variants of the default (seeds 0..4): depth models on
 #             miscalibrated cameras, stereo at 320x180, pairwise with the bundle, the bare room,
 #             a 3-camera rig. Niced, 1 thread.
@@ -76,13 +80,14 @@ while [ $# -gt 0 ]; do
     --quick) quick=1 ;;
     --build) build="$2"; shift ;;
     --out) out="$2"; shift ;;
-    accuracy | families | variants | bounds | oracle | speed | real | micro | rgbd | loops | view3d) sections+=("$1") ;;
+    accuracy | families | faces | variants | bounds | oracle | speed | real | micro | rgbd | loops | view3d)
+      sections+=("$1") ;;
     -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
 done
-[ ${#sections[@]} -gt 0 ] || sections=(accuracy families variants bounds oracle real speed rgbd loops micro)
+[ ${#sections[@]} -gt 0 ] || sections=(accuracy families faces variants bounds oracle real speed rgbd loops micro)
 build="$(cd "$build" && pwd)"
 out="${out:-$build/bench-results/$(date +%Y%m%d-%H%M%S)}"
 mkdir -p "$out/raw"
@@ -301,6 +306,54 @@ run_families() {
     echo "the cameras (rotation / translation)."
     echo
     echo "| family | method | runs | rotation deg | translation mm | worst pair mm | tilt deg | bias share rot / trans | worse | normalised rot / trans |"
+    echo "|---|---|---|---|---|---|---|---|---|---|"
+    cat "$table"
+    echo
+    echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."
+  } >>"$file"
+}
+
+# The surface bundle's faces: by rays (the default) and found in the depth images, on the
+# families' cases; rows as run_families'.
+run_faces() {
+  local file size=() table="$out/raw/faces-table.md" image="$out/raw/surface-faces-image.yaml"
+  file="$(header faces)"
+  : >"$table"
+  echo "icp: {surface_faces: image}" >"$image"
+  local correlated="--noise-corr-px 4 --noise-corr-share 0.8"
+  local stereo="--depth-model stereo --stereo-upsample 2"
+  local miscalibrated="$stereo --disparity-offset-px 0.1 --miscalibrated-cameras 1"
+  # family|flags|first seed|seeds|draws
+  local cases=(
+    "white||0|10|2" "correlated|$correlated|0|10|2" "stereo|$stereo|0|5|2"
+    "stereo, camera 1 +0.1 px|$miscalibrated|0|5|1" "white, held out||10|5|1"
+    "correlated, held out|$correlated|10|5|1" "stereo, held out|$stereo|10|5|1"
+    "stereo, camera 1 +0.1 px, held out|$miscalibrated|10|5|1"
+  )
+  if [ $quick = 1 ]; then
+    size=(--width 160 --height 90)
+    cases=("white||0|1|1")
+  fi
+  local c family flags first seeds draws faces
+  for c in "${cases[@]}"; do
+    IFS='|' read -r family flags first seeds draws <<<"$c"
+    for faces in rays image; do
+      local raw config=()
+      raw="$out/raw/faces-$(echo "$family $faces" | tr -c 'a-zA-Z0-9' '_').txt"
+      [ $faces = image ] && config=(--config "$image")
+      accuracy_run "$raw" --method surface_bundle --first-seed "$first" --seeds "$seeds" \
+        --noise-draws "$draws" --sigma --threads 1 "${size[@]}" "${config[@]}" "$flags"
+      family_row "$raw" "$family" "$faces" \
+        "$seeds x $draws (seeds $first..$((first + seeds - 1)))" >>"$table"
+    done
+  done
+  {
+    echo "Command per row: \`bench/rig_accuracy --method surface_bundle --first-seed F --seeds N"
+    echo "--noise-draws D --sigma --threads 1${size[*]:+ ${size[*]}}\` plus the family's flags (as in the"
+    echo "families table) and, for \"image\", \`--config\` with \`icp: {surface_faces: image}\`. Columns as"
+    echo "in the families table."
+    echo
+    echo "| family | faces | runs | rotation deg | translation mm | worst pair mm | tilt deg | bias share rot / trans | worse | normalised rot / trans |"
     echo "|---|---|---|---|---|---|---|---|---|---|"
     cat "$table"
     echo

@@ -45,6 +45,8 @@ const EnumNames<CameraDepthModel> kDepthModelNames = {
     {CameraDepthModel::kNone, "none"},
     {CameraDepthModel::kOffset, "offset"},
     {CameraDepthModel::kScaleOffset, "scale_offset"}};
+const EnumNames<SurfaceFaces> kSurfaceFacesNames = {{SurfaceFaces::kRays, "rays"},
+                                                    {SurfaceFaces::kImage, "image"}};
 const EnumNames<RobustLoss> kLossNames = {{RobustLoss::kHuber, "huber"},
                                           {RobustLoss::kCauchy, "cauchy"},
                                           {RobustLoss::kTukey, "tukey"},
@@ -55,11 +57,12 @@ const EnumNames<RegistrationMethod>& NamesOf(const RegistrationMethod*) { return
 const EnumNames<RobustLoss>& NamesOf(const RobustLoss*) { return kLossNames; }
 const EnumNames<DepthNoiseModel>& NamesOf(const DepthNoiseModel*) { return kNoiseModelNames; }
 const EnumNames<CameraDepthModel>& NamesOf(const CameraDepthModel*) { return kDepthModelNames; }
+const EnumNames<SurfaceFaces>& NamesOf(const SurfaceFaces*) { return kSurfaceFacesNames; }
 
 using FieldRef =
     std::variant<bool*, int*, double*, std::uint64_t*, std::string*, std::vector<double>*,
                  std::vector<int>*, RefineMode*, RegistrationMethod*, RobustLoss*, DepthNoiseModel*,
-                 CameraDepthModel*>;
+                 CameraDepthModel*, SurfaceFaces*>;
 
 struct Field {
   std::string name;
@@ -150,6 +153,9 @@ std::vector<Section> Schema(RefineOptions& o) {
             "(disparity)."},
            {"surface_rounds", &i.surface_rounds,
             "Surface bundle: rounds of plane segmentation and solve (>= 1)."},
+           {"surface_faces", &i.surface_faces,
+            "Surface bundle: the last round's faces other than the floor: the segmentation's "
+            "planes, pixels by their rays (rays), or faces found in each depth image (image)."},
            {"depth_model", &i.depth_model,
             "Surface bundle: per-camera depth model estimated with the poses: none, offset "
             "(inverse depth) or scale_offset."},

@@ -67,6 +67,8 @@ void CheckIcp(const IcpOptions& o, ProblemList& p) {
             "icp.depth_noise_model", "gaussian_depth or disparity",
             static_cast<int>(o.depth_noise_model));
   p.Require(o.surface_rounds >= 1, "icp.surface_rounds", ">= 1", o.surface_rounds);
+  p.Require(o.surface_faces == SurfaceFaces::kRays || o.surface_faces == SurfaceFaces::kImage,
+            "icp.surface_faces", "rays or image", static_cast<int>(o.surface_faces));
   p.Require(o.depth_model == CameraDepthModel::kNone ||
                 o.depth_model == CameraDepthModel::kOffset ||
                 o.depth_model == CameraDepthModel::kScaleOffset,

@@ -18,6 +18,10 @@ enum class DepthNoiseModel { kGaussianDepth, kDisparity };
 /// Surface bundle: the per-camera depth model estimated with the poses (docs/residuals.md,
 /// "Depth model"): none, an offset in inverse depth, or a scale and an offset.
 enum class CameraDepthModel { kNone, kOffset, kScaleOffset };
+/// Surface bundle: where its last round's non-floor faces come from: the segmentation's planes
+/// with each pixel assigned by its ray (registration/ray_membership.h), or the faces found in
+/// each depth camera's image (registration/image_faces.h).
+enum class SurfaceFaces { kRays, kImage };
 enum class RobustLoss { kHuber, kCauchy, kTukey, kNone };
 
 /// Ground leveling: RANSAC floor per camera, pose corrected so the floor is y = 0, +Y up.
@@ -111,6 +115,11 @@ struct IcpOptions {
   DepthNoiseModel depth_noise_model = DepthNoiseModel::kGaussianDepth;
   /// Surface bundle: rounds of segmentation and solve after the joint point-to-plane start.
   int surface_rounds = 3;
+  /// Surface bundle: the last round's faces other than the floor: the segmentation's planes,
+  /// pixels by their rays (kRays), or the faces grown in each depth camera's image up to their
+  /// creases and associated across cameras (kImage; the floor's pixels stay by their rays). A
+  /// rig with a camera without a depth image keeps kRays (docs/residuals.md, "Surface bundle").
+  SurfaceFaces surface_faces = SurfaceFaces::kRays;
   /// Surface bundle: each free depth camera's measured inverse depth read as alpha w + beta,
   /// alpha and beta estimated with the poses (the reference's held at 1 and 0), with priors of
   /// 1-sigma depth_scale_sigma (alpha about 1) and depth_offset_sigma_px of disparity (beta

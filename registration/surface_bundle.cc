@@ -14,6 +14,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <tuple>
 #include <unordered_map>
 #include <utility>
 
@@ -21,6 +22,7 @@
 #include "core/geometry.h"
 #include "core/parallel.h"
 #include "prepare/correspondences.h"
+#include "registration/image_faces.h"
 #include "registration/plane_segmentation.h"
 #include "registration/ray_membership.h"
 #include "residuals/gravity_prior.h"
@@ -327,6 +329,88 @@ void AssignByRays(const std::vector<SurfaceCamera>& cameras, const std::vector<P
        MembershipByRays(cameras, poses, PlaneList(planes), segmented, segmentation, num_threads)) {
     terms->push_back({t.camera, t.plane, PlaneCluster{}, std::move(t.pixels)});
   }
+}
+
+/// The faces found in the depth cameras' images at `poses` (registration/image_faces.h), with
+/// each camera's pixels kept where its ray meets the face's plane inside the band; empty when a
+/// camera has no image.
+std::map<std::pair<int, int>, std::vector<int>> ImageFacePixels(
+    const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses, bool leveled_floor,
+    int num_threads, std::vector<PlanarFace>* faces) {
+  std::vector<ImageFaceCamera> in(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const SurfaceCamera& camera = cameras[c];
+    if (!camera.ray_model || camera.width == 0) return {};
+    in[c] = {&camera.points, camera.intrinsics, camera.width,
+             camera.height,  poses[c],          camera.depth_noise};
+  }
+  ImageFacesOptions options;
+  options.leveled_floor = leveled_floor;
+  const ImageFaces found = FindImageFaces(in, options, num_threads);
+  *faces = found.faces;
+  std::map<std::pair<int, int>, std::vector<int>> pixels;  // (face, camera)
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    const Pose& T = poses[c];
+    const CameraImageFaces& camera_faces = found.cameras[c];
+    for (size_t i = 0; i < camera_faces.label.size(); ++i) {
+      if (camera_faces.label[i] < 0) continue;
+      const int f = camera_faces.face[camera_faces.label[i]];
+      const Vec3 ray = T.linear() * (cameras[c].points[i] / cameras[c].points[i].z());
+      const double s =
+          RayPlaneDepth(T.translation(), ray, found.faces[f].normal, found.faces[f].offset);
+      const double height = T.translation().y() + s * ray.y();
+      if (height >= cameras[c].band_bottom && height <= cameras[c].band_top) {
+        pixels[{f, static_cast<int>(c)}].push_back(static_cast<int>(i));
+      }
+    }
+  }
+  return pixels;
+}
+
+/// The terms other than the floor's replaced by the faces found in the depth cameras' images
+/// (ImageFacePixels): a (face, camera) with the segmentation's min_points_per_camera or more, a
+/// face two cameras or more have.
+/// The floor's terms stay (its pixels by their rays: the image floor, the points its plane
+/// predicts within the poses' tolerance, tilted the cameras 2.5x more on white noise,
+/// docs/benchmarks.md). False (nothing changed) when a camera has no image.
+bool AssignByImageFaces(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
+                        const PlaneSegmentationOptions& segmentation, int num_threads,
+                        std::vector<PlaneBlock>* planes, std::vector<ClusterTerm>* terms) {
+  const int min_pixels = segmentation.min_points_per_camera;
+  std::vector<PlanarFace> faces;
+  std::map<std::pair<int, int>, std::vector<int>> pixels =
+      ImageFacePixels(cameras, poses, segmentation.leveled_floor, num_threads, &faces);
+  if (pixels.empty()) return false;
+  std::vector<PlaneBlock> kept_planes;
+  std::vector<ClusterTerm> kept_terms;
+  std::map<int, int> floor_of;
+  for (ClusterTerm& t : *terms) {
+    if (!(*planes)[t.plane].floor) continue;
+    const auto [it, added] = floor_of.emplace(t.plane, static_cast<int>(kept_planes.size()));
+    if (added) kept_planes.push_back((*planes)[t.plane]);
+    t.plane = it->second;
+    kept_terms.push_back(std::move(t));
+  }
+  std::map<int, int> seen_by;
+  for (const auto& [key, p] : pixels) {
+    seen_by[key.first] += static_cast<int>(p.size()) >= min_pixels ? 1 : 0;
+  }
+  std::map<int, int> plane_of;
+  for (auto& [key, p] : pixels) {
+    const PlanarFace& face = faces[key.first];
+    if (face.floor || static_cast<int>(p.size()) < min_pixels || seen_by[key.first] < 2) continue;
+    const auto [it, added] = plane_of.emplace(key.first, static_cast<int>(kept_planes.size()));
+    if (added)
+      kept_planes.push_back(
+          {Vec4(face.normal.x(), face.normal.y(), face.normal.z(), face.offset), false});
+    kept_terms.push_back({key.second, it->second, PlaneCluster{}, std::move(p)});
+  }
+  std::sort(kept_terms.begin(), kept_terms.end(), [](const ClusterTerm& a, const ClusterTerm& b) {
+    return std::tie(a.camera, a.plane) < std::tie(b.camera, b.plane);
+  });
+  *planes = std::move(kept_planes);
+  *terms = std::move(kept_terms);
+  return true;
 }
 
 /// LevelOnFloor's Gauss-Newton: at most this many iterations, until a step is
@@ -769,6 +853,10 @@ BundleSolver::Next BundleSolver::Round(int round, int rounds) {
   // of the previous rounds' solves.
   if (round == rounds - 1) {
     AssignByRays(seen, poses_, planes_, segmentation, num_threads_, &terms_);
+    if (options_.surface_faces == SurfaceFaces::kImage &&
+        !AssignByImageFaces(seen, poses_, segmentation, num_threads_, &planes_, &terms_)) {
+      log_.Debug("surface bundle: a camera without a depth image: the faces by rays");
+    }
   }
   correlation_ = measured_;
   FillClusters(cameras_, options_, correlation_, &terms_);

@@ -35,6 +35,11 @@ struct SurfaceCamera {
   /// The angle of one pixel (1 / fx, radians) for the noise's spatial correlation
   /// (SurfaceBundleResult::noise_correlation); 0: not measured (each pixel independent).
   double pixel_angle = 0.0;
+  /// A depth camera's image, for the faces found in it (IcpOptions::surface_faces; width 0:
+  /// none, the rig keeps the faces by rays).
+  PinholeIntrinsics intrinsics;
+  int width = 0;
+  int height = 0;
   /// A stereo camera's baseline (m; 0: unknown): its depth model's offset prior is in pixels of
   /// disparity through it and pixel_angle (IcpOptions::depth_offset_sigma_px).
   double baseline_m = 0.0;

@@ -512,7 +512,12 @@ std::vector<SurfaceCamera> SurfaceCameras(const RigCapture& capture, const Level
         surfaces[i].T_world_leveled = rig.leveled[i];
         surfaces[i].depth_noise = rig.depth_noise[i];
         surfaces[i].ray_model = camera.HasDepth();
-        if (camera.HasDepth()) surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
+        if (camera.HasDepth()) {
+          surfaces[i].pixel_angle = 1.0 / camera.intrinsics.fx;
+          surfaces[i].intrinsics = camera.intrinsics;
+          surfaces[i].width = camera.width;
+          surfaces[i].height = camera.height;
+        }
         surfaces[i].baseline_m = camera.baseline_m;
         surfaces[i].surface_bias = SurfaceBias(camera, options.icp);
         surfaces[i].floor_leveled = rig.floor_leveled[i];

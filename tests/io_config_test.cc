@@ -62,6 +62,7 @@ RefineOptions NonDefaultOptions() {
   o.icp.hold_weak_directions = true;
   o.icp.depth_noise_model = DepthNoiseModel::kDisparity;
   o.icp.surface_rounds = 2;
+  o.icp.surface_faces = SurfaceFaces::kImage;
   o.icp.depth_model = CameraDepthModel::kScaleOffset;
   o.icp.depth_scale_sigma = 0.005;
   o.icp.depth_offset_sigma_px = 0.1;

@@ -26,10 +26,11 @@ struct MethodCase {
   RefineMode mode;
   RegistrationMethod method;
   bool surface_bundle;  ///< icp.surface_bundle
-  /// Measured on SimulatedNoisyRig() at b97677b (RMS over the camera pairs): rotation (deg),
-  /// translation (mm).
+  /// Measured on SimulatedNoisyRig() at b97677b (the image faces' case when it was added) (RMS
+  /// over the camera pairs): rotation (deg), translation (mm).
   double rotation_deg;
   double translation_mm;
+  SurfaceFaces surface_faces = SurfaceFaces::kRays;  ///< icp.surface_faces
 };
 
 /// The rig every case refines: seed 3 (its start: RMS 1.873 deg, 90.5 mm over the pairs), small
@@ -72,6 +73,7 @@ TEST_P(MethodAccuracy, WithinThirtyPercentOfTheMeasuredError) {
   options.icp.mode = c.mode;
   options.icp.method = c.method;
   options.icp.surface_bundle = c.surface_bundle;
+  options.icp.surface_faces = c.surface_faces;
   ExpectNoRegression(c.name, rig, Refine(rig.capture, rig.init, options), c.rotation_deg,
                      c.translation_mm);
 }
@@ -87,10 +89,14 @@ INSTANTIATE_TEST_SUITE_P(
                       MethodCase{"PairwisePointToPlane", RefineMode::kPairwise,
                                  RegistrationMethod::kPointToPlane, false, 0.2740, 24.563},
                       MethodCase{"PairwiseSurfaceBundle", RefineMode::kPairwise,
-                                 RegistrationMethod::kPointToPlane, true, 0.1420, 10.770}),
+                                 RegistrationMethod::kPointToPlane, true, 0.1420, 10.770},
+                      MethodCase{"SurfaceBundleImageFaces", RefineMode::kJoint,
+                                 RegistrationMethod::kPointToPlane, true, 0.0367, 1.869,
+                                 SurfaceFaces::kImage}),
     [](const auto& info) { return std::string(info.param.name); });
 
-/// The default refinement (the joint solve, then the surface bundle) on the noise families of
+/// The default refinement (the joint solve, then the surface bundle; also with its faces found in
+/// the depth images, icp.surface_faces image) on the noise families of
 /// docs/benchmarks.md ("Four families"), each on one small seeded rig (320 x 180): spatially
 /// correlated noise (80% of the variance smoothed over 4 px) and depth from stereo block matching
 /// (matched at 2x, 0.12 m baseline), also with one camera's disparity offset by 0.1 px.
@@ -102,6 +108,7 @@ struct FamilyCase {
   /// (deg), translation (mm).
   double rotation_deg;
   double translation_mm;
+  SurfaceFaces surface_faces = SurfaceFaces::kRays;  ///< icp.surface_faces
 };
 
 void Correlated(SimOptions* sim) {
@@ -130,9 +137,10 @@ TEST_P(FamilyAccuracy, DefaultWithinThirtyPercentOfTheMeasuredError) {
   sim.height = 180;
   c.configure(&sim);
   const SimulatedRig rig = SimulateRig(sim);
+  RefineOptions options;
+  options.icp.surface_faces = c.surface_faces;
   ExpectNoRegression(std::string(c.name) + ", seed " + std::to_string(c.seed), rig,
-                     Refine(rig.capture, rig.init, RefineOptions{}), c.rotation_deg,
-                     c.translation_mm);
+                     Refine(rig.capture, rig.init, options), c.rotation_deg, c.translation_mm);
 }
 
 // Seeds: correlated 3 (the rig above; its start 1.873 deg / 90.5 mm), stereo 0 (start 2.117 deg /
@@ -143,7 +151,11 @@ INSTANTIATE_TEST_SUITE_P(Families, FamilyAccuracy,
                          ::testing::Values(FamilyCase{"Correlated", 3, Correlated, 0.2600, 15.270},
                                            FamilyCase{"Stereo", 0, Stereo, 0.7770, 46.780},
                                            FamilyCase{"StereoMiscalibrated", 4, StereoMiscalibrated,
-                                                      1.1840, 70.380}),
+                                                      1.1840, 70.380},
+                                           FamilyCase{"CorrelatedImageFaces", 3, Correlated, 0.2582,
+                                                      15.734, SurfaceFaces::kImage},
+                                           FamilyCase{"StereoImageFaces", 0, Stereo, 0.8783, 47.600,
+                                                      SurfaceFaces::kImage}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 }  // namespace
