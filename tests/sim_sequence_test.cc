@@ -325,10 +325,15 @@ TEST(SimSequence, ALonePlaneStretchSeesOnlyThatPlane) {
       }
       ASSERT_GT(points.size(), 100u);
       const Vec3 normal = (points[1] - points[0]).cross(points.back() - points[0]).normalized();
-      for (const Vec3& p : points)
+      for (const Vec3& p : points) {
         EXPECT_NEAR(normal.dot(p - points[0]), 0.0, 1e-4);  // float depth
-      if (plane == LonePlane::kFloor) EXPECT_GT(std::abs(normal.y()), 1.0 - 1e-4);
-      if (plane == LonePlane::kWall) EXPECT_LT(std::abs(normal.y()), 1e-2);
+      }
+      if (plane == LonePlane::kFloor) {
+        EXPECT_GT(std::abs(normal.y()), 1.0 - 1e-4);
+      }
+      if (plane == LonePlane::kWall) {
+        EXPECT_LT(std::abs(normal.y()), 1e-2);
+      }
     }
     EXPECT_EQ(stretch, 16);  // 0.5 s at 30 Hz: frames 15 to 30
   }
