@@ -37,6 +37,9 @@ int main(int argc, char** argv) {
   app.add_option("--method", method, "icp.method of the joint mode (pairwise: point_to_plane)")
       ->check(CLI::IsMember({"point_to_plane", "gicp", "surface_bundle"}));
   app.add_option("--depth-noise", depth_noise, "icp.depth_noise (k of sigma_z = k z^2); 0: none");
+  std::string surface_faces = "rays";
+  app.add_option("--surface-faces", surface_faces, "icp.surface_faces (with surface_bundle)")
+      ->check(CLI::IsMember({"rays", "image"}));
   CLI11_PARSE(app, argc, argv);
 
   SequenceOptions sequence_options;
@@ -70,6 +73,7 @@ int main(int argc, char** argv) {
   options.region.band_height = 0.0;
   options.icp.gravity_weight = 0.0;
   options.icp.depth_noise = depth_noise;
+  options.icp.surface_faces = surface_faces == "image" ? SurfaceFaces::kImage : SurfaceFaces::kRays;
   std::printf("%s: %zu frames as cameras, start perturbed by %.2f deg and %.3f m, method %s\n\n",
               sequence->Describe().c_str(), frames.size(), rotation_deg, translation_m,
               method.c_str());

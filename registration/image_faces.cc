@@ -421,62 +421,78 @@ PlanarFace FitWorldPlane(const std::vector<Vec3>& points, const Vec3& towards) {
   return f;
 }
 
-/// Each face's world plane: FitWorldPlane on the points of its camera faces (face_of).
+/// A camera face: (camera, its face's index among the camera's).
+using CameraFace = std::pair<int, int>;
+/// Per camera, per camera face: its points.
+using FaceMembers = std::vector<std::vector<std::vector<int>>>;
+
+/// The world plane of camera faces (FitWorldPlane on their points).
+PlanarFace FitFace(const std::vector<CameraFaceSet>& sets, const FaceMembers& members,
+                   const std::vector<CameraFace>& parts) {
+  std::vector<Vec3> points;
+  Vec3 towards = Vec3::Zero();
+  for (const auto& [c, f] : parts) {
+    const Pose& T = sets[c].camera->T_world_camera;
+    towards += T.linear() * sets[c].models[f].Plane().normal;
+    for (const int i : members[c][f]) points.push_back(T * (*sets[c].camera->points)[i]);
+  }
+  return FitWorldPlane(points, towards);
+}
+
+/// How far camera face f's points lie from `plane` (world; RMS in w along their rays) against
+/// their scatter about their camera's model of the face (RMS, at least k).
+double ScatterRatio(const CameraFaceSet& set, int f, const std::vector<int>& members,
+                    const PlanarFace& plane) {
+  const Pose& T = set.camera->T_world_camera;
+  const Vec3 n = T.linear().transpose() * plane.normal;  // camera frame
+  const double d = plane.offset + plane.normal.dot(T.translation());
+  double world = 0.0, own = 0.0;
+  for (const int i : members) {
+    // The plane n^T X + d = 0 along the ray (x, y, 1): w = -n^T (x, y, 1) / d.
+    const double w = -n.dot(Vec3(set.grid.x[i], set.grid.y[i], 1.0)) / d;
+    world += std::pow(set.grid.w[i] - w, 2);
+    own += std::pow(set.grid.w[i] - set.models[f].Predict(set.grid.x[i], set.grid.y[i]), 2);
+  }
+  return std::sqrt(world / std::max(own, set.k * set.k * static_cast<double>(members.size())));
+}
+
+/// Each face's world plane (FitFace on its camera faces, face_of). Of a face other than the
+/// leveled floor, the camera faces whose ScatterRatio exceeds max_ratio are made faces of their
+/// own (a wrong association: two surfaces joined through a third, or normals within
+/// merge_angle_deg that are not one plane), one at a time, the worst first, the face's plane
+/// refitted after each; their planes are appended.
 std::vector<PlanarFace> WorldPlanes(const std::vector<CameraFaceSet>& sets,
-                                    const std::vector<int>& face_of, const std::vector<int>& first,
-                                    int faces) {
-  std::vector<std::vector<Vec3>> points(faces);
-  std::vector<Vec3> towards(faces, Vec3::Zero());
+                                    const std::vector<int>& first, double max_ratio,
+                                    std::vector<int>* face_of, int* faces) {
+  FaceMembers members;
+  std::vector<std::vector<CameraFace>> parts(*faces);
   for (size_t c = 0; c < sets.size(); ++c) {
-    const CameraFaceSet& set = sets[c];
-    if (set.models.empty()) continue;
-    const Pose& T = set.camera->T_world_camera;
-    for (size_t f = 0; f < set.models.size(); ++f) {
-      towards[face_of[first[c] + f]] += T.linear() * set.models[f].Plane().normal;
-    }
-    for (size_t i = 0; i < set.label.size(); ++i) {
-      if (set.label[i] != kNone) {
-        points[face_of[first[c] + set.label[i]]].push_back(T * (*set.camera->points)[i]);
-      }
+    members.push_back(Members(sets[c].label, sets[c].models.size()));
+    for (size_t f = 0; f < sets[c].models.size(); ++f) {
+      parts[(*face_of)[first[c] + f]].push_back({static_cast<int>(c), static_cast<int>(f)});
     }
   }
   std::vector<PlanarFace> planes;
-  for (int f = 0; f < faces; ++f) planes.push_back(FitWorldPlane(points[f], towards[f]));
-  return planes;
-}
-
-/// Camera faces whose points lie more than max_rms_sigmas k (RMS, in w along their rays) from
-/// their face's world plane made faces of their own: a wrong association (two surfaces merged
-/// through a third, or normals within merge_angle_deg that are not one plane). Returns whether
-/// any was.
-bool DetachInconsistent(const std::vector<CameraFaceSet>& sets,
-                        const std::vector<PlanarFace>& planes, const std::vector<int>& first,
-                        double max_rms_sigmas, std::vector<int>* face_of, int* faces) {
-  bool detached = false;
-  for (size_t c = 0; c < sets.size(); ++c) {
-    const CameraFaceSet& set = sets[c];
-    if (set.models.empty()) continue;
-    const Pose& T = set.camera->T_world_camera;
-    std::vector<double> squares(set.models.size(), 0.0);
-    const std::vector<std::vector<int>> members = Members(set.label, set.models.size());
-    for (size_t f = 0; f < set.models.size(); ++f) {
-      const PlanarFace& plane = planes[(*face_of)[first[c] + f]];
-      const Vec3 n = T.linear().transpose() * plane.normal;  // camera frame
-      const double d = plane.offset + plane.normal.dot(T.translation());
-      double sum = 0.0;
-      for (const int i : members[f]) {
-        // The plane n^T X + d = 0 along the ray (x, y, 1): w = -n^T (x, y, 1) / d.
-        const double w = -n.dot(Vec3(set.grid.x[i], set.grid.y[i], 1.0)) / d;
-        sum += std::pow((set.grid.w[i] - w) / set.k, 2);
+  std::vector<CameraFace> detached;
+  for (std::vector<CameraFace>& p : parts) {
+    planes.push_back(FitFace(sets, members, p));
+    while (p.size() >= 2 && !planes.back().floor) {
+      double worst = max_ratio;
+      auto worst_part = p.end();
+      for (auto it = p.begin(); it != p.end(); ++it) {
+        const double ratio = ScatterRatio(sets[it->first], it->second,
+                                          members[it->first][it->second], planes.back());
+        if (ratio > worst) worst = ratio, worst_part = it;
       }
-      if (members[f].empty() || sum <= max_rms_sigmas * max_rms_sigmas * members[f].size()) {
-        continue;
-      }
-      (*face_of)[first[c] + f] = (*faces)++;
-      detached = true;
+      if (worst_part == p.end()) break;
+      (*face_of)[first[worst_part->first] + worst_part->second] = (*faces)++;
+      detached.push_back(*worst_part);
+      p.erase(worst_part);
+      planes.back() = FitFace(sets, members, p);
     }
   }
-  return detached;
+  for (const CameraFace& part : detached) planes.push_back(FitFace(sets, members, {part}));
+  return planes;
 }
 
 /// Camera c's faces found in its image: its points' labels, pixels and faces' planes.
@@ -517,10 +533,8 @@ ImageFaces FindImageFaces(const std::vector<ImageFaceCamera>& cameras,
   int faces = 0;
   std::vector<int> face_of = Associate(sets, options, &faces);
   const std::vector<int> first = FirstFaces(sets);
-  std::vector<PlanarFace> planes = WorldPlanes(sets, face_of, first, faces);
-  if (DetachInconsistent(sets, planes, first, options.max_face_rms_sigmas, &face_of, &faces)) {
-    planes = WorldPlanes(sets, face_of, first, faces);
-  }
+  std::vector<PlanarFace> planes =
+      WorldPlanes(sets, first, options.max_scatter_ratio, &face_of, &faces);
   ImageFaces found;
   found.camera_faces = first.back();
   found.faces = std::move(planes);

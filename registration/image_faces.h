@@ -29,9 +29,11 @@ struct ImageFacesOptions {
   double min_overlap = 0.25;
   double merge_angle_deg = 20.0;
   double pose_tolerance_m = 0.03;  ///< the poses' error, along a ray, in that agreement
-  /// A camera's face whose points lie farther than this many k (RMS) from the plane of the
-  /// face it was associated with is a face of its own (a wrong association).
-  double max_face_rms_sigmas = 3.0;
+  /// A camera's face whose points lie farther (RMS) from the plane of the face it was
+  /// associated with than this many times their scatter about their camera's model of it (at
+  /// least k) is a face of its own (a wrong association); the worst first, the plane refitted
+  /// after each. Not the leveled floor's.
+  double max_scatter_ratio = 8.0;
   /// Where two faces of a camera meet (their planes' predictions within gate_sigmas k of each
   /// other), a pixel goes to the face on whose side of the planes' intersection it lies.
   bool crease_sides = true;

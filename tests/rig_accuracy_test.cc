@@ -91,7 +91,7 @@ INSTANTIATE_TEST_SUITE_P(
                       MethodCase{"PairwiseSurfaceBundle", RefineMode::kPairwise,
                                  RegistrationMethod::kPointToPlane, true, 0.1420, 10.770},
                       MethodCase{"SurfaceBundleImageFaces", RefineMode::kJoint,
-                                 RegistrationMethod::kPointToPlane, true, 0.0367, 1.869,
+                                 RegistrationMethod::kPointToPlane, true, 0.0429, 2.775,
                                  SurfaceFaces::kImage}),
     [](const auto& info) { return std::string(info.param.name); });
 
