@@ -118,7 +118,7 @@ struct IcpOptions {
   /// Surface bundle: the last round's faces other than the floor: the segmentation's planes,
   /// pixels by their rays (kRays), or the faces grown in each depth camera's image up to their
   /// creases and associated across cameras (kImage; the floor's pixels stay by their rays). A
-  /// rig with a camera without a depth image keeps kRays (docs/residuals.md, "Surface bundle").
+  /// rig with a camera without a depth image keeps kRays (docs/uncertainty.md section 10).
   SurfaceFaces surface_faces = SurfaceFaces::kRays;
   /// Surface bundle: each free depth camera's measured inverse depth read as alpha w + beta,
   /// alpha and beta estimated with the poses (the reference's held at 1 and 0), with priors of

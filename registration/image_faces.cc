@@ -41,7 +41,9 @@ ImageGrid GridOf(const ImageFaceCamera& camera, const PointCloud& points,
   for (size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector2i q = PixelOf(camera.intrinsics, points[i]);
     pixels->push_back(q);
-    g.index[static_cast<size_t>(q.y()) * g.width + q.x()] = static_cast<int>(i);
+    if (q.x() >= 0 && q.y() >= 0 && q.x() < g.width && q.y() < g.height) {  // else off the grid
+      g.index[static_cast<size_t>(q.y()) * g.width + q.x()] = static_cast<int>(i);
+    }
     g.x.push_back(points[i].x() / points[i].z());
     g.y.push_back(points[i].y() / points[i].z());
     g.w.push_back(1.0 / points[i].z());

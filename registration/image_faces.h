@@ -33,7 +33,7 @@ struct ImageFacesOptions {
   /// associated with than this many times their scatter about their camera's model of it (at
   /// least k) is a face of its own (a wrong association); the worst first, the plane refitted
   /// after each. Not the leveled floor's.
-  double max_scatter_ratio = 8.0;
+  double max_scatter_ratio = 3.0;
   /// Where two faces of a camera meet (their planes' predictions within gate_sigmas k of each
   /// other), a pixel goes to the face on whose side of the planes' intersection it lies.
   bool crease_sides = true;

@@ -359,7 +359,8 @@ std::map<std::pair<int, int>, std::vector<int>> ImageFacePixels(
       const double s =
           RayPlaneDepth(T.translation(), ray, found.faces[f].normal, found.faces[f].offset);
       const double height = T.translation().y() + s * ray.y();
-      if (height >= cameras[c].band_bottom && height <= cameras[c].band_top) {
+      if (std::isfinite(s) && s > 0.0 && height >= cameras[c].band_bottom &&
+          height <= cameras[c].band_top) {
         pixels[{f, static_cast<int>(c)}].push_back(static_cast<int>(i));
       }
     }
@@ -371,7 +372,7 @@ std::map<std::pair<int, int>, std::vector<int>> ImageFacePixels(
 /// (ImageFacePixels): a (face, camera) with the segmentation's min_points_per_camera or more, a
 /// face two cameras or more have.
 /// The floor's terms stay (its pixels by their rays: the image floor, the points its plane
-/// predicts within the poses' tolerance, tilted the cameras 2.5x more on white noise,
+/// predicts within the poses' tolerance, tilted the cameras 2.8x more on white noise,
 /// docs/benchmarks.md). False (nothing changed) when a camera has no image.
 bool AssignByImageFaces(const std::vector<SurfaceCamera>& cameras, const std::vector<Pose>& poses,
                         const PlaneSegmentationOptions& segmentation, int num_threads,

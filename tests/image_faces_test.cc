@@ -74,7 +74,7 @@ TEST(ImageFaces, ACameraFaceOffItsAssociatedPlaneIsAFaceOfItsOwn) {
   // White-noise rig, seed 13 (640 x 360), at the true poses: camera faces of two cameras are
   // associated through others with a plane their points lie far off (measured: 21.81 k RMS at
   // worst, 74 faces) unless such faces are detached (7 of them, 9.7-21.8 times their own scatter
-  // off the plane, the limit max_scatter_ratio 8; then 1.92 k at worst, 81 faces).
+  // off the plane, the limit max_scatter_ratio 3; then 1.92 k at worst, 81 faces).
   SimOptions sim;
   sim.seed = 13;
   const SimulatedRig simulated = SimulateRig(sim);
