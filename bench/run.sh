@@ -82,7 +82,7 @@ while [ $# -gt 0 ]; do
     --out) out="$2"; shift ;;
     accuracy | families | faces | variants | bounds | oracle | speed | real | micro | rgbd | loops | view3d)
       sections+=("$1") ;;
-    -h | --help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,/^[^#]/{/^#/p}' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench/run.sh: unknown argument '$1' (try --help)" >&2; exit 2 ;;
   esac
   shift
