@@ -7,6 +7,7 @@
 #include <numeric>
 #include <queue>
 #include <set>
+#include <utility>
 
 #include "core/geometry.h"
 #include "core/parallel.h"
@@ -497,13 +498,14 @@ std::vector<PlanarFace> WorldPlanes(const std::vector<CameraFaceSet>& sets,
   return planes;
 }
 
-/// Camera c's faces found in its image: its points' labels, pixels and faces' planes.
-CameraImageFaces Found(const CameraFaceSet& set, const std::vector<int>& face_of, int first) {
+/// Camera c's faces found in its image: its points' labels and pixels (moved out of `set`) and
+/// its faces' planes.
+CameraImageFaces Found(CameraFaceSet* set, const std::vector<int>& face_of, int first) {
   CameraImageFaces out;
-  out.label = set.label;
-  out.pixels = set.pixels;
-  for (size_t f = 0; f < set.models.size(); ++f) {
-    out.planes.push_back(set.models[f].Plane());
+  out.label = std::move(set->label);
+  out.pixels = std::move(set->pixels);
+  for (size_t f = 0; f < set->models.size(); ++f) {
+    out.planes.push_back(set->models[f].Plane());
     out.face.push_back(face_of[first + f]);
   }
   return out;
@@ -528,8 +530,9 @@ ImageFaces FindImageFaces(const std::vector<ImageFaceCamera>& cameras,
                         ? FloorPoints(set.grid, cameras[c].T_world_camera, settings)
                         : std::vector<int>(set.pixels.size(), kNone);
         set.models = CameraFaces(set.grid, set.pixels, settings, &set.label, &set.floor);
-        if (options.crease_sides)
+        if (options.crease_sides) {
           CreaseSides(set.grid, set.pixels, settings, &set.models, &set.label);
+        }
       },
       1);
   int faces = 0;
@@ -540,8 +543,9 @@ ImageFaces FindImageFaces(const std::vector<ImageFaceCamera>& cameras,
   ImageFaces found;
   found.camera_faces = first.back();
   found.faces = std::move(planes);
-  for (size_t c = 0; c < sets.size(); ++c)
-    found.cameras.push_back(Found(sets[c], face_of, first[c]));
+  for (size_t c = 0; c < sets.size(); ++c) {
+    found.cameras.push_back(Found(&sets[c], face_of, first[c]));
+  }
   return found;
 }
 

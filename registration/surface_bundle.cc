@@ -401,9 +401,10 @@ bool AssignByImageFaces(const std::vector<SurfaceCamera>& cameras, const std::ve
     const PlanarFace& face = faces[key.first];
     if (face.floor || static_cast<int>(p.size()) < min_pixels || seen_by[key.first] < 2) continue;
     const auto [it, added] = plane_of.emplace(key.first, static_cast<int>(kept_planes.size()));
-    if (added)
+    if (added) {
       kept_planes.push_back(
           {Vec4(face.normal.x(), face.normal.y(), face.normal.z(), face.offset), false});
+    }
     kept_terms.push_back({key.second, it->second, PlaneCluster{}, std::move(p)});
   }
   std::sort(kept_terms.begin(), kept_terms.end(), [](const ClusterTerm& a, const ClusterTerm& b) {
