@@ -34,6 +34,7 @@ struct SimulateSequenceArgs {
   std::string out_dir;
   bool force = false;
   bool no_color = false;
+  bool flat_color = false;
   std::string noise = "kinect";
   std::string lone_plane = "none";
   SimSequenceOptions sequence;
@@ -84,6 +85,7 @@ std::vector<std::uint16_t> TumDepth(const std::vector<float>& depth_m) {
 int RunSimulateSequence(SimulateSequenceArgs a) {
   a.sequence.noise = a.noise == "none" ? SequenceNoise::kNone : SequenceNoise::kKinect;
   a.sequence.color = !a.no_color;
+  a.sequence.texture = !a.flat_color;
   a.sequence.lone_plane.plane = a.lone_plane == "floor"  ? LonePlane::kFloor
                                 : a.lone_plane == "wall" ? LonePlane::kWall
                                                          : LonePlane::kNone;
@@ -171,6 +173,8 @@ Command AddSimulateSequenceCommand(CLI::App& app) {
       ->check(CLI::IsMember({"none", "kinect"}))
       ->capture_default_str();
   sub->add_flag("--no-color", args->no_color, "Depth only: no rgb/ and rgb.txt");
+  sub->add_flag("--flat-color", args->flat_color,
+                "Colour each surface flat (its shaded albedo) instead of textured");
   sub->add_flag("--bare", o.bare, "Floor and walls only");
   sub->add_flag("--closed-loop", o.closed_loop,
                 "Walk exactly one loop: the speed is set so that the last frame is back at the "

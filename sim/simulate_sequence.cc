@@ -90,6 +90,21 @@ const OrientedBox& NearestWall(const Scene& scene, const Vec3& centre, double* y
   return *nearest;
 }
 
+/// The colour of a ray's hit (ShadeHit), times its box's texture when `textures` has one per
+/// box, into rgb[0..2].
+void ShadeTextured(const Scene& scene, const std::vector<SurfaceTexture>& textures,
+                   const RayHit& hit, const Vec3& origin, const Vec3& direction, double fx,
+                   std::uint8_t* rgb) {
+  const Vec3 p_world = origin + hit.t * direction;
+  const auto shaded = ShadeHit(scene, hit, p_world);
+  const double factor = textures.empty() ? 1.0
+                                         : TextureFactor(scene, textures, hit, p_world,
+                                                         PixelFootprint(hit, direction, fx));
+  for (int c = 0; c < 3; ++c) {
+    rgb[c] = static_cast<std::uint8_t>(std::clamp(std::lround(factor * shaded[c]), 0l, 255l));
+  }
+}
+
 }  // namespace
 
 double KinectNoiseSigma(const KinectNoiseOptions& options, double z_m) {
@@ -216,7 +231,8 @@ PinholeIntrinsics SequenceIntrinsics(int width, int height) {
 }
 
 std::vector<float> RenderDepth(const Scene& scene, const SceneCamera& camera, double max_depth_m,
-                               std::vector<std::uint8_t>* color) {
+                               std::vector<std::uint8_t>* color,
+                               const std::vector<SurfaceTexture>& textures) {
   const Pose& T_world_camera = camera.T_world_camera;
   const PinholeIntrinsics& K = camera.K;
   const int width = camera.width;
@@ -237,10 +253,8 @@ std::vector<float> RenderDepth(const Scene& scene, const SceneCamera& camera, do
           if (!hit || hit->t > max_depth_m) continue;
           const size_t i = static_cast<size_t>(v) * width + u;
           depth[i] = static_cast<float>(hit->t);
-          if (color) {
-            const auto rgb = ShadeHit(scene, *hit, origin + hit->t * direction);
-            std::copy(rgb.begin(), rgb.end(), color->begin() + 3 * i);
-          }
+          if (color)
+            ShadeTextured(scene, textures, *hit, origin, direction, K.fx, &(*color)[3 * i]);
         }
       },
       8);
@@ -250,6 +264,7 @@ std::vector<float> RenderDepth(const Scene& scene, const SceneCamera& camera, do
 SimulatedSequence::SimulatedSequence(const SimSequenceOptions& options) : options_(options) {
   CheckOptions(options);
   scene_ = SimulateRoom(options.seed, options.bare);
+  if (options.color && options.texture) textures_ = SimulateTextures(scene_, options.seed);
   trajectory_ = HandheldTrajectory(scene_, options.speed_mps, options.seed);
   if (options.closed_loop) {
     options_.speed_mps = trajectory_.LoopLength() / Timestamp(options.frames - 1);
@@ -260,13 +275,19 @@ SimulatedSequence::SimulatedSequence(const SimSequenceOptions& options) : option
   if (l.plane == LonePlane::kNone) return;
   lone_plane_scene_ = scene_;
   lone_plane_scene_.boxes.clear();
+  std::vector<int> kept;  // the boxes of scene_ that the stretch's scene keeps
   if (l.plane == LonePlane::kFloor) {
-    for (const OrientedBox& box : scene_.boxes) {
-      if (box.kind == SurfaceKind::kFloor) lone_plane_scene_.boxes.push_back(box);
+    for (size_t b = 0; b < scene_.boxes.size(); ++b) {
+      if (scene_.boxes[b].kind == SurfaceKind::kFloor) kept.push_back(static_cast<int>(b));
     }
   } else {
     const Vec3 centre = trajectory_.AttitudeAt(l.start_s + 0.5 * l.seconds).centre;
-    lone_plane_scene_.boxes.push_back(NearestWall(scene_, centre, &lone_plane_yaw_));
+    kept.push_back(
+        static_cast<int>(&NearestWall(scene_, centre, &lone_plane_yaw_) - scene_.boxes.data()));
+  }
+  for (const int b : kept) {
+    lone_plane_scene_.boxes.push_back(scene_.boxes[b]);
+    if (!textures_.empty()) lone_plane_textures_.push_back(textures_[b]);
   }
 }
 
@@ -305,9 +326,11 @@ RgbdFrame SimulatedSequence::Frame(int index) const {
   frame.intrinsics = intrinsics_;
   const Pose T_world_camera = CameraPose(frame.timestamp);
   frame.T_world_camera_gt = T_world_camera;
-  const Scene& scene = InLonePlaneStretch(frame.timestamp) ? lone_plane_scene_ : scene_;
-  frame.depth_m = RenderDepth(scene, {T_world_camera, intrinsics_, options_.width, options_.height},
-                              options_.max_depth_m, options_.color ? &frame.color : nullptr);
+  const bool stretch = InLonePlaneStretch(frame.timestamp);
+  frame.depth_m = RenderDepth(stretch ? lone_plane_scene_ : scene_,
+                              {T_world_camera, intrinsics_, options_.width, options_.height},
+                              options_.max_depth_m, options_.color ? &frame.color : nullptr,
+                              stretch ? lone_plane_textures_ : textures_);
   if (options_.noise == SequenceNoise::kKinect) {
     SimRng rng(options_.seed, kFrameStream + static_cast<std::uint64_t>(index));
     frame.depth_m =

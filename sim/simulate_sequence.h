@@ -12,6 +12,7 @@
 #include "core/types.h"
 #include "sim/random.h"
 #include "sim/scene.h"
+#include "sim/texture.h"
 
 namespace rigfit {
 
@@ -126,6 +127,9 @@ struct SimSequenceOptions {
   SequenceNoise noise = SequenceNoise::kKinect;
   KinectNoiseOptions kinect;
   bool color = true;  ///< render the registered colour image
+  /// The colour textured (sim/texture.h: fractal noise on every box, weak on some walls and
+  /// furniture, as real rooms); off: each box's flat shaded albedo.
+  bool texture = true;
   bool bare = false;  ///< floor and walls only
   /// Walk exactly one loop: the speed is set (speed_mps ignored) so that the last frame is
   /// back at the first frame's pose (a closed loop, for the end drift of docs/usage.md).
@@ -142,9 +146,11 @@ PinholeIntrinsics SequenceIntrinsics(int width, int height);
 
 /// The first surfaces `camera` sees: depth (camera z, metres) per pixel,
 /// NaN where the ray leaves the room or hits beyond max_depth_m; when color is not null,
-/// the [height, width, 3] shaded albedo (black where nothing is hit). Rows in parallel.
+/// the [height, width, 3] shaded albedo (black where nothing is hit), times each box's
+/// texture when `textures` holds one per box. Rows in parallel.
 std::vector<float> RenderDepth(const Scene& scene, const SceneCamera& camera, double max_depth_m,
-                               std::vector<std::uint8_t>* color);
+                               std::vector<std::uint8_t>* color,
+                               const std::vector<SurfaceTexture>& textures = {});
 
 /// A simulated sequence read like a dataset: frame i is rendered on demand at timestamp
 /// i / rate_hz (seconds), with its exact T_world_camera_gt (the hand-held path, turned toward
@@ -178,8 +184,10 @@ class SimulatedSequence : public RgbdSequence {
   Scene scene_;
   HandheldTrajectory trajectory_;
   PinholeIntrinsics intrinsics_;
-  Scene lone_plane_scene_;       ///< the stretch's one surface
-  double lone_plane_yaw_ = 0.0;  ///< looking at the wall: the yaw facing it
+  std::vector<SurfaceTexture> textures_;             ///< one per box of scene_ (none: flat colour)
+  Scene lone_plane_scene_;                           ///< the stretch's one surface
+  std::vector<SurfaceTexture> lone_plane_textures_;  ///< its box's texture
+  double lone_plane_yaw_ = 0.0;                      ///< looking at the wall: the yaw facing it
 };
 
 }  // namespace rigfit

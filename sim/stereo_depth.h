@@ -12,21 +12,9 @@
 #include "core/types.h"
 #include "sim/random.h"
 #include "sim/scene.h"
+#include "sim/texture.h"
 
 namespace rigfit {
-
-/// The procedural texture of one box's faces: fractal value noise in the face's own
-/// coordinates (metres), multiplying the box's shaded grey by 1 + contrast * noise.
-struct SurfaceTexture {
-  double contrast = 0.3;    ///< relative amplitude; about 0.01 is a weakly textured surface
-  double feature_m = 0.05;  ///< wavelength of the coarsest octave
-  std::uint32_t seed = 0;
-};
-
-/// Textures of a room's boxes, drawn from the seed's own stream: contrast 0.1-0.4 on most
-/// surfaces, weak (0.002-0.008) on a third of the furniture and half of the walls; feature
-/// sizes 3-12 cm.
-std::vector<SurfaceTexture> SimulateTextures(const Scene& scene, std::uint64_t seed);
 
 /// How the pair is rendered and matched.
 struct StereoOptions {
