@@ -64,7 +64,8 @@
 #   loops     rigfit track and slam on synthetic closed loops (seeds 1..3, 600 frames 320x240;
 #             seed 1 at 640x480) and the real sequences: loop closure's counts, ATE, RPE and end
 #             drift without and with it; then the same loops with a lone-plane stretch (floor
-#             only for 0.7 s): ATE against the loop without it. Not niced (about an hour).
+#             only for 0.7 s), depth only and with textured colour: ATE against the loop
+#             without it. Not niced (about an hour).
 #   view3d    the reports' 3-D view: folder size and time to interactive in headless Chromium
 #             (bench/view3d_ready.sh) of refine, compare, fuse and slam reports. Needs chromium;
 #             only when named.
@@ -981,20 +982,23 @@ print("| %s | %s | %s | %s | %s | %s | %s (%s) |" % (
 PY
 }
 
-# The markdown row of the lone-plane guard: ATE without and with the stretch, and its counts.
+# The markdown row of the lone-plane guard: ATE without the stretch, with it (depth only, then
+# textured colour), and each run's counts.
 lone_row() {
   python3 - "$@" <<'PY'
 import re, sys
-without, lone, seed, run = sys.argv[1:5]
+without, lone, coloured, seed, run = sys.argv[1:6]
 def ate(path):
     lines = [l for l in open(path) if not l.startswith("without loop closure: ")]
     found = re.findall(r"ATE RMSE ([0-9.]+) mm", "".join(lines))
     return float(found[-1]) if found else float("nan")
-guard = re.findall(r"degenerate views: (\d+) frame\(s\) with weak directions held, (\d+) relocalised",
-                   open(lone).read())
-a, b = ate(without), ate(lone)
-print("| %s | %s | %.2f | **%.2f (%.1fx)** | %s |" % (
-    seed, run, a, b, b / a, " / ".join(guard[-1]) if guard else "-"))
+def counts(path):
+    guard = re.findall(r"degenerate views: (\d+) frame\(s\) with weak directions held, (\d+) of "
+                       r"them aligned by colour, (\d+) relocalised", open(path).read())
+    return " / ".join(guard[-1]) if guard else "-"
+a, b, c = ate(without), ate(lone), ate(coloured)
+print("| %s | %s | %.2f | %.2f (%.1fx) | **%.2f (%.1fx)** | %s | %s |" % (
+    seed, run, a, b, b / a, c, c / a, counts(lone), counts(coloured)))
 PY
 }
 
@@ -1017,11 +1021,15 @@ run_loops() {
     local common=(--frames "$frames" --closed-loop --seed "$s" "${size[@]}" --no-color --force)
     "$rigfit" simulate-sequence --out "$sim/loop$s" "${common[@]}" >/dev/null
     "$rigfit" simulate-sequence --out "$sim/lone$s" "${common[@]}" "${lone[@]}" >/dev/null
+    "$rigfit" simulate-sequence --out "$sim/lonec$s" --frames "$frames" --closed-loop --seed "$s" \
+      "${size[@]}" --force "${lone[@]}" >/dev/null
     for run in track slam; do
       loop_run "$out/raw/loops-$run-loop$s.txt" "$run" "$sim/loop$s" "${intrinsics[@]}"
       loop_run "$out/raw/loops-$run-lone$s.txt" "$run" "$sim/lone$s" "${intrinsics[@]}"
+      loop_run "$out/raw/loops-$run-lonec$s.txt" "$run" "$sim/lonec$s" "${intrinsics[@]}"
       loop_row "$out/raw/loops-$run-loop$s.txt" "loop seed $s, ${size[1]}x${size[3]}" "$run" >>"$loops"
-      lone_row "$out/raw/loops-$run-loop$s.txt" "$out/raw/loops-$run-lone$s.txt" "$s" "$run" >>"$guard"
+      lone_row "$out/raw/loops-$run-loop$s.txt" "$out/raw/loops-$run-lone$s.txt" \
+        "$out/raw/loops-$run-lonec$s.txt" "$s" "$run" >>"$guard"
     done
   done
   if [ $quick = 0 ]; then
@@ -1051,11 +1059,13 @@ run_loops() {
     cat "$loops"
     echo
     echo "Lone-plane stretches: the same sequences with \`${lone[*]}\` (the camera sees only the"
-    echo "floor for that long), the same \`track|slam\` command; ATE mm (x the sequence without the"
-    echo "stretch); held / relocalised: the summary's \`degenerate views:\` counts."
+    echo "floor for that long), depth only (\`--no-color\`) and with the simulator's textured colour"
+    echo "(no \`--no-color\`), the same \`track|slam\` command; ATE mm (x the sequence without the"
+    echo "stretch); weak-direction frames / aligned by colour / relocalised: the summary's"
+    echo "\`degenerate views:\` counts."
     echo
-    echo "| seed | run | without the stretch | with it (ratio) | frames held / relocalised |"
-    echo "|---|---|---|---|---|"
+    echo "| seed | run | without the stretch | with it, depth only (ratio) | with it, colour (ratio) | counts, depth only | counts, colour |"
+    echo "|---|---|---|---|---|---|---|"
     cat "$guard"
     echo
     echo "load average $(cut -d' ' -f1-3 /proc/loadavg) at the end."

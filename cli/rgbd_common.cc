@@ -109,9 +109,11 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
   }
   std::string text;
   Appendf(&text,
-          "degenerate views: %d frame(s) with weak directions held, %d relocalised after a lone "
-          "plane; divergence: %d frame(s) recovered, %d diverged\n",
-          counts.weak_frames, counts.relocalised, counts.recovered, counts.diverged);
+          "degenerate views: %d frame(s) with weak directions held, %d of them aligned by "
+          "colour, %d relocalised after a lone plane; divergence: %d frame(s) recovered, %d "
+          "diverged\n",
+          counts.weak_frames, counts.colour_aligned, counts.relocalised, counts.recovered,
+          counts.diverged);
   return text;
 }
 
@@ -120,9 +122,9 @@ std::vector<std::string> GuardMetadata(const std::string& command, const GuardCo
   std::string line;
   Appendf(&line,
           "rigfit %s: frames %d, failed %d, restarts %d, recovered %d, diverged %d, "
-          "weak-direction frames %d, relocalised %d",
+          "weak-direction frames %d, relocalised %d, aligned by colour %d",
           command.c_str(), counts.frames, counts.failures, counts.restarts, counts.recovered,
-          counts.diverged, counts.weak_frames, counts.relocalised);
+          counts.diverged, counts.weak_frames, counts.relocalised, counts.colour_aligned);
   lines.push_back(line);
   if (!counts.weak_names.empty()) lines.push_back("weak directions: " + WeakNamesText(counts));
   return lines;
@@ -212,6 +214,10 @@ void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop) {
 
 void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
   AddGuardFlags(sub, &loop->guard, &args->weak_ratio);
+  sub->add_flag("--colour-align,!--no-colour-align", loop->photometric.enabled,
+                "Align a frame's weak directions (a lone floor or wall) by colour against the "
+                "previous frame when both have colour registered to depth (default; "
+                "docs/rgbd.md)");
   AddLoopClosureFlag(sub, &args->loop_closure);
   sub->add_option("--threads", loop->threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", args->evaluate,

@@ -204,11 +204,16 @@ std::vector<bool> SelectKeyframes(const Trajectory& trajectory, const std::vecto
 }
 
 std::vector<Pose> InterpolatedCorrections(const Trajectory& run, const std::vector<int>& keyframes,
-                                          const std::vector<Pose>& solved) {
+                                          const std::vector<Pose>& solved,
+                                          const std::vector<double>& progress) {
   if (keyframes.size() != solved.size() || keyframes.empty() || keyframes.front() != 0) {
     throw InputError(
         "loop closure: keyframes and solved poses differ in number, or pose 0 is no keyframe");
   }
+  if (!progress.empty() && progress.size() != run.poses.size()) {
+    throw InputError("loop closure: progress and poses differ in number");
+  }
+  const auto at = [&](int k) { return progress.empty() ? static_cast<double>(k) : progress[k]; };
   const int last = static_cast<int>(keyframes.size()) - 1;
   std::vector<Pose> corrections;
   for (int j = 0; j <= last; ++j) {
@@ -221,8 +226,8 @@ std::vector<Pose> InterpolatedCorrections(const Trajectory& run, const std::vect
     const Pose with_j = corrections[j] * run.poses[k];
     Pose corrected = with_j;
     if (j < last) {
-      const double s = static_cast<double>(static_cast<int>(k) - keyframes[j]) /
-                       (keyframes[j + 1] - keyframes[j]);
+      const double span = at(keyframes[j + 1]) - at(keyframes[j]);
+      const double s = span > 0.0 ? (at(static_cast<int>(k)) - at(keyframes[j])) / span : 0.0;
       corrected = Blend(with_j, corrections[j + 1] * run.poses[k], s);
     }
     result[k] = Reorthonormalized(corrected * run.poses[k].inverse());

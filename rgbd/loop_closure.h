@@ -122,10 +122,13 @@ LoopGraph ConsistentLoopGraph(const std::vector<Pose>& initial,
 /// `keyframes`, increasing, the first 0) at `solved`, and every pose between keyframes j and
 /// j + 1 between the poses it would take moved with either, C_j T_k and C_j+1 T_k, at the
 /// share s = (k - k_j) / (k_j+1 - k_j): its rotation along the geodesic, its position on the
-/// line. Poses after the last keyframe move with it. The corrected trajectory has no steps at
-/// the keyframes. InputError on inconsistent sizes.
+/// line. With `progress` (one non-decreasing value per pose, e.g. the drift accumulated up to
+/// it), s = (progress_k - progress_j) / (progress_j+1 - progress_j) instead (0 where they are
+/// equal). Poses after the last keyframe move with it. The corrected trajectory has no steps
+/// at the keyframes. InputError on inconsistent sizes.
 std::vector<Pose> InterpolatedCorrections(const Trajectory& run, const std::vector<int>& keyframes,
-                                          const std::vector<Pose>& solved);
+                                          const std::vector<Pose>& solved,
+                                          const std::vector<double>& progress = {});
 
 /// Registers `later` onto `earlier` from T_init (T_earlier_later) and judges it by the
 /// options' acceptance rules, with `median_rmse_m` the sequential edges' median RMS distance.

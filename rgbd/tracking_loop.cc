@@ -1,5 +1,6 @@
 #include "rgbd/tracking_loop.h"
 
+#include <algorithm>
 #include <future>
 #include <vector>
 
@@ -30,6 +31,22 @@ std::vector<int> SelectFrames(const RgbdSequence& sequence, const TrackingLoopOp
   return indices;
 }
 
+/// Directions of a left update in the scaled space [length_m w; dt] given in the axes of
+/// camera b, as directions in the axes of camera a (T_a_b: the adjoint, [R w; R dt + t x R w]),
+/// orthonormalised (Gram-Schmidt; none is lost: the adjoint is invertible).
+std::vector<Vec6> InAxesOf(const Pose& T_a_b, const std::vector<Vec6>& directions,
+                           double length_m) {
+  std::vector<Vec6> mapped;
+  for (const Vec6& d : directions) {
+    const Vec3 w = T_a_b.linear() * d.head<3>() / length_m;
+    Vec6 x;
+    x << length_m * w, T_a_b.linear() * d.tail<3>() + T_a_b.translation().cross(w);
+    for (const Vec6& e : mapped) x -= e.dot(x) * e;
+    mapped.push_back(x.normalized());
+  }
+  return mapped;
+}
+
 /// The loop's state from one frame to the next.
 class TrackingLoop {
  public:
@@ -52,20 +69,25 @@ class TrackingLoop {
     } else {
       start = std::chrono::steady_clock::now();
       Track(frame, pyramid, &step);
+      AlignByColour(frame, pyramid, &step);
       Book(frame, pyramid, &step);
       Relocalise(frame, pyramid, &step);
       run_.track_s += SecondsSince(start);
     }
     KeepAnchor(pyramid, step);
+    TrackResult measured = step.track;
+    if (step.colour_aligned) measured.weak.clear();  // colour measured them: not damped
     velocity_ = first
                     ? Pose::Identity()
                     : NextVelocity(T_world_previous_, step.T_world_camera, target_->MotionOrigin(),
-                                   step.track, step.diverged, options_.guard);
+                                   measured, step.diverged, options_.guard);
     T_world_previous_ = step.T_world_camera;
     previous_timestamp_ = frame.timestamp;
+    if (AligningByColour()) previous_color_ = frame.color;
     target_->Accept(step, frame, std::move(pyramid));
     run_.trajectory.timestamps.push_back(frame.timestamp);
     run_.trajectory.poses.push_back(step.T_world_camera);
+    drift_.push_back((drift_.empty() ? 0.0 : drift_.back()) + (step.colour_aligned ? 0.0 : 1.0));
   }
 
   TrackingRun TakeRun() { return std::move(run_); }
@@ -85,6 +107,34 @@ class TrackingLoop {
     step->recovered = guarded.recovered;
     step->diverged = guarded.diverged;
     step->T_world_camera = guarded.T_world_camera;
+  }
+
+  bool AligningByColour() const { return options_.guard.enabled && options_.photometric.enabled; }
+
+  /// A frame with weak directions (a lone plane's three, or what the eigenvalues found) and
+  /// colour, after a frame with colour: those directions aligned by colour against that frame
+  /// (rgbd/photometric.h), the rest kept; left held when the alignment is not kept (debug log).
+  void AlignByColour(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
+    const TrackResult& track = step->track;
+    if (!AligningByColour() || !track.success || track.weak.empty() || frame.color.empty() ||
+        previous_color_.size() != frame.color.size()) {
+      return;
+    }
+    const Pose T_previous_target = T_world_previous_.inverse() * target_->MotionOrigin();
+    const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
+    const GreyPyramid previous = BuildGreyPyramid(previous_color_, pyramid);
+    const PhotometricResult aligned =
+        AlignPhotometric({&pyramid, &grey, &previous,
+                          InAxesOf(T_previous_target, track.weak, track.length_m), track.length_m},
+                         T_world_previous_.inverse() * step->T_world_camera, options_.photometric);
+    if (!aligned.success) {
+      log_.Debug(FrameName(*step, frame) +
+                 ": weak directions not aligned by colour: " + aligned.message);
+      return;
+    }
+    step->T_world_camera = Reorthonormalized(T_world_previous_ * aligned.T_reference_source);
+    step->colour_aligned = true;
+    ++run_.colour_aligned;
   }
 
   /// Counts the tracked frame; a failed one keeps the prediction (the guard's last good pose
@@ -128,7 +178,12 @@ class TrackingLoop {
     if (!options_.guard.enabled || !options_.relocalise.enabled || !track.success) return;
     if (track.lone_plane) {
       plane_world_ = target_->MotionOrigin().linear() * track.plane_normal;
-      if (attempts_left_ == 0) stretch_from_ = static_cast<int>(run_.trajectory.poses.size()) - 1;
+      if (attempts_left_ == 0) {
+        stretch_from_ = static_cast<int>(run_.trajectory.poses.size()) - 1;
+        stretch_frames_ = stretch_held_ = 0;
+      }
+      ++stretch_frames_;
+      stretch_held_ += step->colour_aligned ? 0 : 1;
       attempts_left_ = options_.relocalise.attempts;
       return;
     }
@@ -136,7 +191,7 @@ class TrackingLoop {
     --attempts_left_;
     const Relocalisation found =
         rigfit::Relocalise({&pyramid, step->T_world_camera, plane_world_, track.rmse_m}, anchors_,
-                           options_.icp, options_.relocalise, options_.threads);
+                           options_.icp, StretchSearch(), options_.threads);
     if (!found.success) {
       step->unverified = attempts_left_ > 0;
       return;
@@ -157,8 +212,22 @@ class TrackingLoop {
     attempts_left_ = 0;
   }
 
+  /// The relocalisation's search: its whole grid after a stretch held at the prediction, one
+  /// step of it each way after a stretch colour measured (at most a tenth of its frames held):
+  /// what is left to find is the drift of a few frames, and a wide grid only adds wrong
+  /// minima.
+  RelocaliseOptions StretchSearch() const {
+    RelocaliseOptions search = options_.relocalise;
+    if (10 * stretch_held_ <= stretch_frames_) {
+      search.max_turn_deg = std::min(search.max_turn_deg, search.turn_step_deg);
+      search.max_slide_m = std::min(search.max_slide_m, search.slide_step_m);
+    }
+    return search;
+  }
+
   /// Moves the trajectory's poses after stretch_from_ towards where the relocalised frame
-  /// (held at T_world_held, found at T_world_found) puts them, by their share of the way.
+  /// (held at T_world_held, found at T_world_found) puts them, by their share of the drift:
+  /// each frame since adds one share, a frame aligned by colour none (its motion was measured).
   void BlendSinceStretch(const Pose& T_world_found, const Pose& T_world_held) {
     std::vector<Pose>& poses = run_.trajectory.poses;
     if (stretch_from_ < 0 || stretch_from_ >= static_cast<int>(poses.size())) return;
@@ -166,9 +235,11 @@ class TrackingLoop {
     since.poses.assign(poses.begin() + stretch_from_, poses.end());
     since.poses.push_back(T_world_held);
     since.timestamps.assign(since.poses.size(), 0.0);
+    std::vector<double> progress(drift_.begin() + stretch_from_, drift_.end());
+    progress.push_back(progress.back() + 1.0);
     const int last = static_cast<int>(since.poses.size()) - 1;
     const std::vector<Pose> corrections =
-        InterpolatedCorrections(since, {0, last}, {since.poses.front(), T_world_found});
+        InterpolatedCorrections(since, {0, last}, {since.poses.front(), T_world_found}, progress);
     for (int k = 1; k < last; ++k) {
       poses[stretch_from_ + k] = Reorthonormalized(corrections[k] * poses[stretch_from_ + k]);
     }
@@ -197,12 +268,15 @@ class TrackingLoop {
     if (lone && lone_plane_frames_ == 0) {
       log_.Warning(FrameName(step, frame) +
                    ": sees a lone plane: the turn about its normal and the slides along it are "
-                   "held at the prediction");
+                   "held at the prediction, or aligned by colour where the frames have it");
     } else if (!lone && lone_plane_frames_ > 0) {
       log_.Warning(FrameName(step, frame) + ": structure again after " +
-                   std::to_string(lone_plane_frames_) +
-                   " lone-plane frames (their pose along the plane is a prediction)");
+                   std::to_string(lone_plane_frames_) + " lone-plane frames (" +
+                   std::to_string(lone_plane_aligned_) +
+                   " of them aligned by colour; the others' pose along the plane is a "
+                   "prediction)");
     }
+    lone_plane_aligned_ = lone ? lone_plane_aligned_ + (step.colour_aligned ? 1 : 0) : 0;
     lone_plane_frames_ = lone ? lone_plane_frames_ + 1 : 0;
   }
 
@@ -219,8 +293,11 @@ class TrackingLoop {
   Pose velocity_ = Pose::Identity();  // T_previous_current of the last step, weak parts damped
   Pose predicted_ = Pose::Identity();
   double previous_timestamp_ = 0.0;
+  std::vector<std::uint8_t> previous_color_;  // the last frame's, when aligning by colour
+  std::vector<double> drift_;  // per trajectory pose: frames up to it not aligned by colour
   int failures_in_a_row_ = 0;
-  int lone_plane_frames_ = 0;  // lone-plane frames in a row up to the last
+  int lone_plane_frames_ = 0;   // lone-plane frames in a row up to the last
+  int lone_plane_aligned_ = 0;  // those of them aligned by colour
   // Relocalisation: well-tracked frames, the last stretch's plane, the trajectory position of
   // the frame before it, and the frames with structure still to try after it.
   std::vector<Anchor> anchors_;
@@ -228,6 +305,8 @@ class TrackingLoop {
   Vec3 plane_world_ = Vec3::UnitY();
   int stretch_from_ = -1;
   int attempts_left_ = 0;
+  int stretch_frames_ = 0;  // the last stretch's lone-plane frames
+  int stretch_held_ = 0;    // those of them not aligned by colour
 };
 
 }  // namespace

@@ -95,15 +95,16 @@ TEST_F(CliTrack, AFloorOnlySequenceReportsItsWeakDirectionsInTheSummaryAndTheFil
     const cli_test::RunResult r = cli_test::RunRigfit(
         {command, seq.string(), "--out", out.string(), "--intrinsics", Intrinsics()}, *dir_);
     ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
-    EXPECT_NE(r.out.find("degenerate views: 5 frame(s) with weak directions held, 0 relocalised "
-                         "after a lone plane; divergence: 0 frame(s) recovered, 0 diverged"),
+    EXPECT_NE(r.out.find("degenerate views: 5 frame(s) with weak directions held, 0 of them "
+                         "aligned by colour, 0 relocalised after a lone plane; divergence: 0 "
+                         "frame(s) recovered, 0 diverged"),
               std::string::npos)
         << r.out;
     EXPECT_NE(r.err.find("held at the prediction"), std::string::npos) << r.err;
     const std::string file = cli_test::ReadText(out);
     EXPECT_NE(file.find("# rigfit " + command +
                         ": frames 6, failed 0, restarts 0, recovered 0, diverged 0, "
-                        "weak-direction frames 5, relocalised 0"),
+                        "weak-direction frames 5, relocalised 0, aligned by colour 0"),
               std::string::npos)
         << file;
     EXPECT_EQ(ReadTumTrajectory(out.string()).poses.size(), 6u);  // the '#' lines are skipped

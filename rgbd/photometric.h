@@ -1,0 +1,101 @@
+// Photometric alignment along a lone plane's free directions (docs/rgbd.md, section 4b). A view
+// of nothing but a floor or a wall leaves three directions of the motion to the prediction (the
+// turn about the plane's normal and the two slides along it; rgbd/motion_guard.h): depth cannot
+// tell them. Colour can, where the plane has texture: the frame's pixels, warped into the
+// previous frame's image, fix them (direct alignment as in Steinbruecker et al. 2011 and
+// Kerl et al. 2013, here confined to the directions the depth leaves free).
+//
+// For a source pixel u with vertex p (source camera) and the estimate T = T_reference_source,
+// the residual is the grey level it lands on minus its own, both in [0, 1]:
+//
+//   r(u) = I_ref(pi(T p)) - I_src(u).
+//
+// An update multiplies T on the LEFT, as projective ICP's (rgbd/projective_icp.h): z = T p,
+// z' = Exp(w) z + dt, so dz = -[z]_x w + dt. Confined to the free directions, x = [w; dt] =
+// S F a with F the orthonormal free directions in the scaled space [length_m w; dt] (6 x k) and
+// S = diag(I / length_m, I), the Jacobian of r in a is
+//
+//   J = grad I_ref(pi(z)) (d pi / dz) [-[z]_x  I] S F   (1 x k),
+//   d pi / dz = [fx / z_z, 0, -fx z_x / z_z^2; 0, fy / z_z, -fy z_y / z_z^2],
+//
+// and each Gauss-Newton step solves (sum w J^T J) a = -sum w J^T r with Huber weights w, coarse
+// to fine over the frame's pyramid.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/pose.h"
+#include "rgbd/frame.h"
+
+namespace rigfit {
+
+struct PhotometricOptions {
+  /// Off: a lone plane's free directions stay at the prediction (the behaviour before it).
+  bool enabled = true;
+  /// Gauss-Newton steps per pyramid level.
+  int iterations = 10;
+  /// Converged when a step moves less than this in the scaled space (metres).
+  double converged_m = 1e-5;
+  /// Huber threshold of the grey-level residual (grey levels in [0, 1]).
+  double huber = 0.05;
+  /// Pixels whose own grey-level gradient is below this (per pixel) carry no information and
+  /// are skipped.
+  double min_gradient = 0.005;
+  /// The alignment is kept when at least this many pixels take part at the finest level...
+  int min_pixels = 300;
+  /// ...and each free direction's standard deviation (the scaled space: metres, a rotation
+  /// times length_m) is below this, the residual no larger than at the start, and the change
+  /// from the start pose below max_change_m in that space.
+  double max_sigma_m = 0.002;
+  double max_change_m = 0.2;
+};
+
+/// One level's grey image in [0, 1] and its central-difference gradients (zero on the border).
+struct GreyLevel {
+  int width = 0;
+  int height = 0;
+  std::vector<float> grey;
+  std::vector<float> gx;
+  std::vector<float> gy;
+};
+
+/// A frame's grey images at the sizes of its pyramid's levels.
+struct GreyPyramid {
+  std::vector<GreyLevel> levels;
+};
+
+/// The grey pyramid of an RGB image (`color`, [height, width, 3] with the size of
+/// pyramid.levels[0]): luma 0.299 R + 0.587 G + 0.114 B, each coarser level the mean of 2x2
+/// blocks, at the sizes of `pyramid`'s levels. Throws std::invalid_argument on a size mismatch.
+GreyPyramid BuildGreyPyramid(const std::vector<std::uint8_t>& color, const FramePyramid& pyramid);
+
+/// What is aligned: the source frame's vertices and grey images, the reference frame's grey
+/// images (the same camera: the source's intrinsics at every level), and the free directions.
+struct PhotometricProblem {
+  const FramePyramid* source = nullptr;
+  const GreyPyramid* source_grey = nullptr;
+  const GreyPyramid* reference_grey = nullptr;
+  /// Orthonormal directions in the scaled space [length_m w; dt], in the reference's axes
+  /// (LonePlaneDirections of the plane's normal there).
+  std::vector<Vec6> free;
+  double length_m = 1.0;  ///< the rotation's scale: the source's mean depth
+};
+
+struct PhotometricResult {
+  bool success = false;
+  std::string message;  ///< why it was not kept
+  Pose T_reference_source = Pose::Identity();
+  int pixels = 0;         ///< taking part at the finest level's last step
+  double rmse = 0.0;      ///< RMS grey-level residual there
+  double sigma_m = 0.0;   ///< the largest standard deviation over the free directions
+  double change_m = 0.0;  ///< the move from the start pose, scaled space
+};
+
+/// Aligns the source to the reference along the free directions from T_init
+/// (T_reference_source), as the header says; the other directions keep T_init's.
+PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose& T_init,
+                                   const PhotometricOptions& options);
+
+}  // namespace rigfit
