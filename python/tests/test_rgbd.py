@@ -203,7 +203,7 @@ def test_track_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "track", rigfit.track,
         {"keyframes": True, "bilateral": True, "depth_weights": True, "guard": True,
-         "loop_closure": True})
+         "colour_align": True, "loop_closure": True})
 
 
 @need_cli
@@ -300,7 +300,7 @@ def test_slam_list_of_frames_equals_sequence(kitchen, slammed, caplog):
 def test_slam_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True,
-                             "loop_closure": True})
+                             "colour_align": True, "loop_closure": True})
 
 
 @need_cli
@@ -449,3 +449,20 @@ def test_track_reports_its_loop_closure(tracked):
     assert 0 <= closure["accepted"] <= closure["candidates"]
     assert 0 <= closure["rejected_after_solve"] <= closure["accepted"]
     assert isinstance(closure["applied"], bool) and closure["seconds"] >= 0
+
+
+@need_cli
+def test_track_and_slam_align_a_lone_floor_by_colour(tmp_path):
+    """A simulated view of nothing but the (textured) floor: its weak directions are aligned by
+    colour, counted in ``colour_aligned``; ``colour_align=False`` leaves them held."""
+    seq = tmp_path / "floor"
+    subprocess.run([CLI, "simulate-sequence", "--out", str(seq), "--frames", "8", "--width",
+                    "160", "--height", "120", "--lone-plane", "floor", "--lone-plane-start",
+                    "0"], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    sequence = rigfit.open_sequence(seq, intrinsics=(131.25, 131.25, 79.5, 59.5))
+    for run in (rigfit.track, rigfit.slam):
+        aligned = run(sequence, loop_closure=False)
+        held = run(sequence, loop_closure=False, colour_align=False)
+        assert aligned.weak_frames == held.weak_frames == 7  # every frame after the first
+        assert aligned.colour_aligned == 7
+        assert held.colour_aligned == 0
