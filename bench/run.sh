@@ -993,7 +993,7 @@ def ate(path):
     found = re.findall(r"ATE RMSE ([0-9.]+) mm", "".join(lines))
     return float(found[-1]) if found else float("nan")
 def counts(path):
-    guard = re.findall(r"degenerate views: (\d+) frame\(s\) with weak directions held, (\d+) of "
+    guard = re.findall(r"degenerate views: (\d+) frame\(s\) with weak directions, (\d+) of "
                        r"them aligned by colour, (\d+) relocalised", open(path).read())
     return " / ".join(guard[-1]) if guard else "-"
 a, b, c = ate(without), ate(lone), ate(coloured)

@@ -101,7 +101,10 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
     log.Warning(std::to_string(counts.weak_frames) +
                 " frame(s) saw too little structure to fix every direction of the motion (a flat "
                 "wall, a floor): " +
-                WeakNamesText(counts) + " held at the prediction");
+                WeakNamesText(counts) + " held at the prediction" +
+                (counts.color_aligned > 0
+                     ? " or aligned by colour (" + std::to_string(counts.color_aligned) + " frames)"
+                     : std::string()));
   }
   if (counts.diverged > 0) {
     log.Warning(std::to_string(counts.diverged) +
@@ -109,10 +112,9 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
   }
   std::string text;
   Appendf(&text,
-          "degenerate views: %d frame(s) with weak directions held, %d of them aligned by "
-          "colour, %d relocalised after a lone plane; divergence: %d frame(s) recovered, %d "
-          "diverged\n",
-          counts.weak_frames, counts.colour_aligned, counts.relocalised, counts.recovered,
+          "degenerate views: %d frame(s) with weak directions, %d of them aligned by colour, %d "
+          "relocalised after a lone plane; divergence: %d frame(s) recovered, %d diverged\n",
+          counts.weak_frames, counts.color_aligned, counts.relocalised, counts.recovered,
           counts.diverged);
   return text;
 }
@@ -124,7 +126,7 @@ std::vector<std::string> GuardMetadata(const std::string& command, const GuardCo
           "rigfit %s: frames %d, failed %d, restarts %d, recovered %d, diverged %d, "
           "weak-direction frames %d, relocalised %d, aligned by colour %d",
           command.c_str(), counts.frames, counts.failures, counts.restarts, counts.recovered,
-          counts.diverged, counts.weak_frames, counts.relocalised, counts.colour_aligned);
+          counts.diverged, counts.weak_frames, counts.relocalised, counts.color_aligned);
   lines.push_back(line);
   if (!counts.weak_names.empty()) lines.push_back("weak directions: " + WeakNamesText(counts));
   return lines;
@@ -214,7 +216,7 @@ void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop) {
 
 void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
   AddGuardFlags(sub, &loop->guard, &args->weak_ratio);
-  sub->add_flag("--colour-align,!--no-colour-align", loop->photometric.enabled,
+  sub->add_flag("--color-align,!--no-color-align", loop->photometric.enabled,
                 "Align a frame's weak directions (a lone floor or wall) by colour against the "
                 "previous frame when both have colour registered to depth (default; "
                 "docs/rgbd.md)");

@@ -79,7 +79,7 @@ struct GuardCounts {
   int diverged = 0;
   int weak_frames = 0;
   int relocalised = 0;                    ///< frames relocalised after a lone-plane stretch
-  int colour_aligned = 0;                 ///< weak-direction frames aligned by colour
+  int color_aligned = 0;                  ///< weak-direction frames aligned by colour
   std::map<std::string, int> weak_names;  ///< WeakDirectionName -> frames held along it
 };
 
@@ -97,14 +97,14 @@ GuardCounts GuardCountsOf(const Result& result) {
                      result.diverged,
                      result.weak_frames,
                      result.relocalised,
-                     result.colour_aligned,
+                     result.color_aligned,
                      {}};
   for (const auto& frame : result.frames) CountWeakDirections(frame.track, &counts);
   return counts;
 }
 
-/// The guard's line of the summary: "degenerate views: W frame(s) with weak directions held, C of
-/// them aligned by colour, L relocalised after a lone plane;
+/// The guard's line of the summary: "degenerate views: W frame(s) with weak directions, C of them
+/// aligned by colour, L relocalised after a lone plane;
 /// divergence: R recovered, D diverged"; also warns (log) when frames had weak directions, naming
 /// them.
 std::string GuardSummaryText(const GuardCounts& counts, const Log& log);

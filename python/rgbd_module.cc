@@ -304,7 +304,7 @@ py::dict RunToDict(const Result& result) {
   out["diverged"] = result.diverged;
   out["weak_frames"] = result.weak_frames;
   out["relocalised"] = result.relocalised;
-  out["colour_aligned"] = result.colour_aligned;
+  out["color_aligned"] = result.color_aligned;
   return out;
 }
 
@@ -338,7 +338,7 @@ const KeywordTable<TrackKeywords>& TrackTable() {
           .Add("huber", [](K& k) { return &k.odometry.icp.weighting.huber_delta_m; })
           .Add("min_step", [](K& k) { return &k.min_step; })
           .Add("guard", [](K& k) { return &k.odometry.guard.enabled; })
-          .Add("colour_align", [](K& k) { return &k.odometry.photometric.enabled; })
+          .Add("color_align", [](K& k) { return &k.odometry.photometric.enabled; })
           .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
           .Add("loop_closure", [](K& k) { return &k.loop_closure; })
           .Add("threads", [](K& k) { return &k.odometry.threads; });
@@ -447,7 +447,7 @@ const KeywordTable<SlamKeywords>& SlamTable() {
           .Add("splat", [](K& k) { return &k.slam.render.splat; })
           .Add("color", [](K& k) { return &k.slam.color; })
           .Add("guard", [](K& k) { return &k.slam.guard.enabled; })
-          .Add("colour_align", [](K& k) { return &k.slam.photometric.enabled; })
+          .Add("color_align", [](K& k) { return &k.slam.photometric.enabled; })
           .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
           .Add("loop_closure", [](K& k) { return &k.loop_closure; })
           .Add("threads", [](K& k) { return &k.slam.threads; });

@@ -2,10 +2,10 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <utility>
 
 #include "rgbd/projective_icp.h"
 
@@ -164,6 +164,20 @@ GreyPyramid BuildGreyPyramid(const std::vector<std::uint8_t>& color, const Frame
 PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose& T_init,
                                    const PhotometricOptions& options) {
   const int k = static_cast<int>(problem.free.size());
+  const std::size_t levels = problem.source->levels.size();
+  if (k < 1 || k > 6 || levels == 0 || problem.source_grey->levels.size() != levels ||
+      problem.reference_grey->levels.size() != levels) {
+    throw std::invalid_argument(
+        "AlignPhotometric: 1 to 6 free directions and grey pyramids of the source's levels");
+  }
+  for (std::size_t l = 0; l < levels; ++l) {
+    const FrameLevel& level = problem.source->levels[l];
+    for (const GreyPyramid* grey : {problem.source_grey, problem.reference_grey}) {
+      if (grey->levels[l].width != level.width || grey->levels[l].height != level.height) {
+        throw std::invalid_argument("AlignPhotometric: a grey level's size is not the source's");
+      }
+    }
+  }
   Mat6K SF(6, k);
   for (int j = 0; j < k; ++j) {
     SF.col(j) = problem.free[j];
@@ -173,7 +187,7 @@ PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose
   result.T_reference_source = T_init;
   const PhotometricSystem start = Accumulate(problem, 0, T_init, SF, options);
   VecK total = VecK::Zero(k);  // the move from T_init, free coordinates
-  for (int l = static_cast<int>(problem.source->levels.size()) - 1; l >= 0; --l) {
+  for (int l = static_cast<int>(levels) - 1; l >= 0; --l) {
     for (int it = 0; it < options.iterations; ++it) {
       const PhotometricSystem s = Accumulate(problem, l, result.T_reference_source, SF, options);
       if (s.pixels <= k) break;

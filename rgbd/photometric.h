@@ -1,9 +1,12 @@
-// Photometric alignment along a lone plane's free directions (docs/rgbd.md, section 4b). A view
-// of nothing but a floor or a wall leaves three directions of the motion to the prediction (the
-// turn about the plane's normal and the two slides along it; rgbd/motion_guard.h): depth cannot
-// tell them. Colour can, where the plane has texture: the frame's pixels, warped into the
-// previous frame's image, fix them (direct alignment as in Steinbruecker et al. 2011 and
-// Kerl et al. 2013, here confined to the directions the depth leaves free).
+// Photometric alignment along the directions depth leaves free (docs/rgbd.md, section 4b). A
+// view of nothing but a floor or a wall leaves three directions of the motion to the prediction
+// (the turn about the plane's normal and the two slides along it; rgbd/motion_guard.h), and a
+// view with too little structure leaves those its eigenvalues call weak: depth cannot tell
+// them. Colour can, where the surfaces have texture: the frame's pixels, warped into the
+// previous frame's image, fix them (direct alignment as in Steinbruecker et al. 2011 and Kerl
+// et al. 2013, here confined to the directions the depth leaves free). The grey levels are
+// compared as they are (no exposure compensation), and the pixels' residuals are taken as
+// independent, so the standard deviations it reports are optimistic.
 //
 // For a source pixel u with vertex p (source camera) and the estimate T = T_reference_source,
 // the residual is the grey level it lands on minus its own, both in [0, 1]:
@@ -46,8 +49,10 @@ struct PhotometricOptions {
   /// The alignment is kept when at least this many pixels take part at the finest level...
   int min_pixels = 300;
   /// ...and each free direction's standard deviation (the scaled space: metres, a rotation
-  /// times length_m) is below this, the residual no larger than at the start, and the change
-  /// from the start pose below max_change_m in that space.
+  /// times length_m) is below this, the RMS residual no larger than at the start (over the
+  /// pixels that land in the image at either pose), and the change from the start pose below
+  /// max_change_m in that space (above the guard's 5 cm jump: a turn down to a floor is
+  /// measured 6 cm off its prediction; the tracked pose already passed the guard).
   double max_sigma_m = 0.002;
   double max_change_m = 0.2;
 };
@@ -77,8 +82,8 @@ struct PhotometricProblem {
   const FramePyramid* source = nullptr;
   const GreyPyramid* source_grey = nullptr;
   const GreyPyramid* reference_grey = nullptr;
-  /// Orthonormal directions in the scaled space [length_m w; dt], in the reference's axes
-  /// (LonePlaneDirections of the plane's normal there).
+  /// 1 to 6 orthonormal directions in the scaled space [length_m w; dt], in the reference's
+  /// axes (a track's weak directions moved into them: rgbd/tracking_loop.cc).
   std::vector<Vec6> free;
   double length_m = 1.0;  ///< the rotation's scale: the source's mean depth
 };
@@ -94,7 +99,9 @@ struct PhotometricResult {
 };
 
 /// Aligns the source to the reference along the free directions from T_init
-/// (T_reference_source), as the header says; the other directions keep T_init's.
+/// (T_reference_source), as the header says; the other directions keep T_init's. Throws
+/// std::invalid_argument unless there are 1 to 6 free directions and both grey pyramids have
+/// the source pyramid's levels and sizes.
 PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose& T_init,
                                    const PhotometricOptions& options);
 

@@ -69,25 +69,31 @@ class TrackingLoop {
     } else {
       start = std::chrono::steady_clock::now();
       Track(frame, pyramid, &step);
-      AlignByColour(frame, pyramid, &step);
+      AlignByColor(frame, pyramid, &step);
       Book(frame, pyramid, &step);
       Relocalise(frame, pyramid, &step);
       run_.track_s += SecondsSince(start);
     }
     KeepAnchor(pyramid, step);
     TrackResult measured = step.track;
-    if (step.colour_aligned) measured.weak.clear();  // colour measured them: not damped
+    if (step.color_aligned) measured.weak.clear();  // colour measured them: not damped
     velocity_ = first
                     ? Pose::Identity()
                     : NextVelocity(T_world_previous_, step.T_world_camera, target_->MotionOrigin(),
                                    measured, step.diverged, options_.guard);
     T_world_previous_ = step.T_world_camera;
     previous_timestamp_ = frame.timestamp;
-    if (AligningByColour()) previous_color_ = frame.color;
+    // The next frame aligns against this one's image at this pose: not after a failed or
+    // diverged frame, whose pose is not where its image was taken.
+    if (AligningByColor() && step.track.success && !step.diverged) {
+      previous_color_ = frame.color;
+    } else {
+      previous_color_.clear();
+    }
     target_->Accept(step, frame, std::move(pyramid));
     run_.trajectory.timestamps.push_back(frame.timestamp);
     run_.trajectory.poses.push_back(step.T_world_camera);
-    drift_.push_back((drift_.empty() ? 0.0 : drift_.back()) + (step.colour_aligned ? 0.0 : 1.0));
+    drift_.push_back((drift_.empty() ? 0.0 : drift_.back()) + (step.color_aligned ? 0.0 : 1.0));
   }
 
   TrackingRun TakeRun() { return std::move(run_); }
@@ -109,15 +115,17 @@ class TrackingLoop {
     step->T_world_camera = guarded.T_world_camera;
   }
 
-  bool AligningByColour() const { return options_.guard.enabled && options_.photometric.enabled; }
+  bool AligningByColor() const { return options_.guard.enabled && options_.photometric.enabled; }
 
   /// A frame with weak directions (a lone plane's three, or what the eigenvalues found) and
   /// colour, after a frame with colour: those directions aligned by colour against that frame
   /// (rgbd/photometric.h), the rest kept; left held when the alignment is not kept (debug log).
-  void AlignByColour(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
+  void AlignByColor(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     const TrackResult& track = step->track;
-    if (!AligningByColour() || !track.success || track.weak.empty() || frame.color.empty() ||
-        previous_color_.size() != frame.color.size()) {
+    const std::size_t pixels =
+        static_cast<std::size_t>(pyramid.levels[0].width) * pyramid.levels[0].height;
+    if (!AligningByColor() || !track.success || track.weak.empty() ||
+        frame.color.size() != 3 * pixels || previous_color_.size() != frame.color.size()) {
       return;
     }
     const Pose T_previous_target = T_world_previous_.inverse() * target_->MotionOrigin();
@@ -133,8 +141,8 @@ class TrackingLoop {
       return;
     }
     step->T_world_camera = Reorthonormalized(T_world_previous_ * aligned.T_reference_source);
-    step->colour_aligned = true;
-    ++run_.colour_aligned;
+    step->color_aligned = true;
+    ++run_.color_aligned;
   }
 
   /// Counts the tracked frame; a failed one keeps the prediction (the guard's last good pose
@@ -183,7 +191,7 @@ class TrackingLoop {
         stretch_frames_ = stretch_held_ = 0;
       }
       ++stretch_frames_;
-      stretch_held_ += step->colour_aligned ? 0 : 1;
+      stretch_held_ += step->color_aligned ? 0 : 1;
       attempts_left_ = options_.relocalise.attempts;
       return;
     }
@@ -276,7 +284,7 @@ class TrackingLoop {
                    " of them aligned by colour; the others' pose along the plane is a "
                    "prediction)");
     }
-    lone_plane_aligned_ = lone ? lone_plane_aligned_ + (step.colour_aligned ? 1 : 0) : 0;
+    lone_plane_aligned_ = lone ? lone_plane_aligned_ + (step.color_aligned ? 1 : 0) : 0;
     lone_plane_frames_ = lone ? lone_plane_frames_ + 1 : 0;
   }
 

@@ -37,8 +37,9 @@ struct TrackingLoopOptions {
   /// After a lone-plane stretch, the frame searched for over the plane's free directions
   /// against the frames before it (rgbd/relocalise.h; with the guard only).
   RelocaliseOptions relocalise;
-  /// A lone-plane frame's free directions aligned by colour against the previous frame, when
-  /// both have colour (rgbd/photometric.h; with the guard only).
+  /// A frame's weak directions (a lone plane's, or those the eigenvalues find) aligned by
+  /// colour against the previous frame, when both have colour (rgbd/photometric.h; with the
+  /// guard only).
   PhotometricOptions photometric;
   /// After this many failed frames in a row the track is lost and restarts from the current
   /// frame at its predicted pose (the odometry's next reference; SLAM's new map), counted in
@@ -53,15 +54,15 @@ struct TrackingLoopOptions {
 
 /// What a run's frames went through (OdometryResult and SlamResult extend it).
 struct TrackingRun {
-  Trajectory trajectory;   ///< T_world_camera of every tracked frame
-  int failures = 0;        ///< frames whose tracking failed (their pose is the prediction)
-  int restarts = 0;        ///< times the track was lost and restarted (restart_after_failures)
-  int recovered = 0;       ///< frames suspected of divergence and recovered (MotionGuard)
-  int diverged = 0;        ///< frames declared diverged (counted in failures too)
-  int weak_frames = 0;     ///< frames tracked with weak directions held
-  int relocalised = 0;     ///< frames relocalised after a lone-plane stretch (rgbd/relocalise.h)
-  int colour_aligned = 0;  ///< lone-plane frames whose free directions colour fixed
-  double load_s = 0.0;     ///< waiting for frames: the loading not overlapped with tracking
+  Trajectory trajectory;  ///< T_world_camera of every tracked frame
+  int failures = 0;       ///< frames whose tracking failed (their pose is the prediction)
+  int restarts = 0;       ///< times the track was lost and restarted (restart_after_failures)
+  int recovered = 0;      ///< frames suspected of divergence and recovered (MotionGuard)
+  int diverged = 0;       ///< frames declared diverged (counted in failures too)
+  int weak_frames = 0;    ///< frames tracked with weak directions (held, or aligned by colour)
+  int relocalised = 0;    ///< frames relocalised after a lone-plane stretch (rgbd/relocalise.h)
+  int color_aligned = 0;  ///< weak-direction frames whose weak directions colour measured
+  double load_s = 0.0;    ///< waiting for frames: the loading not overlapped with tracking
   double preprocess_s = 0.0;
   double track_s = 0.0;  ///< tracking (SLAM: rendering the model apart, SlamResult::render_s)
 };
@@ -76,9 +77,9 @@ struct TrackedStep {
   bool diverged = false;     ///< so was the re-track: kept the last good pose (a failure)
   bool restart = false;      ///< the track was lost: the target restarts from this frame
   bool relocalised = false;  ///< its pose found anew after a lone-plane stretch
-  /// A lone plane whose free directions colour fixed (rgbd/photometric.h): they are measured,
-  /// not held, so the velocity keeps them.
-  bool colour_aligned = false;
+  /// Its weak directions measured by colour (rgbd/photometric.h), not held: the velocity keeps
+  /// them.
+  bool color_aligned = false;
   /// Structure again after a lone-plane stretch, not relocalised yet: its pose along the
   /// plane is still the held prediction (SLAM does not fuse it into the map).
   bool unverified = false;

@@ -253,8 +253,9 @@ std::vector<float> RenderDepth(const Scene& scene, const SceneCamera& camera, do
           if (!hit || hit->t > max_depth_m) continue;
           const size_t i = static_cast<size_t>(v) * width + u;
           depth[i] = static_cast<float>(hit->t);
-          if (color)
+          if (color) {
             ShadeTextured(scene, textures, *hit, origin, direction, K.fx, &(*color)[3 * i]);
+          }
         }
       },
       8);

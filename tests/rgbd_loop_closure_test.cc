@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "core/errors.h"
 #include "core/pose.h"
 #include "core/trajectory.h"
 #include "rgbd/loop_closure.h"
@@ -132,6 +133,34 @@ TEST(RgbdLoopClosure, FramesBetweenKeyframesAreCorrectedWithoutSteps) {
       EXPECT_LE(rotation_jump, turn / n + 1e-12) << "frame " << k;
     }
   }
+}
+
+// With a progress per pose, the share between two keyframes follows it: where it stays flat
+// the correction stays, where it is flat across the whole span the first keyframe's applies;
+// a progress of the wrong size is an InputError.
+TEST(RgbdLoopClosure, TheShareBetweenKeyframesFollowsTheProgress) {
+  Trajectory run;
+  for (int k = 0; k <= 4; ++k) {
+    Pose T = Pose::Identity();
+    T.translation() = Vec3(0.1 * k, 0.0, 0.0);
+    run.timestamps.push_back(k);
+    run.poses.push_back(T);
+  }
+  Pose moved = run.poses[4];
+  moved.translation() += Vec3(0.0, 0.04, 0.0);
+  const std::vector<Pose> solved = {run.poses[0], moved};
+  // Progress 0, 1, 1, 1, 2: frame 1 takes half the correction, and so do 2 and 3.
+  const std::vector<Pose> c =
+      InterpolatedCorrections(run, {0, 4}, solved, {0.0, 1.0, 1.0, 1.0, 2.0});
+  for (int k = 1; k <= 3; ++k) {
+    EXPECT_NEAR(Moved(c[k], run.poses[k]).y(), 0.02, 1e-12) << k;
+  }
+  EXPECT_NEAR(Moved(c[4], run.poses[4]).y(), 0.04, 1e-12);
+  // A flat progress over the span: the first keyframe's correction (none) up to the last.
+  const std::vector<Pose> flat = InterpolatedCorrections(run, {0, 4}, solved, {0, 0, 0, 0, 0});
+  EXPECT_NEAR(Moved(flat[2], run.poses[2]).y(), 0.0, 1e-12);
+  EXPECT_NEAR(Moved(flat[4], run.poses[4]).y(), 0.04, 1e-12);
+  EXPECT_THROW(InterpolatedCorrections(run, {0, 4}, solved, {0.0, 1.0}), InputError);
 }
 
 // A pose's tangent difference drawn with `sigma` per axis (rotation rad, translation m).

@@ -572,7 +572,7 @@ class TrackResult(Trajectory):
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
     relocalised: int = 0  #: frames relocalised after a lone-plane stretch
-    colour_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
+    color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -665,7 +665,7 @@ class SlamResult(Trajectory):
     diverged: int = 0  #: frames whose re-track failed too (counted in ``failures``)
     weak_frames: int = 0  #: frames with a weakly constrained direction held
     relocalised: int = 0  #: frames relocalised after a lone-plane stretch
-    colour_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
+    color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -785,8 +785,8 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
     ``max_distance`` (m) and ``max_angle`` (deg) the association; ``depth_weights`` and
     ``huber`` the weighting; ``min_step`` the convergence test; ``guard`` and ``weak_ratio`` the
     motion guard (weak directions held, divergence detected and re-tracked; docs/rgbd.md);
-    ``colour_align`` (with the guard: a frame's weak directions aligned by colour against the
-    previous frame when both have registered colour);
+    ``color_align`` (with the guard: a frame's weak directions aligned by colour against the
+    previous frame when both have registered colour; frames given as a list carry none);
     ``loop_closure`` (revisited keyframes verified by ICP, a keyframe pose graph solved, the
     trajectory corrected; counts in the result's ``loop_closure``); ``threads``. Runs without the
     GIL; progress (every tenth) and warnings (failed frames) go to the logger ``"rigfit"``. A
@@ -800,7 +800,7 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
         frames=[TrackedFrame(**f) for f in raw["frames"]], failures=raw["failures"],
         restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]),
         recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"],
-        relocalised=raw["relocalised"], colour_aligned=raw["colour_aligned"],
+        relocalised=raw["relocalised"], color_aligned=raw["color_aligned"],
         loop_closure=raw["loop_closure"])
 
 
@@ -820,9 +820,9 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
     (``iterations``, ``prior``, ``min_depth``, ``max_depth``, ``max_distance``, ``max_angle``);
     fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg) gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
     ``cover_radius`` (the coverage rule; 0: off), ``fold``; the model: ``model_weight``,
-    ``model_recent``, ``splat``; ``color``; ``guard``, ``weak_ratio``, ``colour_align`` and ``loop_closure`` as for
-    ``track`` (the map's points moved with the frame that last saw them); ``threads``. Runs without the GIL; progress (every
-    tenth, with the map size) and warnings go to the logger ``"rigfit"``. A failed frame keeps
+    ``model_recent``, ``splat``; ``color``; ``guard``, ``weak_ratio``, ``color_align`` and
+    ``loop_closure`` as for ``track`` (the map's points moved with the frame that last saw
+    them); ``threads``. Runs without the GIL; progress (every tenth, with the map size) and warnings go to the logger ``"rigfit"``. A failed frame keeps
     its prediction and is not fused; a frame without colour while the map is coloured is
     tracked but not fused, with a warning (``color=False`` fuses depth only).
 
@@ -835,7 +835,7 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         restarts=raw["restarts"], timings=SlamTimings(**raw["timings"]),
         map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
         diverged=raw["diverged"], weak_frames=raw["weak_frames"], relocalised=raw["relocalised"],
-        colour_aligned=raw["colour_aligned"], loop_closure=raw["loop_closure"],
+        color_aligned=raw["color_aligned"], loop_closure=raw["loop_closure"],
         halvings=raw["halvings"])
 
 

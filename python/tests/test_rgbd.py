@@ -203,7 +203,7 @@ def test_track_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "track", rigfit.track,
         {"keyframes": True, "bilateral": True, "depth_weights": True, "guard": True,
-         "colour_align": True, "loop_closure": True})
+         "color_align": True, "loop_closure": True})
 
 
 @need_cli
@@ -300,7 +300,7 @@ def test_slam_list_of_frames_equals_sequence(kitchen, slammed, caplog):
 def test_slam_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True,
-                             "colour_align": True, "loop_closure": True})
+                             "color_align": True, "loop_closure": True})
 
 
 @need_cli
@@ -454,7 +454,7 @@ def test_track_reports_its_loop_closure(tracked):
 @need_cli
 def test_track_and_slam_align_a_lone_floor_by_colour(tmp_path):
     """A simulated view of nothing but the (textured) floor: its weak directions are aligned by
-    colour, counted in ``colour_aligned``; ``colour_align=False`` leaves them held."""
+    colour, counted in ``color_aligned``; ``color_align=False`` leaves them held."""
     seq = tmp_path / "floor"
     subprocess.run([CLI, "simulate-sequence", "--out", str(seq), "--frames", "8", "--width",
                     "160", "--height", "120", "--lone-plane", "floor", "--lone-plane-start",
@@ -462,7 +462,7 @@ def test_track_and_slam_align_a_lone_floor_by_colour(tmp_path):
     sequence = rigfit.open_sequence(seq, intrinsics=(131.25, 131.25, 79.5, 59.5))
     for run in (rigfit.track, rigfit.slam):
         aligned = run(sequence, loop_closure=False)
-        held = run(sequence, loop_closure=False, colour_align=False)
+        held = run(sequence, loop_closure=False, color_align=False)
         assert aligned.weak_frames == held.weak_frames == 7  # every frame after the first
-        assert aligned.colour_aligned == 7
-        assert held.colour_aligned == 0
+        assert aligned.color_aligned == 7
+        assert held.color_aligned == 0
