@@ -64,6 +64,12 @@ std::string WeakDirectionName(const Vec6& weak) {
 
 std::string MotionGuard::Suspect(const TrackResult& track, const Pose& T_prediction_estimate,
                                  const Pose& T_previous_estimate, double dt_s) const {
+  const std::string motion = SuspectMotion(T_prediction_estimate, T_previous_estimate, dt_s);
+  return motion.empty() ? SuspectHistory(track) : motion;
+}
+
+std::string MotionGuard::SuspectMotion(const Pose& T_prediction_estimate,
+                                       const Pose& T_previous_estimate, double dt_s) const {
   const GuardOptions& o = options_;
   if (T_prediction_estimate.translation().norm() > o.max_correction_m ||
       LogSO3(T_prediction_estimate.linear()).norm() > o.max_correction_deg * kDegToRad) {
@@ -74,6 +80,11 @@ std::string MotionGuard::Suspect(const TrackResult& track, const Pose& T_predict
        LogSO3(T_previous_estimate.linear()).norm() > o.max_angular_speed_dps * kDegToRad * dt_s)) {
     return "moved " + Motion(T_previous_estimate) + " in " + std::to_string(dt_s) + " s";
   }
+  return "";
+}
+
+std::string MotionGuard::SuspectHistory(const TrackResult& track) const {
+  const GuardOptions& o = options_;
   if (matched_.size() < kMinHistory) return "";
   const double matched = Median(matched_);
   if (track.matched_ratio < o.min_matched_share * matched) {
@@ -86,6 +97,17 @@ std::string MotionGuard::Suspect(const TrackResult& track, const Pose& T_predict
            std::to_string(rmse * 1e3) + " mm)";
   }
   return "";
+}
+
+bool MotionGuard::SamePose(const Pose& a, const Pose& b) const {
+  const Pose d = a.inverse() * b;
+  return d.translation().norm() <= options_.same_pose_m &&
+         LogSO3(d.linear()).norm() <= options_.same_pose_deg * kDegToRad;
+}
+
+void MotionGuard::Forget() {
+  matched_.clear();
+  rmse_.clear();
 }
 
 void MotionGuard::Remember(const TrackResult& track) {
@@ -116,6 +138,18 @@ GuardedTrack MotionGuard::Track(const TrackFrom& track_from, const Pose& predict
   auto [retrack, T_retrack] = track_from(T_world_previous);
   const Pose step = T_world_previous.inverse() * T_retrack;
   const std::string again = retrack.success ? Suspect(retrack, step, step, dt_s) : retrack.message;
+  const bool view_changed =
+      retrack.success &&
+      SuspectMotion(predicted.inverse() * estimate, T_world_previous.inverse() * estimate, dt_s)
+          .empty() &&
+      SamePose(estimate, T_retrack);
+  if (view_changed) {
+    log.Warning(frame_name + ": suspected divergence (" + reason +
+                "); re-tracked from the last good pose to the same pose: accepted");
+    guarded.recovered = true;
+    Remember(guarded.track);
+    return guarded;
+  }
   if (again.empty()) {
     log.Warning(frame_name + ": suspected divergence (" + reason +
                 "); re-tracked from the last good pose: recovered");

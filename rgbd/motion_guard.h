@@ -41,6 +41,11 @@ struct GuardOptions {
   double max_rmse_growth = 3.0;
   /// Accepted frames whose matched share and residual make the recent medians.
   int history = 15;
+  /// A frame suspect by its matched share or residual alone is accepted when its re-track from
+  /// the last good pose ends within these of its track: two starts agree, so what changed is
+  /// the view (a far wall coming into view raises the residual), not the track.
+  double same_pose_m = 0.01;
+  double same_pose_deg = 1.0;
 };
 
 /// The velocity T_previous_current with its components along `weak` (TrackResult::weak: unit
@@ -88,7 +93,18 @@ class MotionGuard {
                      const Pose& T_world_previous, double dt_s, const std::string& frame_name,
                      const Log& log);
 
+  /// Drops the recent history: a restarted track (a new map or keyframe) is not compared with
+  /// the residuals of the one before.
+  void Forget();
+
  private:
+  /// Suspect's two halves: the motion (a jump, a speed) and the history (matched share,
+  /// residual against the recent frames').
+  std::string SuspectMotion(const Pose& T_prediction_estimate, const Pose& T_previous_estimate,
+                            double dt_s) const;
+  std::string SuspectHistory(const TrackResult& track) const;
+  /// Whether two tracked poses agree within same_pose_m and same_pose_deg.
+  bool SamePose(const Pose& a, const Pose& b) const;
   void Remember(const TrackResult& track);
 
   GuardOptions options_;

@@ -172,6 +172,7 @@ class TrackingLoop {
       ++run_.restarts;
       failures_in_a_row_ = 0;
       step->restart = true;
+      guard_.Forget();
     }
   }
 

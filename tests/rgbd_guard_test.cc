@@ -283,6 +283,72 @@ TEST(RgbdGuard, ACorruptedFrameIsDetectedWarnedAndCounted) {
             6e-3);
 }
 
+// A TrackFrom that ends every track at `end_from_prediction` when started at the prediction
+// and at `end_from_previous` when started anywhere else, with the given residual.
+TrackFrom ScriptedTrack(const Pose& prediction, const Pose& end_from_prediction,
+                        const Pose& end_from_previous, double rmse_m) {
+  return [=](const Pose& start) {
+    TrackResult track;
+    track.success = true;
+    track.matched_ratio = 0.9;
+    track.rmse_m = rmse_m;
+    const bool from_prediction = start.isApprox(prediction);
+    return std::make_pair(track, from_prediction ? end_from_prediction : end_from_previous);
+  };
+}
+
+Pose Moved(double x_m) {
+  Pose T = Pose::Identity();
+  T.translation().x() = x_m;
+  return T;
+}
+
+// Residuals of 2 mm make the history; a frame at 10 mm (above 3 times it) is suspect.
+void FillHistory(MotionGuard* guard) {
+  for (int k = 0; k < 5; ++k) {
+    const Pose T = Moved(0.01 * k);
+    guard->Track(ScriptedTrack(T, T, T, 0.002), T, T, 0.033, "frame", Log{});
+  }
+}
+
+TEST(RgbdGuard, AResidualRiseTheReTrackConfirmsIsTheViewsAndAccepted) {
+  MotionGuard guard(GuardOptions{});
+  FillHistory(&guard);
+  // Both starts end at the same pose (5 mm on from the last good one): the far wall that came
+  // into view raised the residual, not a wrong minimum.
+  std::vector<std::string> warnings;
+  const Pose previous = Moved(0.04), predicted = Moved(0.05);
+  const GuardedTrack same =
+      guard.Track(ScriptedTrack(predicted, Moved(0.045), Moved(0.045), 0.01), predicted, previous,
+                  0.033, "frame 5", WarningsInto(&warnings));
+  EXPECT_TRUE(same.track.success);
+  EXPECT_TRUE(same.recovered);
+  EXPECT_FALSE(same.diverged);
+  EXPECT_TRUE(same.T_world_camera.isApprox(Moved(0.045)));
+  EXPECT_TRUE(AnyContains(warnings, "to the same pose: accepted"));
+  // The re-track 2 cm away from the track (above same_pose_m, 1 cm): diverged, as before.
+  MotionGuard other(GuardOptions{});
+  FillHistory(&other);
+  const GuardedTrack apart = other.Track(ScriptedTrack(predicted, Moved(0.045), Moved(0.065), 0.01),
+                                         predicted, previous, 0.033, "frame 5", Log{});
+  EXPECT_TRUE(apart.diverged);
+  EXPECT_TRUE(apart.T_world_camera.isApprox(previous));
+}
+
+TEST(RgbdGuard, ARestartForgetsTheResidualsOfTheTrackBefore) {
+  MotionGuard guard(GuardOptions{});
+  FillHistory(&guard);
+  TrackResult track;
+  track.success = true;
+  track.matched_ratio = 0.9;
+  track.rmse_m = 0.01;
+  const Pose still = Pose::Identity();
+  EXPECT_EQ(guard.Suspect(track, still, still, 0.033),
+            "the residual rose to 10.000000 mm (recent 2.000000 mm)");
+  guard.Forget();
+  EXPECT_EQ(guard.Suspect(track, still, still, 0.033), "");
+}
+
 TEST(RgbdGuard, DampingActsOnTheWeakDirectionsOnly) {
   // A velocity of 1 cm along camera x and 2 cm along z, 0.01 rad about y; x is weak.
   Pose velocity = Pose::Identity();
