@@ -99,6 +99,11 @@ Command AddTrackCommand(CLI::App& app) {
                 "ones (default)");
   sub->add_flag("--depth-weights,!--no-depth-weights", a.odometry.icp.weighting.depth_noise,
                 "Weigh pairs by the inverse variance of depth noise growing as z^2 (default)");
+  sub->add_option("--noise-floor-depth", a.odometry.icp.weighting.noise_floor_depth_m,
+                  "Depth weights: a depth nearer than this (metres) weighs as this one (the "
+                  "association's and the normals' error, growing as z, dominate there); 0 = no "
+                  "floor")
+      ->capture_default_str();
   sub->add_option("--huber", a.odometry.icp.weighting.huber_delta_m,
                   "Huber threshold on the whitened point-to-plane distance (metres at 1 m depth; "
                   "with depth weights it grows as z^2); 0 = off")

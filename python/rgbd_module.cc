@@ -336,6 +336,8 @@ const KeywordTable<TrackKeywords>& TrackTable() {
           .Add("max_angle", [](K& k) { return &k.odometry.icp.association.max_normal_angle_deg; })
           .Add("depth_weights", [](K& k) { return &k.odometry.icp.weighting.depth_noise; })
           .Add("huber", [](K& k) { return &k.odometry.icp.weighting.huber_delta_m; })
+          .Add("noise_floor_depth",
+               [](K& k) { return &k.odometry.icp.weighting.noise_floor_depth_m; })
           .Add("min_step", [](K& k) { return &k.min_step; })
           .Add("guard", [](K& k) { return &k.odometry.guard.enabled; })
           .Add("color_align", [](K& k) { return &k.odometry.photometric.enabled; })

@@ -80,7 +80,8 @@ struct Accumulator {
     const double b = n.dot(moved - q);
     const Vec3 c = moved.cross(n);
     const double A[6] = {c.x(), c.y(), c.z(), n.x(), n.y(), n.z()};
-    double w = weighting.depth_noise ? DepthNoiseWeight(z_p, q.z()) : 1.0;
+    double w =
+        weighting.depth_noise ? DepthNoiseWeight(z_p, q.z(), weighting.noise_floor_depth_m) : 1.0;
     if (weighting.huber_delta_m > 0.0) {
       const double whitened = std::sqrt(w) * std::abs(b);
       if (whitened > weighting.huber_delta_m) w *= weighting.huber_delta_m / whitened;
@@ -392,7 +393,9 @@ Pose SolvePairsCeres(const std::vector<ProjectiveCorrespondence>& pairs, const P
       weighting.huber_delta_m > 0.0 ? new ceres::HuberLoss(weighting.huber_delta_m) : nullptr;
   for (const ProjectiveCorrespondence& pair : pairs) {
     const double scale =
-        weighting.depth_noise ? std::sqrt(DepthNoiseWeight(pair.p.z(), pair.q.z())) : 1.0;
+        weighting.depth_noise
+            ? std::sqrt(DepthNoiseWeight(pair.p.z(), pair.q.z(), weighting.noise_floor_depth_m))
+            : 1.0;
     problem.AddResidualBlock(PointToPlaneCost::Create(pair.p, pair.q, scale * pair.n), loss, pose,
                              identity);
   }

@@ -17,6 +17,7 @@
 // and the Gauss-Newton step solves the 6x6 normal equations (sum A^T A) x = -sum A^T b.
 #pragma once
 
+#include <algorithm>
 #include <optional>
 #include <string>
 #include <vector>
@@ -71,18 +72,27 @@ std::vector<ProjectiveCorrespondence> FindCorrespondences(const FrameLevel& sour
 /// deviation for a sensor whose depth noise grows as z^2 (structured light, stereo: Kinect,
 /// RealSense, ZED): sigma^2 ~ z_p^4 + z_q^4 with z_p the source point's depth in its own
 /// camera and z_q the target point's, normalised to 1 for two points at 1 m; a near point
-/// then counts more than a far one, as its depth is better. The Huber kernel (delta > 0)
-/// acts on that (whitened) residual: w = min(1, delta / |r|).
+/// then counts more than a far one, as its depth is better -- down to noise_floor_depth_m:
+/// nearer, a depth counts as that one (z <- max(z, floor)). There the point-to-plane error is
+/// no longer the depth's: the projective association's pixel and the normal's error grow as z,
+/// not z^2, and an unchecked z^4 lets one near surface outweigh the rest of the view
+/// (docs/rgbd.md, "Weights"). The Huber kernel (delta > 0) acts on that (whitened) residual:
+/// w = min(1, delta / |r|).
 struct PairWeighting {
   double huber_delta_m = 0.0;
   bool depth_noise = false;
+  double noise_floor_depth_m = 0.0;
 };
 
-/// Tracking's default: depth-noise weights on (the sensors rigfit reads all have z^2 noise).
-inline constexpr PairWeighting kTrackingWeighting{0.0, true};
+/// Tracking's default: depth-noise weights on (the sensors rigfit reads all have z^2 noise),
+/// their floor at 0.7 m (docs/rgbd.md, "Weights for real sensors").
+inline constexpr PairWeighting kTrackingWeighting{0.0, true, 0.7};
 
-/// The noise weight 1 / sigma^2 of a pair (PairWeighting::depth_noise): 2 / (z_p^4 + z_q^4).
-inline double DepthNoiseWeight(double z_p, double z_q) {
+/// The noise weight 1 / sigma^2 of a pair (PairWeighting::depth_noise): 2 / (z_p^4 + z_q^4),
+/// each depth raised to floor_m first.
+inline double DepthNoiseWeight(double z_p, double z_q, double floor_m = 0.0) {
+  z_p = std::max(z_p, floor_m);
+  z_q = std::max(z_q, floor_m);
   return 2.0 / (z_p * z_p * z_p * z_p + z_q * z_q * z_q * z_q);
 }
 

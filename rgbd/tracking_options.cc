@@ -40,6 +40,9 @@ void ApplyTrackingSettings(const std::string& prior, const std::vector<int>& ite
   if (!(icp->weighting.huber_delta_m >= 0.0)) {
     throw SettingError("huber", "must be >= 0");
   }
+  if (!(icp->weighting.noise_floor_depth_m >= 0.0)) {
+    throw SettingError("noise_floor_depth", "must be >= 0 (0: no floor)");
+  }
   if (loop->threads < 1 || loop->threads > kMaxTrackingThreads) {
     throw SettingError("threads", "must be in [1, " + std::to_string(kMaxTrackingThreads) + "]");
   }

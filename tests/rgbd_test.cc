@@ -331,6 +331,11 @@ TEST(RgbdAssociation, RoundsToTheNearestPixelUpToTheImageEdge) {
 TEST(RgbdWeights, DepthNoiseWeightIsTheInverseVarianceOfZSquaredNoise) {
   EXPECT_DOUBLE_EQ(DepthNoiseWeight(1.0, 1.0), 1.0);
   EXPECT_DOUBLE_EQ(DepthNoiseWeight(2.0, 2.0), 1.0 / 16.0);  // sigma ~ z^2: variance ~ z^4
+  // With a floor at 1 m a nearer depth weighs as 1 m; a farther one is not changed.
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(0.5, 0.5), 16.0);
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(0.5, 0.5, 1.0), 1.0);
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(0.5, 2.0, 1.0), 2.0 / 17.0);
+  EXPECT_DOUBLE_EQ(DepthNoiseWeight(2.0, 2.0, 1.0), 1.0 / 16.0);
   EXPECT_DOUBLE_EQ(DepthNoiseWeight(1.0, 2.0), 2.0 / 17.0);
   EXPECT_DOUBLE_EQ(DepthNoiseWeight(2.0, 1.0), DepthNoiseWeight(1.0, 2.0));
 }

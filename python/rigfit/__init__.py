@@ -782,8 +782,9 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
     (0: all), ``stride`` pick the frames; ``iterations`` per pyramid level, finest first (their
     count is the number of levels); ``prior`` "constant-velocity" or "identity"; ``min_depth``
     and ``max_depth`` (metres) the depth used; ``bilateral`` the level-0 normals;
-    ``max_distance`` (m) and ``max_angle`` (deg) the association; ``depth_weights`` and
-    ``huber`` the weighting; ``min_step`` the convergence test; ``guard`` and ``weak_ratio`` the
+    ``max_distance`` (m) and ``max_angle`` (deg) the association; ``depth_weights``,
+    ``noise_floor_depth`` (m: nearer depths weigh as this one; 0: none) and ``huber`` the
+    weighting; ``min_step`` the convergence test; ``guard`` and ``weak_ratio`` the
     motion guard (weak directions held, divergence detected and re-tracked; docs/rgbd.md);
     ``color_align`` (with the guard: a frame's weak directions aligned by colour against the
     previous frame when both have registered colour; frames given as a list carry none);

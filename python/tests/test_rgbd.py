@@ -215,6 +215,7 @@ def test_track_defaults_and_names_are_the_clis():
     ({"max_distance": 0.0}, ["--max-distance", "0"]),
     ({"max_angle": 200.0}, ["--max-angle", "200"]),
     ({"huber": -1.0}, ["--huber", "-1"]),
+    ({"noise_floor_depth": -0.5}, ["--noise-floor-depth", "-0.5"]),
     ({"threads": 0}, ["--threads", "0"]),
     ({"max_frames": -1}, ["--max-frames", "-1"]),
     ({"min_step": 0.0}, ["--min-step", "0"]),
