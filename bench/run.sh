@@ -1003,7 +1003,7 @@ PY
 }
 
 run_loops() {
-  local file sim="$out/raw/loops" data="$root/../shared/data" seeds=(1 2 3) frames=600
+  local file sim="$out/raw/loops" data="$root/../shared/data" seeds=(1 2 3 4 5) frames=600
   local size=(--width 320 --height 240) intrinsics=(--intrinsics 262.5,262.5,159.5,119.5)
   local lone=(--lone-plane floor --lone-plane-start 5.4 --lone-plane-seconds 0.7)
   file="$(header loops)"

@@ -203,6 +203,12 @@ class TrackingLoop {
                            options_.icp, StretchSearch(), options_.threads);
     if (!found.success) {
       step->unverified = attempts_left_ > 0;
+      if (attempts_left_ == 0) {
+        log_.Warning(FrameName(*step, frame) + ": not relocalised after the lone-plane stretch (" +
+                     std::to_string(options_.relocalise.attempts) +
+                     " frames tried): the poses since it keep what colour or the prediction "
+                     "gave them along the plane");
+      }
       return;
     }
     const Pose correction = found.T_world_camera * step->T_world_camera.inverse();
