@@ -61,7 +61,7 @@
 #             frames and the TUM fr1/xyz subset with the default halving (to 320x240) and at
 #             640x480 (--halve 0), median of 3 runs by frames/s with loading, peak RSS from
 #             /usr/bin/time. Not niced.
-#   loops     rigfit track and slam on synthetic closed loops (seeds 1..3, 600 frames 320x240;
+#   loops     rigfit track and slam on synthetic closed loops (seeds 1..5, 600 frames 320x240;
 #             seed 1 at 640x480) and the real sequences: loop closure's counts, ATE, RPE and end
 #             drift without and with it; then the same loops with a lone-plane stretch (floor
 #             only for 0.7 s), depth only and with textured colour: ATE against the loop
