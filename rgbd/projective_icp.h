@@ -76,8 +76,8 @@ std::vector<ProjectiveCorrespondence> FindCorrespondences(const FrameLevel& sour
 /// nearer, a depth counts as that one (z <- max(z, floor)). There the point-to-plane error is
 /// no longer the depth's: the projective association's pixel and the normal's error grow as z,
 /// not z^2, and an unchecked z^4 lets one near surface outweigh the rest of the view
-/// (docs/rgbd.md, "Weights"). The Huber kernel (delta > 0) acts on that (whitened) residual:
-/// w = min(1, delta / |r|).
+/// (docs/rgbd.md, "Weights for real sensors"). The Huber kernel (delta > 0) acts on that (whitened)
+/// residual: w = min(1, delta / |r|).
 struct PairWeighting {
   double huber_delta_m = 0.0;
   bool depth_noise = false;
