@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "cli/stderr_log.h"
 #include "core/errors.h"
 #include "core/format.h"
 #include "io/rgbd_sequence.h"
@@ -225,12 +226,21 @@ void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
   sub->add_flag("--evaluate", args->evaluate,
                 "Print ATE and RPE against the sequence's own ground truth");
   sub->add_flag("--quiet", args->quiet, "No progress on stderr (warnings still)");
+  sub->add_flag("--verbose,-v", args->verbose,
+                "Also debug messages (why a frame's weak directions were not aligned by colour, "
+                "why a loop was rejected)");
 }
 
 void ApplyTrackingArgs(TrackingArgs* args, TrackingLoopOptions* loop) {
   ApplyTrackingSettings(args->prior, args->iterations, loop);
   ApplyWeakRatio(args->weak_ratio, &loop->icp);
   SetSequenceIntrinsics(args->intrinsics, &args->sequence);
+}
+
+Log TrackingLog(const std::string& prefix, const TrackingArgs& args) {
+  return StderrLog(prefix, args.quiet     ? Verbosity::kQuiet
+                           : args.verbose ? Verbosity::kVerbose
+                                          : Verbosity::kNormal);
 }
 
 }  // namespace rigfit::cli

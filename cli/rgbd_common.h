@@ -33,6 +33,7 @@ struct TrackingArgs {
   bool loop_closure = LoopClosureOptions{}.enabled;
   bool evaluate = false;
   bool quiet = false;
+  bool verbose = false;
 };
 
 /// SEQUENCE and --out.
@@ -48,7 +49,8 @@ void AddFrameStartFlags(CLI::App* sub, TrackingArgs* args);
 /// --max-angle.
 void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop);
 
-/// The run's end: the guard's flags, --loop-closure, --threads, --evaluate and --quiet.
+/// The run's end: the guard's flags, --loop-closure, --threads, --evaluate, --quiet and
+/// --verbose.
 void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop);
 
 /// frames / seconds for the summaries, 0 for no time.
@@ -59,6 +61,9 @@ inline double FramesPerSecond(int frames, double seconds) {
 /// Applies what `args` holds beside `loop` (--prior, --iterations, --weak-ratio into `loop`;
 /// --intrinsics into args->sequence) and checks the loop's settings (SettingError).
 void ApplyTrackingArgs(TrackingArgs* args, TrackingLoopOptions* loop);
+
+/// The command's messages on stderr as --quiet and --verbose say (StderrLog).
+Log TrackingLog(const std::string& prefix, const TrackingArgs& args);
 
 /// Opens the sequence (io/rgbd_sequence.h), its loader's warnings and its description to `log`.
 std::unique_ptr<RgbdSequence> OpenSequenceLogged(const std::string& path,

@@ -14,7 +14,6 @@
 #include "cli/commands.h"
 #include "cli/map_ply.h"
 #include "cli/rgbd_common.h"
-#include "cli/stderr_log.h"
 #include "core/format.h"
 #include "core/setting_error.h"
 #include "io/atomic_file.h"
@@ -83,7 +82,7 @@ int RunSlamCommand(SlamArgs a) {
   a.slam.halvings = HalvingsOf(a.halve);
   CheckSlamSettings(a.slam);
 
-  const Log log = StderrLog("slam: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+  const Log log = TrackingLog("slam: ", a);
   const std::unique_ptr<RgbdSequence> sequence =
       OpenSequenceLogged(a.sequence_path, a.sequence, log);
   int last_percent = -1;

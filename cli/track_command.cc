@@ -10,7 +10,6 @@
 
 #include "cli/commands.h"
 #include "cli/rgbd_common.h"
-#include "cli/stderr_log.h"
 #include "core/trajectory.h"
 #include "io/rgbd_sequence.h"
 #include "io/trajectory_tum.h"
@@ -29,7 +28,7 @@ int RunTrack(TrackArgs a) {
   ApplyTrackingArgs(&a, &a.odometry);
   ApplyMinStep(a.min_step_m, &a.odometry.icp);
 
-  const Log log = StderrLog("track: ", a.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+  const Log log = TrackingLog("track: ", a);
   const std::unique_ptr<RgbdSequence> sequence =
       OpenSequenceLogged(a.sequence_path, a.sequence, log);
   int last_percent = -1;

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <future>
+#include <iomanip>
+#include <sstream>
 #include <vector>
 
 #include "core/errors.h"
+#include "core/format.h"
 #include "core/stopwatch.h"
 #include "rgbd/loop_closure.h"
 
@@ -72,6 +75,7 @@ class TrackingLoop {
       AlignByColor(frame, pyramid, &step);
       Book(frame, pyramid, &step);
       Relocalise(frame, pyramid, &step);
+      NoteTrack(frame, step);
       run_.track_s += SecondsSince(start);
     }
     KeepAnchor(pyramid, step);
@@ -275,6 +279,19 @@ class TrackingLoop {
       anchors_.erase(anchors_.begin());
       anchor_positions_.erase(anchor_positions_.begin());
     }
+  }
+
+  /// The frame's track in a debug message: its steps, matched share, residual, conditioning
+  /// and weak directions (what the guard and the colour alignment go by).
+  void NoteTrack(const RgbdFrame& frame, const TrackedStep& step) const {
+    const TrackResult& t = step.track;
+    std::ostringstream text;
+    text << FrameName(step, frame) << ": " << (t.success ? "tracked" : "failed") << " in "
+         << t.iterations << " steps, matched share " << Fixed(t.matched_ratio, 3) << ", RMS "
+         << Fixed(t.rmse_m * 1e3, 2) << " mm, conditioning " << std::scientific
+         << std::setprecision(2) << t.conditioning << ", " << t.weak_directions
+         << " weak direction(s)" << (step.color_aligned ? ", aligned by colour" : "");
+    log_.Debug(text.str());
   }
 
   /// Warns where a stretch of lone-plane views (TrackResult::lone_plane) starts and ends.

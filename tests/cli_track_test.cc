@@ -111,6 +111,33 @@ TEST_F(CliTrack, AFloorOnlySequenceReportsItsWeakDirectionsInTheSummaryAndTheFil
   }
 }
 
+TEST_F(CliTrack, VerboseShowsEachFramesTrack) {
+  const fs::path seq = *dir_ / "floor-verbose";
+  const cli_test::RunResult sim =
+      cli_test::RunRigfit({"simulate-sequence", "--out", seq.string(), "--frames", "4", "--width",
+                           std::to_string(kWidth), "--height", std::to_string(kHeight), "--noise",
+                           "none", "--lone-plane", "floor", "--lone-plane-start", "0"},
+                          *dir_);
+  ASSERT_EQ(sim.exit_code, 0) << cli_test::Describe(sim);
+  for (const std::string command : {"track", "slam"}) {
+    const fs::path out = *dir_ / (command + "-verbose.txt");
+    std::vector<std::string> args = {command,      seq.string(),   "--out",
+                                     out.string(), "--intrinsics", Intrinsics()};
+    const cli_test::RunResult plain = cli_test::RunRigfit(args, *dir_);
+    args.push_back("--verbose");
+    const cli_test::RunResult told = cli_test::RunRigfit(args, *dir_);
+    ASSERT_EQ(plain.exit_code, 0) << cli_test::Describe(plain);
+    ASSERT_EQ(told.exit_code, 0) << cli_test::Describe(told);
+    EXPECT_EQ(plain.err.find("debug:"), std::string::npos) << plain.err;
+    // Every frame after the first, with what the guard goes by: a lone floor holds three.
+    for (const std::string frame : {"frame 1 ", "frame 2 ", "frame 3 "}) {
+      EXPECT_NE(told.err.find(command + ": debug: " + frame), std::string::npos) << told.err;
+    }
+    EXPECT_NE(told.err.find(" mm, conditioning "), std::string::npos) << told.err;
+    EXPECT_NE(told.err.find(", 3 weak direction(s)"), std::string::npos) << told.err;
+  }
+}
+
 TEST_F(CliTrack, EvaluateTrajectoryReportsTheEndDriftOfAClosedLoop) {
   const fs::path seq = *dir_ / "loop";
   const cli_test::RunResult sim =
