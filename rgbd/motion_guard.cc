@@ -129,27 +129,23 @@ GuardedTrack MotionGuard::Track(const TrackFrom& track_from, const Pose& predict
     return guarded;
   }
   const Pose& estimate = guarded.T_world_camera;
-  const std::string reason = Suspect(guarded.track, predicted.inverse() * estimate,
-                                     T_world_previous.inverse() * estimate, dt_s);
+  const std::string motion =
+      SuspectMotion(predicted.inverse() * estimate, T_world_previous.inverse() * estimate, dt_s);
+  const std::string reason = motion.empty() ? SuspectHistory(guarded.track) : motion;
   if (reason.empty()) {
     Remember(guarded.track);
     return guarded;
   }
   auto [retrack, T_retrack] = track_from(T_world_previous);
-  const Pose step = T_world_previous.inverse() * T_retrack;
-  const std::string again = retrack.success ? Suspect(retrack, step, step, dt_s) : retrack.message;
-  const bool view_changed =
-      retrack.success &&
-      SuspectMotion(predicted.inverse() * estimate, T_world_previous.inverse() * estimate, dt_s)
-          .empty() &&
-      SamePose(estimate, T_retrack);
-  if (view_changed) {
+  if (retrack.success && motion.empty() && SamePose(estimate, T_retrack)) {
     log.Warning(frame_name + ": suspected divergence (" + reason +
                 "); re-tracked from the last good pose to the same pose: accepted");
     guarded.recovered = true;
     Remember(guarded.track);
     return guarded;
   }
+  const Pose step = T_world_previous.inverse() * T_retrack;
+  const std::string again = retrack.success ? Suspect(retrack, step, step, dt_s) : retrack.message;
   if (again.empty()) {
     log.Warning(frame_name + ": suspected divergence (" + reason +
                 "); re-tracked from the last good pose: recovered");

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <future>
-#include <iomanip>
-#include <sstream>
 #include <vector>
 
 #include "core/errors.h"
@@ -285,13 +283,14 @@ class TrackingLoop {
   /// and weak directions (what the guard and the colour alignment go by).
   void NoteTrack(const RgbdFrame& frame, const TrackedStep& step) const {
     const TrackResult& t = step.track;
-    std::ostringstream text;
-    text << FrameName(step, frame) << ": " << (t.success ? "tracked" : "failed") << " in "
-         << t.iterations << " steps, matched share " << Fixed(t.matched_ratio, 3) << ", RMS "
-         << Fixed(t.rmse_m * 1e3, 2) << " mm, conditioning " << std::scientific
-         << std::setprecision(2) << t.conditioning << ", " << t.weak_directions
-         << " weak direction(s)" << (step.color_aligned ? ", aligned by colour" : "");
-    log_.Debug(text.str());
+    std::string text;
+    Appendf(&text,
+            "%s: %s in %d steps, matched share %.3f, RMS %.2f mm, conditioning %.2e, %d weak "
+            "direction(s)%s",
+            FrameName(step, frame).c_str(), t.success ? "tracked" : "failed", t.iterations,
+            t.matched_ratio, t.rmse_m * 1e3, t.conditioning, t.weak_directions,
+            step.color_aligned ? ", aligned by colour" : "");
+    log_.Debug(text);
   }
 
   /// Warns where a stretch of lone-plane views (TrackResult::lone_plane) starts and ends.
