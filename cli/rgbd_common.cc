@@ -139,6 +139,9 @@ std::string LoopClosureSummaryText(const LoopClosureResult& closed) {
     if (check.accepted) Appendf(&kept, "%s%.1f", kept.empty() ? "" : ", ", check.chi2);
   }
   if (!kept.empty()) kept = " (chi-square against the rest " + kept + ")";
+  if (closed.accepted_across > 0) {
+    Appendf(&kept, "; %d across an open lone-plane stretch", closed.accepted_across);
+  }
   std::string text;
   Appendf(&text,
           "loop closure: %zu keyframes, %d candidate(s), %d loop(s) accepted, %d rejected after "
@@ -153,10 +156,10 @@ std::string LoopClosureSummaryText(const LoopClosureResult& closed) {
 std::string LoopClosureMetadata(const LoopClosureResult& closed) {
   std::string line;
   Appendf(&line,
-          "loop closure: keyframes %zu, candidates %d, accepted %d, rejected after the solve %d, "
-          "applied %s",
-          closed.keyframes.size(), closed.candidates, closed.accepted, closed.rejected_after_solve,
-          closed.applied ? "yes" : "no");
+          "loop closure: keyframes %zu, candidates %d, accepted %d (across an open lone-plane "
+          "stretch %d), rejected after the solve %d, applied %s",
+          closed.keyframes.size(), closed.candidates, closed.accepted, closed.accepted_across,
+          closed.rejected_after_solve, closed.applied ? "yes" : "no");
   return line;
 }
 

@@ -369,6 +369,7 @@ void AddLoopClosure(const std::optional<LoopClosureResult>& closed, py::dict* ou
   d["keyframes"] = closed->keyframes.size();
   d["candidates"] = closed->candidates;
   d["accepted"] = closed->accepted;
+  d["accepted_across_stretch"] = closed->accepted_across;
   d["rejected_after_solve"] = closed->rejected_after_solve;
   d["applied"] = closed->applied;
   d["message"] = closed->message;

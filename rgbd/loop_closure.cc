@@ -9,6 +9,7 @@
 #include "core/errors.h"
 #include "core/stopwatch.h"
 #include "registration/pose_graph.h"
+#include "rgbd/relocalise.h"
 
 namespace rigfit {
 namespace {
@@ -61,30 +62,129 @@ std::vector<double> PathLengths(const Trajectory& trajectory) {
   return path;
 }
 
+/// Where revisit candidates are looked for: within distance_m and angle_deg of a keyframe's
+/// pose, among the nodes at most `last_pose` (a trajectory position).
+struct CandidateGate {
+  double distance_m = 0.0;
+  double angle_deg = 0.0;
+  int last_pose = std::numeric_limits<int>::max();
+};
+
+/// The options' own gate, or (across an open stretch that began after `from`) the gate widened
+/// by the relocalisation grid's reach to the nodes before the stretch.
+CandidateGate NearGate(const LoopClosureOptions& options) {
+  return {options.candidate_distance_m, options.candidate_angle_deg};
+}
+CandidateGate AcrossGate(const LoopClosureOptions& options, int from) {
+  return {options.candidate_distance_m + options.relocalise.max_slide_m,
+          options.candidate_angle_deg + options.relocalise.max_turn_deg, from};
+}
+
+/// A keyframe's revisit candidate: an earlier node (-1: none) and its score.
+struct Candidate {
+  int node = -1;
+  double score = std::numeric_limits<double>::infinity();
+  int across = -1;  ///< the open stretch it is across (-1: none)
+};
+
 /// For the keyframe at node j, the earlier node nearest to it in pose (distance and angle
-/// each over its threshold, summed) among those within both thresholds and at least
-/// min_path_m back; -1 when none.
-int FindCandidate(int j, const std::vector<int>& nodes, const Trajectory& trajectory,
-                  const std::vector<double>& path, const LoopClosureOptions& options) {
+/// each over the gate's, summed) among those within the gate and at least min_path_m back.
+Candidate FindCandidate(int j, const std::vector<int>& nodes, const Trajectory& trajectory,
+                        const std::vector<double>& path, const CandidateGate& gate,
+                        double min_path_m) {
   const Pose& T_j = trajectory.poses[nodes[j]];
-  int best = -1;
-  double best_score = std::numeric_limits<double>::infinity();
-  for (int i = 0; i < j; ++i) {
-    if (path[nodes[j]] - path[nodes[i]] < options.min_path_m) continue;
+  Candidate best;
+  for (int i = 0; i < j && nodes[i] <= gate.last_pose; ++i) {
+    if (path[nodes[j]] - path[nodes[i]] < min_path_m) continue;
     const Pose T_i_j = trajectory.poses[nodes[i]].inverse() * T_j;
     const double distance = T_i_j.translation().norm();
     const double angle_deg = LogSO3(T_i_j.linear()).norm() * kRadToDeg;
-    if (distance > options.candidate_distance_m || angle_deg > options.candidate_angle_deg) {
-      continue;
-    }
-    const double score =
-        distance / options.candidate_distance_m + angle_deg / options.candidate_angle_deg;
-    if (score < best_score) {
-      best_score = score;
-      best = i;
-    }
+    if (distance > gate.distance_m || angle_deg > gate.angle_deg) continue;
+    const double score = distance / gate.distance_m + angle_deg / gate.angle_deg;
+    if (score < best.score) best = {i, score};
   }
   return best;
+}
+
+/// The last open stretch that ended by trajectory position `pose`; -1 when none.
+int OpenStretchBefore(int pose, const std::vector<OpenStretch>& open) {
+  int last = -1;
+  for (std::size_t s = 0; s < open.size(); ++s) {
+    if (open[s].to <= pose) last = static_cast<int>(s);
+  }
+  return last;
+}
+
+/// Each keyframe's candidate (index 0: none): by the options' gate, or else across the last
+/// open stretch before it by the widened gate, of which the best max_searches_across per
+/// stretch are kept.
+std::vector<Candidate> FindCandidates(const std::vector<int>& nodes, const Trajectory& trajectory,
+                                      const std::vector<OpenStretch>& open,
+                                      const LoopClosureOptions& options) {
+  const std::vector<double> path = PathLengths(trajectory);
+  std::vector<Candidate> candidates(nodes.size());
+  std::vector<std::vector<int>> across(open.size());  // per stretch, its keyframes
+  for (std::size_t j = 1; j < nodes.size(); ++j) {
+    const int k = static_cast<int>(j);
+    candidates[j] =
+        FindCandidate(k, nodes, trajectory, path, NearGate(options), options.min_path_m);
+    const int s = OpenStretchBefore(nodes[j], open);
+    if (candidates[j].node >= 0 || s < 0) continue;
+    candidates[j] = FindCandidate(k, nodes, trajectory, path, AcrossGate(options, open[s].from),
+                                  options.min_path_m);
+    if (candidates[j].node < 0) continue;
+    candidates[j].across = s;
+    across[s].push_back(k);
+  }
+  for (std::vector<int>& keyframes : across) {
+    std::stable_sort(keyframes.begin(), keyframes.end(),
+                     [&](int a, int b) { return candidates[a].score < candidates[b].score; });
+    for (std::size_t r = std::max(0, options.max_searches_across); r < keyframes.size(); ++r) {
+      candidates[keyframes[r]] = Candidate{};
+    }
+  }
+  return candidates;
+}
+
+/// The sequential edges between keyframes (positions `nodes`) that span part of an open
+/// stretch lose their information in its plane's free directions (the turn about its normal,
+/// the slides along it: the run held them at a prediction, which no frame measured) down to
+/// the floor, so that a loop across the stretch moves the poses there.
+void FreeAcrossOpenStretches(const std::vector<int>& nodes, const Trajectory& trajectory,
+                             const std::vector<OpenStretch>& open, double floor_information,
+                             std::vector<PoseGraphEdge>* sequential) {
+  for (PoseGraphEdge& edge : *sequential) {
+    for (const OpenStretch& s : open) {
+      if (nodes[edge.b] <= s.from || nodes[edge.a] >= s.to) continue;
+      const Vec3 n = trajectory.poses[nodes[edge.a]].linear().transpose() * s.n_world;
+      Mat6 P = Mat6::Zero();  // onto the tilts and the height: [w; dt] in camera a's axes
+      P.topLeftCorner<3, 3>() = Mat3::Identity() - n * n.transpose();
+      P.bottomRightCorner<3, 3>() = n * n.transpose();
+      edge.information = P * edge.information * P + floor_information * Mat6::Identity();
+    }
+  }
+}
+
+/// A candidate across an open stretch: `later` searched for over the free directions of the
+/// stretch's plane (normal n_world) around its run pose with `earlier` as the one anchor, and
+/// the pose found checked as any candidate's (VerifyLoop).
+LoopCheck VerifyAcross(const FramePyramid& later, const FramePyramid& earlier,
+                       const Pose& T_world_later, const Pose& T_world_earlier, const Vec3& n_world,
+                       double median_rmse_m, const LoopClosureOptions& options) {
+  const std::vector<Anchor> anchor = {{earlier, T_world_earlier, 0}};
+  const Relocalisation found = Relocalise({&later, T_world_later, n_world, median_rmse_m}, anchor,
+                                          options.icp, options.relocalise, options.threads);
+  if (!found.success) {
+    LoopCheck check;
+    check.reason = "not found over the free directions of the open stretch's plane (" +
+                   std::to_string(found.candidates) + " poses scored; no track within " +
+                   std::to_string(options.relocalise.max_rmse_ratio) +
+                   " x the sequential edges' RMS distance " + std::to_string(median_rmse_m * 1e3) +
+                   " mm)";
+    return check;
+  }
+  return VerifyLoop(later, earlier, T_world_earlier.inverse() * found.T_world_camera, median_rmse_m,
+                    options);
 }
 
 double Median(std::vector<double> values) {
@@ -259,7 +359,8 @@ LoopCheck VerifyLoop(const FramePyramid& later, const FramePyramid& earlier, con
 
 LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int>& frames,
                              const Trajectory& trajectory, const std::vector<bool>& keyframes,
-                             const LoopClosureOptions& options, const Log& log) {
+                             const LoopClosureOptions& options, const Log& log,
+                             const std::vector<OpenStretch>& open) {
   const auto start = std::chrono::steady_clock::now();
   const std::size_t n = trajectory.poses.size();
   if (frames.size() != n || keyframes.size() != n) {
@@ -276,12 +377,10 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
     result.message = "too few keyframes";
     return result;
   }
-  // Sequential edges, and each keyframe's revisit candidate.
+  // Sequential edges, then each keyframe's revisit candidate.
   std::vector<PoseGraphEdge> sequential;
   std::vector<PoseGraphEdge> loops;
   std::vector<double> rmse;
-  const std::vector<double> path = PathLengths(trajectory);
-  std::vector<int> candidate(nodes.size(), -1);
   FramePyramid previous = LoadPyramid(sequence, frames[nodes[0]], options);
   for (std::size_t j = 1; j < nodes.size(); ++j) {
     FramePyramid current = LoadPyramid(sequence, frames[nodes[j]], options);
@@ -289,23 +388,31 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
     const MeasuredEdge m = MeasureEdge(current, previous, j - 1, j, T_a_b, options);
     sequential.push_back(m.edge);
     rmse.push_back(m.rmse_m);
-    candidate[j] = FindCandidate(static_cast<int>(j), nodes, trajectory, path, options);
-    result.candidates += candidate[j] >= 0 ? 1 : 0;
     previous = std::move(current);
   }
+  const std::vector<Candidate> candidate = FindCandidates(nodes, trajectory, open, options);
+  FreeAcrossOpenStretches(nodes, trajectory, open, options.floor_information, &sequential);
   const double median_rmse_m = Median(rmse);
   // Each candidate verified by ICP from the run's relative pose.
   for (std::size_t j = 1; j < nodes.size(); ++j) {
-    if (candidate[j] < 0) continue;
-    const int i = candidate[j];
+    if (candidate[j].node < 0) continue;
+    ++result.candidates;
+    const int i = candidate[j].node;
+    const int across = candidate[j].across;
     const FramePyramid later = LoadPyramid(sequence, frames[nodes[j]], options);
     const FramePyramid earlier = LoadPyramid(sequence, frames[nodes[i]], options);
-    const Pose T_init = trajectory.poses[nodes[i]].inverse() * trajectory.poses[nodes[j]];
-    LoopCheck check = VerifyLoop(later, earlier, T_init, median_rmse_m, options);
+    const Pose& T_world_i = trajectory.poses[nodes[i]];
+    const Pose& T_world_j = trajectory.poses[nodes[j]];
+    LoopCheck check = across < 0 ? VerifyLoop(later, earlier, T_world_i.inverse() * T_world_j,
+                                              median_rmse_m, options)
+                                 : VerifyAcross(later, earlier, T_world_j, T_world_i,
+                                                open[across].n_world, median_rmse_m, options);
     check.frame_a = nodes[i];
     check.frame_b = nodes[j];
+    check.across_stretch = across >= 0;
     if (check.accepted) {
       ++result.accepted;
+      result.accepted_across += across >= 0 ? 1 : 0;
       PoseGraphEdge loop =
           MeasureEdge(later, earlier, i, static_cast<int>(j), check.track.T_target_source, options)
               .edge;
@@ -333,6 +440,7 @@ LoopClosureOptions LoopClosureOptionsOfLoop(const TrackingLoopOptions& options) 
   LoopClosureOptions o;
   o.frame = options.frame;
   o.icp = options.icp;
+  o.relocalise = options.relocalise;
   o.threads = options.threads;
   return o;
 }
@@ -361,7 +469,7 @@ LoopClosureResult CloseOdometryLoops(const RgbdSequence& sequence, const Odometr
     keyframes.push_back(f.keyframe);
   }
   LoopClosureResult closed = CloseLoops(sequence, frames, result->trajectory, keyframes,
-                                        LoopClosureOptionsOf(options), log);
+                                        LoopClosureOptionsOf(options), log, result->open_stretches);
   result->trajectory = closed.trajectory;
   return closed;
 }
@@ -375,8 +483,9 @@ LoopClosureResult CloseSlamLoops(const RgbdSequence& sequence, const SlamOptions
     usable.push_back(f.track.success && !f.diverged);
   }
   const LoopClosureOptions o = LoopClosureOptionsOf(options, *result);
-  LoopClosureResult closed = CloseLoops(sequence, frames, result->trajectory,
-                                        SelectKeyframes(result->trajectory, usable, o), o, log);
+  LoopClosureResult closed =
+      CloseLoops(sequence, frames, result->trajectory,
+                 SelectKeyframes(result->trajectory, usable, o), o, log, result->open_stretches);
   if (closed.applied) {
     result->trajectory = closed.trajectory;
     std::unordered_map<int, Pose> correction_of_frame;

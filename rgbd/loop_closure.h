@@ -47,6 +47,15 @@ struct LoopClosureOptions {
   double candidate_distance_m = 0.3;
   double candidate_angle_deg = 20.0;
   double min_path_m = 1.0;
+  /// Across a lone-plane stretch the run could not relocalise (OpenStretch), a keyframe
+  /// without a candidate looks further, as far as the relocalisation's grid reaches (its
+  /// max_slide_m and max_turn_deg added to the thresholds above), for an earlier keyframe
+  /// before the stretch; the pair is searched for over the plane's free directions
+  /// (rgbd/relocalise.h, the earlier keyframe the anchor) and then checked as any candidate.
+  /// The nearest max_searches_across such pairs per stretch are searched (about 0.1 s each at
+  /// 320x240). The run's relocalisation settings.
+  RelocaliseOptions relocalise;
+  int max_searches_across = 30;
   /// A candidate is accepted when its ICP succeeds with no weak direction, matches at least
   /// this share of the later keyframe's pixels, and its RMS distance is at most
   /// max_rmse_ratio times the median of the sequential edges'.
@@ -75,6 +84,8 @@ struct LoopCheck {
   int frame_b = 0;
   TrackResult track;  ///< T_target_source = T_a_b
   bool accepted = false;
+  /// Searched for across an open lone-plane stretch (LoopClosureOptions::relocalise).
+  bool across_stretch = false;
   std::string reason;  ///< why rejected
   /// Accepted by the ICP: the graph's cost drop when it is left out (ConsistentLoopGraph).
   double chi2 = 0.0;
@@ -87,6 +98,7 @@ struct LoopClosureResult {
   std::vector<LoopCheck> checks;
   int candidates = 0;
   int accepted = 0;              ///< verified by the ICP check
+  int accepted_across = 0;       ///< of those, across an open lone-plane stretch
   int rejected_after_solve = 0;  ///< of those, dropped by ConsistentLoopGraph
   bool applied = false;          ///< the graph was solved and the trajectory corrected
   std::string message;
@@ -140,7 +152,8 @@ LoopCheck VerifyLoop(const FramePyramid& later, const FramePyramid& earlier, con
 /// on geometry; InputError on inconsistent sizes.
 LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int>& frames,
                              const Trajectory& trajectory, const std::vector<bool>& keyframes,
-                             const LoopClosureOptions& options, const Log& log = {});
+                             const LoopClosureOptions& options, const Log& log = {},
+                             const std::vector<OpenStretch>& open = {});
 
 /// The loop-closure settings of a run of RunOdometry / RunSlam (their frame and ICP options;
 /// SLAM's frames halved as the run halved them, SlamResult::halvings).

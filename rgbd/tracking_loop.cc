@@ -195,6 +195,7 @@ class TrackingLoop {
       }
       ++stretch_frames_;
       stretch_held_ += step->color_aligned ? 0 : 1;
+      stretch_to_ = static_cast<int>(run_.trajectory.poses.size());
       attempts_left_ = options_.relocalise.attempts;
       return;
     }
@@ -206,10 +207,11 @@ class TrackingLoop {
     if (!found.success) {
       step->unverified = attempts_left_ > 0;
       if (attempts_left_ == 0) {
+        run_.open_stretches.push_back({stretch_from_, stretch_to_, plane_world_});
         log_.Warning(FrameName(*step, frame) + ": not relocalised after the lone-plane stretch (" +
                      std::to_string(options_.relocalise.attempts) +
                      " frames tried): the poses since it keep what colour or the prediction "
-                     "gave them along the plane");
+                     "gave them along the plane (loop closure searches across it)");
       }
       return;
     }
@@ -335,6 +337,7 @@ class TrackingLoop {
   std::vector<int> anchor_positions_;  // their positions in the trajectory
   Vec3 plane_world_ = Vec3::UnitY();
   int stretch_from_ = -1;
+  int stretch_to_ = -1;  // the trajectory position of its last lone-plane frame
   int attempts_left_ = 0;
   int stretch_frames_ = 0;  // the last stretch's lone-plane frames
   int stretch_held_ = 0;    // those of them not aligned by colour

@@ -8,6 +8,7 @@
 #include <functional>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "core/log.h"
 #include "core/pose.h"
@@ -52,6 +53,16 @@ struct TrackingLoopOptions {
   int threads = 2;
 };
 
+/// A lone-plane stretch the run could not relocalise (rgbd/relocalise.h): the poses after
+/// `from` (the last before the stretch) keep what colour or the prediction gave them along the
+/// plane of normal n_world from `to` (its last lone-plane frame) on. Loop closure searches
+/// across it (rgbd/loop_closure.h).
+struct OpenStretch {
+  int from = 0;  ///< positions in the run's trajectory
+  int to = 0;
+  Vec3 n_world = Vec3::UnitY();
+};
+
 /// What a run's frames went through (OdometryResult and SlamResult extend it).
 struct TrackingRun {
   Trajectory trajectory;  ///< T_world_camera of every tracked frame
@@ -62,7 +73,8 @@ struct TrackingRun {
   int weak_frames = 0;    ///< frames tracked with weak directions (held, or aligned by colour)
   int relocalised = 0;    ///< frames relocalised after a lone-plane stretch (rgbd/relocalise.h)
   int color_aligned = 0;  ///< weak-direction frames whose weak directions colour measured
-  double load_s = 0.0;    ///< waiting for frames: the loading not overlapped with tracking
+  std::vector<OpenStretch> open_stretches;
+  double load_s = 0.0;  ///< waiting for frames: the loading not overlapped with tracking
   double preprocess_s = 0.0;
   double track_s = 0.0;  ///< tracking (SLAM: rendering the model apart, SlamResult::render_s)
 };

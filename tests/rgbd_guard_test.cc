@@ -228,6 +228,12 @@ TEST(RgbdGuard, SlamFusesNoFrameAfterAFloorStretchWhileItTriesToRelocaliseIt) {
     if (slam.frames[k].track.lone_plane) last_lone = static_cast<int>(k);
   }
   ASSERT_GT(last_lone, 0);
+  // Recorded as open for loop closure: from the pose before the stretch to its last frame.
+  ASSERT_EQ(slam.open_stretches.size(), 1u);
+  EXPECT_EQ(slam.open_stretches[0].to, last_lone);
+  EXPECT_TRUE(slam.frames[slam.open_stretches[0].from + 1].track.lone_plane);
+  EXPECT_FALSE(slam.frames[slam.open_stretches[0].from].track.lone_plane);
+  EXPECT_GT(slam.open_stretches[0].n_world.y(), 0.99);
   const int attempts = RelocaliseOptions{}.attempts;
   ASSERT_LT(last_lone + attempts + 1, static_cast<int>(slam.frames.size()));
   for (int k = last_lone + 1; k <= last_lone + attempts + 1; ++k) {
