@@ -205,7 +205,7 @@ void AddFrameStartFlags(CLI::App* sub, TrackingArgs* args) {
       ->capture_default_str();
 }
 
-void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop) {
+void AddDepthAndPairFlags(CLI::App* sub, TrackingLoopOptions* loop) {
   sub->add_option("--min-depth", loop->frame.min_depth_m, "Depth used from, metres")
       ->capture_default_str();
   sub->add_option("--max-depth", loop->frame.max_depth_m, "Depth used up to, metres")
@@ -215,6 +215,20 @@ void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop) {
       ->capture_default_str();
   sub->add_option("--max-angle", loop->icp.association.max_normal_angle_deg,
                   "Tracking: largest normal angle, degrees")
+      ->capture_default_str();
+  sub->add_flag("--bilateral,!--no-bilateral", loop->frame.bilateral,
+                "Level-0 normals from the bilateral-filtered depth; the points stay the measured "
+                "ones (default)");
+  sub->add_flag("--depth-weights,!--no-depth-weights", loop->icp.weighting.depth_noise,
+                "Weigh pairs by the inverse variance of depth noise growing as z^2 (default)");
+  sub->add_option("--noise-floor-depth", loop->icp.weighting.noise_floor_depth_m,
+                  "Depth weights: a depth nearer than this (metres) weighs as this one (the "
+                  "association's and the normals' error, growing as z, dominate there); 0 = no "
+                  "floor")
+      ->capture_default_str();
+  sub->add_option("--huber", loop->icp.weighting.huber_delta_m,
+                  "Huber threshold on the whitened point-to-plane distance (metres at 1 m depth; "
+                  "with depth weights it grows as z^2); 0 = off")
       ->capture_default_str();
 }
 

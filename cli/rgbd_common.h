@@ -45,9 +45,10 @@ void AddFrameSelectionFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptio
 /// How each frame starts: --iterations and --prior.
 void AddFrameStartFlags(CLI::App* sub, TrackingArgs* args);
 
-/// The depth used and the tracking's association: --min-depth, --max-depth, --max-distance,
-/// --max-angle.
-void AddDepthAndAssociationFlags(CLI::App* sub, TrackingLoopOptions* loop);
+/// The depth used, the tracking's association and its pairs' weights: --min-depth,
+/// --max-depth, --max-distance, --max-angle, --bilateral, --depth-weights,
+/// --noise-floor-depth, --huber.
+void AddDepthAndPairFlags(CLI::App* sub, TrackingLoopOptions* loop);
 
 /// The run's end: the guard's flags, --loop-closure, --threads, --evaluate, --quiet and
 /// --verbose.

@@ -183,7 +183,7 @@ Command AddSlamCommand(CLI::App& app) {
                   "pixels wide (640x480 runs at 320x240)")
       ->capture_default_str();
   AddFrameStartFlags(sub, &a);
-  AddDepthAndAssociationFlags(sub, &a.slam);
+  AddDepthAndPairFlags(sub, &a.slam);
   sub->add_option("--fuse-distance", a.slam.fusion.max_distance_m,
                   "Fusion: merge a pixel into a map point only within this distance (metres)")
       ->capture_default_str();

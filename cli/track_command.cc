@@ -92,21 +92,7 @@ Command AddTrackCommand(CLI::App& app) {
   sub->add_flag("--keyframes,!--no-keyframes", a.odometry.keyframes,
                 "Track against a keyframe, renewed after 10 cm, 5 deg or half the pixels lost "
                 "(default), or against the previous frame");
-  AddDepthAndAssociationFlags(sub, &a.odometry);
-  sub->add_flag("--bilateral,!--no-bilateral", a.odometry.frame.bilateral,
-                "Level-0 normals from the bilateral-filtered depth; the points stay the measured "
-                "ones (default)");
-  sub->add_flag("--depth-weights,!--no-depth-weights", a.odometry.icp.weighting.depth_noise,
-                "Weigh pairs by the inverse variance of depth noise growing as z^2 (default)");
-  sub->add_option("--noise-floor-depth", a.odometry.icp.weighting.noise_floor_depth_m,
-                  "Depth weights: a depth nearer than this (metres) weighs as this one (the "
-                  "association's and the normals' error, growing as z, dominate there); 0 = no "
-                  "floor")
-      ->capture_default_str();
-  sub->add_option("--huber", a.odometry.icp.weighting.huber_delta_m,
-                  "Huber threshold on the whitened point-to-plane distance (metres at 1 m depth; "
-                  "with depth weights it grows as z^2); 0 = off")
-      ->capture_default_str();
+  AddDepthAndPairFlags(sub, &a.odometry);
   sub->add_option("--min-step", a.min_step_m,
                   "A pyramid level ends when a step moves the camera less than this (metres) and "
                   "turns it less than this many radians")

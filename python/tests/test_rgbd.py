@@ -301,7 +301,8 @@ def test_slam_list_of_frames_equals_sequence(kitchen, slammed, caplog):
 def test_slam_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True,
-                             "color_align": True, "loop_closure": True})
+                             "color_align": True, "loop_closure": True, "bilateral": True,
+                             "depth_weights": True})
 
 
 @need_cli
@@ -315,6 +316,8 @@ def test_slam_defaults_and_names_are_the_clis():
     ({"halve": -1}, ["--halve", "-1"]),
     ({"prior": "still"}, ["--prior", "still"]),
     ({"max_angle": 0.0}, ["--max-angle", "0"]),
+    ({"huber": -1.0}, ["--huber", "-1"]),
+    ({"noise_floor_depth": -0.5}, ["--noise-floor-depth", "-0.5"]),
     ({"threads": 0}, ["--threads", "0"]),
     ({"first": 400}, ["--first", "400"]),
     ({"stride": 0}, ["--stride", "0"]),
