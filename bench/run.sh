@@ -55,7 +55,8 @@
 #             autodiff), median of 5 repetitions. Not niced.
 #   rgbd      dense RGB-D tracking: rigfit track --evaluate on the 400 7-Scenes frames (default,
 #             without keyframes, and the variants of docs/benchmarks.md), on the TUM fr1/xyz
-#             subset, on rigfit simulate-sequence sequences (noise-free and Kinect noise), and
+#             subset, on rigfit simulate-sequence sequences (noise-free, Kinect noise and stereo
+#             block matching; the stereo one also with --max-depth 2.5 and by rigfit slam), and
 #             bench/rgbd_bench (pyramid, normal equations, both solve paths, tracking at 640x480
 #             and 320x240), median of 5 repetitions; rigfit slam --evaluate on the 7-Scenes
 #             frames and the TUM fr1/xyz subset with the default halving (to 320x240) and at
@@ -898,6 +899,8 @@ run_rgbd() {
     --force >"$out/raw/simulate-clean.txt" 2>&1
   "$rigfit" simulate-sequence --out "$sim/kinect" --frames "$frames" --no-color \
     --force >"$out/raw/simulate-kinect.txt" 2>&1
+  "$rigfit" simulate-sequence --out "$sim/stereo" --frames "$frames" --noise stereo \
+    --force >"$out/raw/simulate-stereo.txt" 2>&1
   {
     echo "#### \`rigfit track SEQUENCE --evaluate [flags]\`"
     echo
@@ -921,6 +924,8 @@ run_rgbd() {
     [ $quick = 1 ] || track_row "simulated, noise-free" "$sim/clean" --no-keyframes
     track_row "simulated, Kinect noise" "$sim/kinect"
     [ $quick = 1 ] || track_row "simulated, Kinect noise" "$sim/kinect" --no-keyframes
+    track_row "simulated, stereo depth" "$sim/stereo"
+    [ $quick = 1 ] || track_row "simulated, stereo depth" "$sim/stereo" --max-depth 2.5
     echo
     echo "#### \`rigfit slam SEQUENCE --evaluate [flags]\`"
     echo
@@ -930,6 +935,7 @@ run_rgbd() {
     [ $quick = 1 ] || slam_row "7-Scenes kitchen" "$kitchen" --halve 0
     [ $quick = 1 ] || slam_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset"
     [ $quick = 1 ] || slam_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset" --halve 0
+    [ $quick = 1 ] || slam_row "simulated, stereo depth" "$sim/stereo"
     echo
     echo "bench/rgbd_bench: 7-Scenes frames 300 -> 301 (320x240: their level 1); tracking from"
     echo "the identity, pyramids built beforehand."

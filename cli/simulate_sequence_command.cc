@@ -26,6 +26,8 @@ namespace fs = std::filesystem;
 
 constexpr int kMaxFrames = 1000000;
 constexpr double kMaxSpeedMps = 5.0;
+constexpr double kMaxStereoBaselineM = 1.0;
+constexpr int kMaxStereoUpsample = 4;  // the pair is rendered at up to 4x the resolution
 /// TUM RGB-D depth PNGs: metres x 5000 in 16 bits, 0 invalid.
 constexpr double kTumDepthScale = 5000.0;
 constexpr int kProgressEvery = 30;  // frames
@@ -63,6 +65,13 @@ void CheckArgs(const SimulateSequenceArgs& a) {
   if (!(l.turn_s > 0.0 && std::isfinite(l.turn_s))) {
     fail("--lone-plane-turn must be a finite number > 0");
   }
+  const StereoOptions& st = o.stereo;
+  if (!(st.baseline_m > 0.0 && st.baseline_m <= kMaxStereoBaselineM)) {
+    fail("--stereo-baseline-m must be in (0, " + std::to_string(kMaxStereoBaselineM) + "] metres");
+  }
+  if (st.upsample < 1 || st.upsample > kMaxStereoUpsample) {
+    fail("--stereo-upsample must be in [1, " + std::to_string(kMaxStereoUpsample) + "]");
+  }
 }
 
 /// "%.6f": the TUM layout's timestamps and file names.
@@ -83,7 +92,9 @@ std::vector<std::uint16_t> TumDepth(const std::vector<float>& depth_m) {
 }
 
 int RunSimulateSequence(SimulateSequenceArgs a) {
-  a.sequence.noise = a.noise == "none" ? SequenceNoise::kNone : SequenceNoise::kKinect;
+  a.sequence.noise = a.noise == "none"     ? SequenceNoise::kNone
+                     : a.noise == "stereo" ? SequenceNoise::kStereo
+                                           : SequenceNoise::kKinect;
   a.sequence.color = !a.no_color;
   a.sequence.texture = !a.flat_color;
   a.sequence.lone_plane.plane = a.lone_plane == "floor"  ? LonePlane::kFloor
@@ -159,7 +170,8 @@ Command AddSimulateSequenceCommand(CLI::App& app) {
       "DIR/depth/*.png (16-bit, metres x 5000, 0 invalid), DIR/rgb/*.png, DIR/depth.txt, "
       "DIR/rgb.txt and DIR/groundtruth.txt (exact poses, TUM format). Depth is ray cast, with "
       "the ICL-NUIM Kinect noise (pixel shift, disparity noise, 1/8 px disparity "
-      "quantisation) unless --noise none. Deterministic for a given seed.");
+      "quantisation), by stereo block matching with --noise stereo, exact with --noise none. "
+      "Deterministic for a given seed.");
   sub->add_option("--out", args->out_dir, "Output directory (created if missing; must be empty)")
       ->required();
   sub->add_option("--frames", o.frames, "Number of frames")->capture_default_str();
@@ -169,8 +181,17 @@ Command AddSimulateSequenceCommand(CLI::App& app) {
   sub->add_option("--width", o.width, "Image width, pixels")->capture_default_str();
   sub->add_option("--height", o.height, "Image height, pixels")->capture_default_str();
   sub->add_option("--noise", args->noise,
-                  "Depth noise: kinect (ICL-NUIM's model, docs/usage.md) or none (exact depth)")
-      ->check(CLI::IsMember({"none", "kinect"}))
+                  "Depth noise: kinect (ICL-NUIM's model, docs/usage.md), stereo (block "
+                  "matching of a rendered, textured left/right pair, OpenCV StereoSGBM, as "
+                  "`rigfit simulate --depth-model stereo`) or none (exact depth)")
+      ->check(CLI::IsMember({"none", "kinect", "stereo"}))
+      ->capture_default_str();
+  sub->add_option("--stereo-baseline-m", o.stereo.baseline_m,
+                  "--noise stereo: the baseline, metres (disparity = fx x baseline / z)")
+      ->capture_default_str();
+  sub->add_option("--stereo-upsample", o.stereo.upsample,
+                  "--noise stereo: render and match the pair at this many times the resolution, "
+                  "the disparity averaged down (as ZED HD modes do)")
       ->capture_default_str();
   sub->add_flag("--no-color", args->no_color, "Depth only: no rgb/ and rgb.txt");
   sub->add_flag("--flat-color", args->flat_color,

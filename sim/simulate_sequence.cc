@@ -9,6 +9,7 @@
 #include "core/parallel.h"
 #include "core/pose.h"
 #include "sim/simulate_rig.h"
+#include "sim/stereo_depth.h"
 
 namespace rigfit {
 namespace {
@@ -57,6 +58,16 @@ void CheckOptions(const SimSequenceOptions& o) {
   if (!std::isfinite(k.disparity_offset)) fail("disparity_offset must be finite");
   if (o.closed_loop && o.frames < 2) fail("a closed loop needs at least 2 frames");
   const LonePlaneStretch& l = o.lone_plane;
+  const StereoOptions& st = o.stereo;
+  if (o.noise == SequenceNoise::kStereo &&
+      !(st.baseline_m > 0.0 && std::isfinite(st.baseline_m) && st.upsample >= 1 &&
+        finite_non_negative(st.image_noise) && st.min_depth_m > 0.0 &&
+        st.max_depth_m > st.min_depth_m && std::isfinite(st.disparity_offset_px) &&
+        st.depth_scale > 0.0)) {
+    fail(
+        "stereo noise needs baseline_m > 0, upsample >= 1, image_noise >= 0 and 0 < "
+        "min_depth_m < max_depth_m");
+  }
   if (l.plane != LonePlane::kNone &&
       !(finite_non_negative(l.start_s) && l.seconds > 0.0 && std::isfinite(l.seconds) &&
         l.turn_s > 0.0 && std::isfinite(l.turn_s))) {
@@ -266,6 +277,10 @@ SimulatedSequence::SimulatedSequence(const SimSequenceOptions& options) : option
   CheckOptions(options);
   scene_ = SimulateRoom(options.seed, options.bare);
   if (options.color && options.texture) textures_ = SimulateTextures(scene_, options.seed);
+  if (options.noise == SequenceNoise::kStereo) {
+    stereo_textures_ = textures_.empty() ? SimulateTextures(scene_, options.seed) : textures_;
+    options_.stereo.max_depth_m = std::min(options_.stereo.max_depth_m, options.max_depth_m);
+  }
   trajectory_ = HandheldTrajectory(scene_, options.speed_mps, options.seed);
   if (options.closed_loop) {
     options_.speed_mps = trajectory_.LoopLength() / Timestamp(options.frames - 1);
@@ -289,6 +304,7 @@ SimulatedSequence::SimulatedSequence(const SimSequenceOptions& options) : option
   for (const int b : kept) {
     lone_plane_scene_.boxes.push_back(scene_.boxes[b]);
     if (!textures_.empty()) lone_plane_textures_.push_back(textures_[b]);
+    if (!stereo_textures_.empty()) lone_plane_stereo_textures_.push_back(stereo_textures_[b]);
   }
 }
 
@@ -328,14 +344,18 @@ RgbdFrame SimulatedSequence::Frame(int index) const {
   const Pose T_world_camera = CameraPose(frame.timestamp);
   frame.T_world_camera_gt = T_world_camera;
   const bool stretch = InLonePlaneStretch(frame.timestamp);
-  frame.depth_m = RenderDepth(stretch ? lone_plane_scene_ : scene_,
-                              {T_world_camera, intrinsics_, options_.width, options_.height},
-                              options_.max_depth_m, options_.color ? &frame.color : nullptr,
-                              stretch ? lone_plane_textures_ : textures_);
+  const Scene& scene = stretch ? lone_plane_scene_ : scene_;
+  const SceneCamera camera{T_world_camera, intrinsics_, options_.width, options_.height};
+  frame.depth_m =
+      RenderDepth(scene, camera, options_.max_depth_m, options_.color ? &frame.color : nullptr,
+                  stretch ? lone_plane_textures_ : textures_);
+  SimRng rng(options_.seed, kFrameStream + static_cast<std::uint64_t>(index));
   if (options_.noise == SequenceNoise::kKinect) {
-    SimRng rng(options_.seed, kFrameStream + static_cast<std::uint64_t>(index));
     frame.depth_m =
         KinectNoise(frame, options_.kinect, options_.width / 640.0, options_.max_depth_m, rng);
+  } else if (options_.noise == SequenceNoise::kStereo) {
+    frame.depth_m = StereoDepth(scene, stretch ? lone_plane_stereo_textures_ : stereo_textures_,
+                                camera, options_.stereo, rng);
   }
   return frame;
 }
@@ -353,7 +373,10 @@ std::string SimulatedSequence::Describe() const {
   return "simulated sequence: " + std::to_string(options_.frames) + " frames of " +
          std::to_string(options_.width) + "x" + std::to_string(options_.height) + " at " +
          std::to_string(options_.rate_hz) + " Hz, seed " + std::to_string(options_.seed) +
-         (options_.noise == SequenceNoise::kKinect ? ", Kinect noise" : ", no noise") +
+         (options_.noise == SequenceNoise::kKinect ? ", Kinect noise"
+          : options_.noise == SequenceNoise::kStereo
+              ? ", stereo depth (baseline " + std::to_string(options_.stereo.baseline_m) + " m)"
+              : ", no noise") +
          (options_.closed_loop ? ", one closed loop" : "") +
          (options_.lone_plane.plane == LonePlane::kNone
               ? ""

@@ -12,6 +12,7 @@
 #include "core/types.h"
 #include "sim/random.h"
 #include "sim/scene.h"
+#include "sim/stereo_depth.h"
 #include "sim/texture.h"
 
 namespace rigfit {
@@ -96,8 +97,10 @@ class HandheldTrajectory {
   int direction_ = 1;  ///< +1 or -1: which way round
 };
 
-/// Depth noise of a simulated sequence.
-enum class SequenceNoise { kNone, kKinect };
+/// Depth noise of a simulated sequence: none (the ray-cast depth), ICL-NUIM's Kinect model, or
+/// stereo block matching of a rendered, textured pair (sim/stereo_depth.h: holes on weakly
+/// textured surfaces and at occlusions, fattened edges, sub-pixel locking, per-surface bias).
+enum class SequenceNoise { kNone, kKinect, kStereo };
 
 /// The one surface a lone-plane stretch shows.
 enum class LonePlane { kNone, kFloor, kWall };
@@ -116,6 +119,14 @@ struct LonePlaneStretch {
   double turn_s = 0.7;
 };
 
+/// The stereo matching of a hand-held sequence: StereoOptions with the search range from
+/// 0.5 m (the rig simulator's starts at 0.8 m, its cameras look down from 1.8-2.5 m).
+inline StereoOptions SequenceStereoOptions() {
+  StereoOptions o;
+  o.min_depth_m = 0.5;
+  return o;
+}
+
 /// What to simulate. Defaults are those of `rigfit simulate-sequence`.
 struct SimSequenceOptions {
   int frames = 300;
@@ -126,6 +137,9 @@ struct SimSequenceOptions {
   int height = 480;
   SequenceNoise noise = SequenceNoise::kKinect;
   KinectNoiseOptions kinect;
+  /// kStereo: the pair and its matching (the baseline along the camera's x; the search range
+  /// from 0.5 m, as a hand-held ZED or RealSense sees a table: SequenceStereoOptions).
+  StereoOptions stereo = SequenceStereoOptions();
   bool color = true;  ///< render the registered colour image
   /// The colour textured (sim/texture.h: fractal noise on every box, weak on some walls and
   /// furniture, as real rooms); off: each box's flat shaded albedo.
@@ -185,9 +199,11 @@ class SimulatedSequence : public RgbdSequence {
   HandheldTrajectory trajectory_;
   PinholeIntrinsics intrinsics_;
   std::vector<SurfaceTexture> textures_;             ///< one per box of scene_ (none: flat colour)
+  std::vector<SurfaceTexture> stereo_textures_;      ///< what stereo matches (kStereo only)
   Scene lone_plane_scene_;                           ///< the stretch's one surface
   std::vector<SurfaceTexture> lone_plane_textures_;  ///< its box's texture
-  double lone_plane_yaw_ = 0.0;                      ///< looking at the wall: the yaw facing it
+  std::vector<SurfaceTexture> lone_plane_stereo_textures_;
+  double lone_plane_yaw_ = 0.0;  ///< looking at the wall: the yaw facing it
 };
 
 }  // namespace rigfit

@@ -123,11 +123,44 @@ TEST_F(CliSimulateSequence, WritesTheTumLayoutAndItReadsBack) {
   EXPECT_EQ(DataLines(seq / "depth.txt").size(), 1u);
 }
 
+// --noise stereo: the depth the sequence's block matching gives, written and said so.
+TEST_F(CliSimulateSequence, WritesStereoDepth) {
+  const fs::path seq = dir_ / "stereo";
+  const cli_test::RunResult r = cli_test::RunRigfit(
+      {"simulate-sequence", "--out", seq.string(), "--frames", "2", "--width", "160", "--height",
+       "120", "--noise", "stereo", "--seed", "3", "--no-color"},
+      dir_);
+  ASSERT_EQ(r.exit_code, 0) << cli_test::Describe(r);
+  EXPECT_NE(r.out.find("noise stereo"), std::string::npos) << r.out;
+  SimSequenceOptions o;
+  o.frames = 2;
+  o.width = 160;
+  o.height = 120;
+  o.seed = 3;
+  o.color = false;
+  o.noise = SequenceNoise::kStereo;
+  const RgbdFrame frame = SimulatedSequence(o).Frame(1);
+  const std::vector<std::string> line = DataLines(seq / "depth.txt")[1];
+  const std::vector<std::uint16_t> depth = ReadPngGrey16((seq / line[1]).string()).values;
+  ASSERT_EQ(depth.size(), frame.depth_m.size());
+  int valid = 0;
+  for (std::size_t p = 0; p < depth.size(); ++p) {
+    const float z = frame.depth_m[p];
+    EXPECT_EQ(depth[p], std::isfinite(z) ? std::lround(z * kTumDepthScale) : 0L) << p;
+    valid += depth[p] > 0 ? 1 : 0;
+  }
+  EXPECT_GT(valid, static_cast<int>(depth.size()) / 2);
+}
+
 TEST_F(CliSimulateSequence, RefusesBadFlagsNamingThem) {
   const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
-      {{"--frames", "0"}, "--frames"},      {{"--width", "8"}, "--width"},
-      {{"--rate", "0"}, "--rate"},          {{"--speed", "-1"}, "--speed"},
+      {{"--frames", "0"}, "--frames"},
+      {{"--width", "8"}, "--width"},
+      {{"--rate", "0"}, "--rate"},
+      {{"--speed", "-1"}, "--speed"},
       {{"--noise", "gaussian"}, "--noise"},
+      {{"--noise", "stereo", "--stereo-baseline-m", "0"}, "--stereo-baseline-m"},
+      {{"--noise", "stereo", "--stereo-upsample", "0"}, "--stereo-upsample"},
   };
   for (const auto& [flags, name] : cases) {
     std::vector<std::string> args = {"simulate-sequence", "--out", (dir_ / "bad").string()};

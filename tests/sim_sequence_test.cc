@@ -1,9 +1,11 @@
 // The RGB-D sequence simulator (sim/simulate_sequence.h): a smooth, deterministic hand-held
-// path; exact ray-cast depth without noise; the statistics of the ICL-NUIM Kinect noise.
+// path; exact ray-cast depth without noise; the statistics of the ICL-NUIM Kinect noise;
+// stereo depth by block matching.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <vector>
@@ -339,6 +341,50 @@ TEST(SimSequence, ALonePlaneStretchSeesOnlyThatPlane) {
   }
 }
 
+// Stereo depth (block matching of a rendered, textured pair): against the ray cast of the
+// same frame, most pixels matched, their inverse depth within a fraction of a pixel's
+// disparity; holes where nothing matches; deterministic for a seed; the same with and
+// without colour (the pair is textured either way).
+TEST(SimSequence, StereoDepthIsBlockMatchingOfTheRayCast) {
+  SimSequenceOptions o = SmallSequence(SequenceNoise::kStereo);
+  o.width = 320;
+  o.height = 240;
+  o.frames = 2;
+  const SimulatedSequence stereo(o);
+  SimSequenceOptions exact_options = o;
+  exact_options.noise = SequenceNoise::kNone;
+  const RgbdFrame frame = stereo.Frame(1);
+  const RgbdFrame exact = SimulatedSequence(exact_options).Frame(1);
+  const double fb = frame.intrinsics.fx * o.stereo.baseline_m;  // disparity = fb / z
+  int both = 0, within_half_px = 0, holes = 0, exact_valid = 0;
+  for (std::size_t i = 0; i < frame.depth_m.size(); ++i) {
+    const double z = frame.depth_m[i], z0 = exact.depth_m[i];
+    if (!std::isfinite(z0)) continue;
+    ++exact_valid;
+    if (!std::isfinite(z)) {
+      ++holes;
+      continue;
+    }
+    ++both;
+    within_half_px += std::abs(fb / z - fb / z0) < 0.5 ? 1 : 0;
+  }
+  // Measured (seed 7, frame 1, 320x240 matched at its own resolution): 96.8 % matched, 81.9 %
+  // of them within half a pixel of disparity (median 0.22 px, 95 % within 1.3 px; the rest
+  // mismatches and fattened edges).
+  EXPECT_GT(both, 0.9 * exact_valid);
+  EXPECT_GT(holes, 0);
+  EXPECT_GT(within_half_px, 0.7 * both);
+  // Bit for bit (holes are NaN, which == would call unequal).
+  const auto same = [](const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+  };
+  EXPECT_TRUE(same(stereo.Frame(1).depth_m, frame.depth_m));
+  SimSequenceOptions depth_only = o;
+  depth_only.color = false;
+  EXPECT_TRUE(same(SimulatedSequence(depth_only).Frame(1).depth_m, frame.depth_m));
+  EXPECT_NE(stereo.Describe().find("stereo depth"), std::string::npos);
+}
+
 TEST(SimSequence, RejectsBadOptions) {
   SimSequenceOptions o = SmallSequence(SequenceNoise::kNone);
   o.frames = 0;
@@ -348,6 +394,9 @@ TEST(SimSequence, RejectsBadOptions) {
   EXPECT_THROW(SimulatedSequence{o}, std::invalid_argument);
   o = SmallSequence(SequenceNoise::kNone);
   o.kinect.disparity_sigma = -1.0;
+  EXPECT_THROW(SimulatedSequence{o}, std::invalid_argument);
+  o = SmallSequence(SequenceNoise::kStereo);
+  o.stereo.baseline_m = 0.0;
   EXPECT_THROW(SimulatedSequence{o}, std::invalid_argument);
   const SimulatedSequence sequence(SmallSequence(SequenceNoise::kNone));
   EXPECT_THROW(sequence.Frame(4), std::out_of_range);
