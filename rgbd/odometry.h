@@ -19,13 +19,6 @@ namespace rigfit {
 
 /// The keyframe odometry's settings: the shared loop's (rgbd/tracking_loop.h) and the keyframes'.
 struct OdometryOptions : TrackingLoopOptions {
-  /// The association keeps pairs whose normals differ by up to 60 degrees (SLAM: 30). A
-  /// frame's normals come from its own depth, whose noise grows as z^2; a tight gate then keeps
-  /// the pairs whose noise happens to agree with the current estimate, which drags the estimate
-  /// towards its start: on stereo depth the motion came out 8-26 % short (docs/rgbd.md section
-  /// 2). 60 degrees still tells a wall from the floor. SLAM tracks against the model, whose
-  /// normals are averaged over frames.
-  OdometryOptions() { icp.association.max_normal_angle_deg = 60.0; }
   /// Track against a keyframe instead of the previous frame (on by default: the small errors
   /// of consecutive frame-to-frame steps do not add up while the keyframe stays); a new
   /// keyframe is taken when the camera has moved or turned more than these from it, or when
