@@ -63,7 +63,8 @@
 #             640x480 (--halve 0), median of 3 runs by frames/s with loading, peak RSS from
 #             /usr/bin/time. Not niced.
 #   loops     rigfit track and slam on synthetic closed loops (seeds 1..5, 600 frames 320x240;
-#             seed 1 at 640x480) and the real sequences: loop closure's counts, ATE, RPE and end
+#             seed 1 at 640x480; seeds 1 and 2 with stereo depth) and the real sequences: loop
+#             closure's counts, ATE, RPE and end
 #             drift without and with it; then the same loops with a lone-plane stretch (floor
 #             only for 0.7 s), depth only and with textured colour: ATE against the loop
 #             without it. Not niced (about an hour).
@@ -1045,6 +1046,14 @@ run_loops() {
     loop_row "$out/raw/loops-track-640.txt" "loop seed 1, 640x480" track >>"$loops"
     loop_run "$out/raw/loops-slam-640.txt" slam "$sim/loop1-640"
     loop_row "$out/raw/loops-slam-640.txt" "loop seed 1, 640x480" "slam (halved)" >>"$loops"
+    for s in 1 2; do  # stereo depth (with its colour), as a hand-held ZED gives it
+      "$rigfit" simulate-sequence --out "$sim/stereo$s" --frames "$frames" --closed-loop \
+        --seed "$s" "${size[@]}" --noise stereo --force >/dev/null
+      for run in track slam; do
+        loop_run "$out/raw/loops-$run-stereo$s.txt" "$run" "$sim/stereo$s" "${intrinsics[@]}"
+        loop_row "$out/raw/loops-$run-stereo$s.txt" "stereo loop seed $s, 320x240" "$run" >>"$loops"
+      done
+    done
     for run in track slam; do
       loop_run "$out/raw/loops-$run-kitchen.txt" "$run" "$data/sevenscenes_kitchen"
       loop_row "$out/raw/loops-$run-kitchen.txt" "7-Scenes kitchen 200-599" "$run" >>"$loops"
@@ -1055,7 +1064,8 @@ run_loops() {
   {
     echo "Synthetic loops: \`rigfit simulate-sequence --out loopS --frames $frames --closed-loop --seed S"
     echo "${size[*]} --no-color\`, then \`rigfit track|slam loopS --out t.txt --evaluate --quiet"
-    echo "${intrinsics[*]}\` (640x480: no size, no intrinsics); real data: \`rigfit track|slam DATA"
+    echo "${intrinsics[*]}\` (640x480: no size, no intrinsics; stereo: \`--noise stereo\` with colour instead"
+    echo "of \`--no-color\`); real data: \`rigfit track|slam DATA"
     echo "--out t.txt --evaluate --quiet\`. Counts: keyframes / loop candidates / accepted / rejected after"
     echo "the solve. Each cell: without loop closure (the summary's \`without loop closure:\` lines) /"
     echo "**with** (the default). Wall time of the whole run under \`/usr/bin/time\` (closure s)."
