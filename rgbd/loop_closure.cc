@@ -393,7 +393,8 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
   const std::vector<Candidate> candidate = FindCandidates(nodes, trajectory, open, options);
   FreeAcrossOpenStretches(nodes, trajectory, open, options.floor_information, &sequential);
   const double median_rmse_m = Median(rmse);
-  // Each candidate verified by ICP from the run's relative pose.
+  // Each candidate verified by ICP from the run's relative pose (across an open stretch: from
+  // the pose the search over the plane's free directions found).
   for (std::size_t j = 1; j < nodes.size(); ++j) {
     if (candidate[j].node < 0) continue;
     ++result.candidates;
@@ -409,7 +410,6 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
                                                 open[across].n_world, median_rmse_m, options);
     check.frame_a = nodes[i];
     check.frame_b = nodes[j];
-    check.across_stretch = across >= 0;
     if (check.accepted) {
       ++result.accepted;
       result.accepted_across += across >= 0 ? 1 : 0;

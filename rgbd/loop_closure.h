@@ -84,8 +84,6 @@ struct LoopCheck {
   int frame_b = 0;
   TrackResult track;  ///< T_target_source = T_a_b
   bool accepted = false;
-  /// Searched for across an open lone-plane stretch (LoopClosureOptions::relocalise).
-  bool across_stretch = false;
   std::string reason;  ///< why rejected
   /// Accepted by the ICP: the graph's cost drop when it is left out (ConsistentLoopGraph).
   double chi2 = 0.0;

@@ -65,8 +65,8 @@ void CheckOptions(const SimSequenceOptions& o) {
         st.max_depth_m > st.min_depth_m && std::isfinite(st.disparity_offset_px) &&
         st.depth_scale > 0.0)) {
     fail(
-        "stereo noise needs baseline_m > 0, upsample >= 1, image_noise >= 0 and 0 < "
-        "min_depth_m < max_depth_m");
+        "stereo noise needs baseline_m > 0, upsample >= 1, image_noise >= 0, 0 < "
+        "min_depth_m < max_depth_m, a finite disparity_offset_px and depth_scale > 0");
   }
   if (l.plane != LonePlane::kNone &&
       !(finite_non_negative(l.start_s) && l.seconds > 0.0 && std::isfinite(l.seconds) &&
