@@ -219,6 +219,10 @@ void AddDepthAndPairFlags(CLI::App* sub, TrackingLoopOptions* loop) {
   sub->add_flag("--bilateral,!--no-bilateral", loop->frame.bilateral,
                 "Level-0 normals from the bilateral-filtered depth; the points stay the measured "
                 "ones (default)");
+  sub->add_flag("--bilateral-range-grows,!--no-bilateral-range-grows",
+                loop->frame.bilateral_range_grows,
+                "The bilateral filter's range sigma (3 cm) grows as z^2 beyond 1 m, as depth "
+                "noise does: for stereo depth (ZED, RealSense; docs/rgbd.md)");
   sub->add_flag("--depth-weights,!--no-depth-weights", loop->icp.weighting.depth_noise,
                 "Weigh pairs by the inverse variance of depth noise growing as z^2 (default)");
   sub->add_option("--noise-floor-depth", loop->icp.weighting.noise_floor_depth_m,

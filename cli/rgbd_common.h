@@ -46,7 +46,7 @@ void AddFrameSelectionFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptio
 void AddFrameStartFlags(CLI::App* sub, TrackingArgs* args);
 
 /// The depth used, the tracking's association and its pairs' weights: --min-depth,
-/// --max-depth, --max-distance, --max-angle, --bilateral, --depth-weights,
+/// --max-depth, --max-distance, --max-angle, --bilateral, --bilateral-range-grows, --depth-weights,
 /// --noise-floor-depth, --huber.
 void AddDepthAndPairFlags(CLI::App* sub, TrackingLoopOptions* loop);
 

@@ -332,6 +332,8 @@ const KeywordTable<TrackKeywords>& TrackTable() {
           .Add("min_depth", [](K& k) { return &k.odometry.frame.min_depth_m; })
           .Add("max_depth", [](K& k) { return &k.odometry.frame.max_depth_m; })
           .Add("bilateral", [](K& k) { return &k.odometry.frame.bilateral; })
+          .Add("bilateral_range_grows",
+               [](K& k) { return &k.odometry.frame.bilateral_range_grows; })
           .Add("max_distance", [](K& k) { return &k.odometry.icp.association.max_distance_m; })
           .Add("max_angle", [](K& k) { return &k.odometry.icp.association.max_normal_angle_deg; })
           .Add("depth_weights", [](K& k) { return &k.odometry.icp.weighting.depth_noise; })
@@ -440,6 +442,7 @@ const KeywordTable<SlamKeywords>& SlamTable() {
           .Add("max_distance", [](K& k) { return &k.slam.icp.association.max_distance_m; })
           .Add("max_angle", [](K& k) { return &k.slam.icp.association.max_normal_angle_deg; })
           .Add("bilateral", [](K& k) { return &k.slam.frame.bilateral; })
+          .Add("bilateral_range_grows", [](K& k) { return &k.slam.frame.bilateral_range_grows; })
           .Add("depth_weights", [](K& k) { return &k.slam.icp.weighting.depth_noise; })
           .Add("huber", [](K& k) { return &k.slam.icp.weighting.huber_delta_m; })
           .Add("noise_floor_depth", [](K& k) { return &k.slam.icp.weighting.noise_floor_depth_m; })

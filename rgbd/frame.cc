@@ -68,7 +68,8 @@ class BilateralPasses {
  public:
   static constexpr float kFar = 1e30f;
 
-  BilateralPasses(int width, int height, double sigma_px, double sigma_m, int threads)
+  BilateralPasses(int width, int height, double sigma_px, double sigma_m, bool range_grows,
+                  int threads)
       : width_(width),
         height_(height),
         threads_(threads),
@@ -77,12 +78,13 @@ class BilateralPasses {
         range_(kRangeSteps * kRangeSigmas + 1),
         steps_per_m_(static_cast<float>(kRangeSteps / sigma_m)),
         last_step_(static_cast<float>(range_.size() - 1)),
+        range_grows_(range_grows),
         pairs_(radius_) {
     for (int d = -radius_; d <= radius_; ++d) {
       spatial_[d + radius_] = static_cast<float>(std::exp(-d * d / (2.0 * sigma_px * sigma_px)));
     }
-    // exp(-dz^2 / 2 sigma_m^2) every kRangeSteps-th of sigma_m up to 4 sigma_m; every step at
-    // or beyond it lands on the last entry, 0 (the weight there is below 3.4e-4).
+    // exp(-t^2 / 2) every kRangeSteps-th of a range sigma up to 4 of them (t = dz / sigma); every
+    // step at or beyond it lands on the last entry, 0 (the weight there is below 3.4e-4).
     for (std::size_t k = 0; k + 1 < range_.size(); ++k) {
       const double t = static_cast<double>(k) / kRangeSteps;
       range_[k] = static_cast<float>(std::exp(-0.5 * t * t));
@@ -124,7 +126,13 @@ class BilateralPasses {
       float* pair = pairs_[d - 1].data();
       for (int u = begin; u < end; ++u) {
         const std::size_t i = row + u;
-        const float step = std::min(std::abs(in[i + offset] - in[i]) * steps_per_m_, last_step_);
+        // With range_grows_, the range sigma grows as z^2 beyond 1 m, z the nearer depth (a
+        // pair with one invalid sample still lands on the last entry; two invalid ones give
+        // 0 / inf = 0, a weight only their own NaN outputs read).
+        const float z = std::min(in[i + offset], in[i]);
+        const float scale = range_grows_ ? std::max(1.0f, z * z) : 1.0f;
+        const float step =
+            std::min(std::abs(in[i + offset] - in[i]) * steps_per_m_ / scale, last_step_);
         pair[i] = spatial_[d + radius_] * range_[static_cast<int>(step + 0.5f)];
       }
     }
@@ -157,6 +165,7 @@ class BilateralPasses {
   std::vector<float> spatial_;
   std::vector<float> range_;
   float steps_per_m_, last_step_;
+  bool range_grows_;
   std::vector<std::vector<float>> pairs_;  // per d = 1..radius, reused by both passes
   bool along_x_ = true;                    // the pass in progress (Pass)
 };
@@ -164,8 +173,8 @@ class BilateralPasses {
 }  // namespace
 
 std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
-                                   double sigma_px, double sigma_m, int threads) {
-  BilateralPasses passes(width, height, sigma_px, sigma_m, threads);
+                                   double sigma_px, double sigma_m, bool range_grows, int threads) {
+  BilateralPasses passes(width, height, sigma_px, sigma_m, range_grows, threads);
   const auto far_invalid = [](std::vector<float> depth) {
     for (float& z : depth) z = std::isnan(z) ? BilateralPasses::kFar : z;
     return depth;
@@ -263,7 +272,7 @@ FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& optio
   std::vector<float> filtered;
   if (options.bilateral) {
     filtered = BilateralFilter(base.depth_m, base.width, base.height, options.bilateral_sigma_px,
-                               options.bilateral_sigma_m, threads);
+                               options.bilateral_sigma_m, options.bilateral_range_grows, threads);
   }
   ComputeVertexNormalMaps(&base, options.max_depth_jump_ratio, threads,
                           options.bilateral ? &filtered : nullptr);

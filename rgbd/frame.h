@@ -29,6 +29,13 @@ struct FrameOptions {
   bool bilateral = true;
   double bilateral_sigma_px = 2.0;
   double bilateral_sigma_m = 0.03;
+  /// The range sigma as above up to 1 m depth and growing as z^2 beyond, as the depth noise
+  /// does (BilateralFilter). For stereo depth (ZED, RealSense), whose noise at 3 m is several
+  /// centimetres: a fixed 3 cm averages nothing there, and the angle gate on such normals holds
+  /// the motion short (docs/rgbd.md, "The angle gate on noisy normals"). Off by default: on
+  /// Kinect-like depth it smooths far creases, and runs through a lone-plane stretch came out
+  /// worse (docs/benchmarks.md).
+  bool bilateral_range_grows = false;
   /// Neighbours whose depth differs from a pixel's by more than this share of its depth
   /// are across a depth discontinuity: they are averaged with nothing, and no normal is
   /// estimated across them.
@@ -87,9 +94,12 @@ void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int
 
 /// Depth filtered by a bilateral filter (window radius 2 sigma_px), as two 1D passes (along
 /// x, then y; the usual separable approximation, 8x fewer taps than the 2D window at
-/// sigma_px = 2): weights exp(-d_px^2 / 2 sigma_px^2 - dz^2 / 2 sigma_m^2) over the valid
-/// neighbours, the range weight tabulated and zero beyond 4 sigma_m.
+/// sigma_px = 2): weights exp(-d_px^2 / 2 sigma_px^2 - dz^2 / 2 sigma_z^2) over the valid
+/// neighbours, the range weight tabulated and zero beyond 4 sigma_z; sigma_z = sigma_m, or with
+/// range_grows sigma_m max(1, z^2), z the nearer of the two depths in metres, as the depth
+/// noise of structured light and stereo grows (FrameOptions::bilateral_range_grows).
 std::vector<float> BilateralFilter(const std::vector<float>& depth_m, int width, int height,
-                                   double sigma_px, double sigma_m, int threads = 2);
+                                   double sigma_px, double sigma_m, bool range_grows = false,
+                                   int threads = 2);
 
 }  // namespace rigfit

@@ -781,7 +781,8 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
     The keywords are the CLI's flags with its defaults and checks: ``first``, ``max_frames``
     (0: all), ``stride`` pick the frames; ``iterations`` per pyramid level, finest first (their
     count is the number of levels); ``prior`` "constant-velocity" or "identity"; ``min_depth``
-    and ``max_depth`` (metres) the depth used; ``bilateral`` the level-0 normals;
+    and ``max_depth`` (metres) the depth used; ``bilateral`` the level-0 normals,
+    ``bilateral_range_grows`` its range sigma growing as z^2 beyond 1 m (stereo depth);
     ``max_distance`` (m) and ``max_angle`` (deg) the association; ``depth_weights``,
     ``noise_floor_depth`` (m: nearer depths weigh as this one; 0: none) and ``huber`` the
     weighting; ``min_step`` the convergence test; ``guard`` and ``weak_ratio`` the
@@ -818,7 +819,9 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
     The keywords are the CLI's flags with its defaults and checks: ``first``, ``max_frames``
     (0: all), ``stride`` pick the frames, ``halve`` halves their resolution that many times
     first (None, the default: until they are at most 480 pixels wide); tracking as ``track``
-    (``iterations``, ``prior``, ``min_depth``, ``max_depth``, ``max_distance``, ``max_angle``);
+    (``iterations``, ``prior``, ``min_depth``, ``max_depth``, ``max_distance``, ``max_angle``,
+    ``bilateral``, ``bilateral_range_grows``, ``depth_weights``, ``noise_floor_depth``,
+    ``huber``);
     fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg) gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
     ``cover_radius`` (the coverage rule; 0: off), ``fold``; the model: ``model_weight``,
     ``model_recent``, ``splat``; ``color``; ``guard``, ``weak_ratio``, ``color_align`` and

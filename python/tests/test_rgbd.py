@@ -202,8 +202,8 @@ def assert_defaults_and_names_are_the_clis(command, function, switches):
 def test_track_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "track", rigfit.track,
-        {"keyframes": True, "bilateral": True, "depth_weights": True, "guard": True,
-         "color_align": True, "loop_closure": True})
+        {"keyframes": True, "bilateral": True, "bilateral_range_grows": False,
+         "depth_weights": True, "guard": True, "color_align": True, "loop_closure": True})
 
 
 @need_cli
@@ -302,7 +302,7 @@ def test_slam_defaults_and_names_are_the_clis():
     assert_defaults_and_names_are_the_clis(
         "slam", rigfit.slam, {"fold": False, "splat": False, "color": True, "guard": True,
                              "color_align": True, "loop_closure": True, "bilateral": True,
-                             "depth_weights": True})
+                             "bilateral_range_grows": False, "depth_weights": True})
 
 
 @need_cli
