@@ -56,14 +56,17 @@
 #   rgbd      dense RGB-D tracking: rigfit track --evaluate on the 400 7-Scenes frames (default,
 #             without keyframes, and the variants of docs/benchmarks.md), on the TUM fr1/xyz
 #             subset, on rigfit simulate-sequence sequences (noise-free, Kinect noise and stereo
-#             block matching; the stereo one also with --max-depth 2.5 and by rigfit slam), and
+#             block matching; the stereo one also with --max-depth 2.5, --bilateral-range-grows
+#             (and --max-angle 60) and by rigfit slam; Kinect noise and the kitchen with
+#             --bilateral-range-grows), and
 #             bench/rgbd_bench (pyramid, normal equations, both solve paths, tracking at 640x480
 #             and 320x240), median of 5 repetitions; rigfit slam --evaluate on the 7-Scenes
 #             frames and the TUM fr1/xyz subset with the default halving (to 320x240) and at
 #             640x480 (--halve 0), median of 3 runs by frames/s with loading, peak RSS from
 #             /usr/bin/time. Not niced.
 #   loops     rigfit track and slam on synthetic closed loops (seeds 1..5, 600 frames 320x240;
-#             seed 1 at 640x480; seeds 1 and 2 with stereo depth) and the real sequences: loop
+#             seed 1 at 640x480; seeds 1 and 2 with stereo depth, track also with
+#             --bilateral-range-grows --max-angle 60) and the real sequences: loop
 #             closure's counts, ATE, RPE and end
 #             drift without and with it; then the same loops with a lone-plane stretch (floor
 #             only for 0.7 s), depth only and with textured colour: ATE against the loop
@@ -926,7 +929,13 @@ run_rgbd() {
     track_row "simulated, Kinect noise" "$sim/kinect"
     [ $quick = 1 ] || track_row "simulated, Kinect noise" "$sim/kinect" --no-keyframes
     track_row "simulated, stereo depth" "$sim/stereo"
-    [ $quick = 1 ] || track_row "simulated, stereo depth" "$sim/stereo" --max-depth 2.5
+    if [ $quick = 0 ]; then
+      track_row "simulated, stereo depth" "$sim/stereo" --max-depth 2.5
+      track_row "simulated, stereo depth" "$sim/stereo" --bilateral-range-grows
+      track_row "simulated, stereo depth" "$sim/stereo" --bilateral-range-grows --max-angle 60
+      track_row "simulated, Kinect noise" "$sim/kinect" --bilateral-range-grows
+      track_row "7-Scenes kitchen" "$kitchen" --bilateral-range-grows
+    fi
     echo
     echo "#### \`rigfit slam SEQUENCE --evaluate [flags]\`"
     echo
@@ -936,7 +945,12 @@ run_rgbd() {
     [ $quick = 1 ] || slam_row "7-Scenes kitchen" "$kitchen" --halve 0
     [ $quick = 1 ] || slam_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset"
     [ $quick = 1 ] || slam_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset" --halve 0
-    [ $quick = 1 ] || slam_row "simulated, stereo depth" "$sim/stereo"
+    if [ $quick = 0 ]; then
+      slam_row "simulated, stereo depth" "$sim/stereo"
+      slam_row "simulated, stereo depth" "$sim/stereo" --bilateral-range-grows
+      slam_row "7-Scenes kitchen" "$kitchen" --bilateral-range-grows
+      slam_row "TUM fr1/xyz subset" "$data/tum_fr1_xyz_subset" --bilateral-range-grows
+    fi
     echo
     echo "bench/rgbd_bench: 7-Scenes frames 300 -> 301 (320x240: their level 1); tracking from"
     echo "the identity, pyramids built beforehand."
@@ -1053,6 +1067,11 @@ run_loops() {
         loop_run "$out/raw/loops-$run-stereo$s.txt" "$run" "$sim/stereo$s" "${intrinsics[@]}"
         loop_row "$out/raw/loops-$run-stereo$s.txt" "stereo loop seed $s, 320x240" "$run" >>"$loops"
       done
+      local grows=(--bilateral-range-grows --max-angle 60)  # docs/rgbd.md: for stereo depth
+      loop_run "$out/raw/loops-grows-stereo$s.txt" track "$sim/stereo$s" "${intrinsics[@]}" \
+        "${grows[@]}"
+      loop_row "$out/raw/loops-grows-stereo$s.txt" "stereo loop seed $s, 320x240" \
+        "track ${grows[*]}" >>"$loops"
     done
     for run in track slam; do
       loop_run "$out/raw/loops-$run-kitchen.txt" "$run" "$data/sevenscenes_kitchen"
