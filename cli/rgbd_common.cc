@@ -120,6 +120,21 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
   return text;
 }
 
+void WarnLowMatchedShare(double mean_share, const TrackingLoopOptions& loop, const Log& log) {
+  if (!(mean_share < kLowMatchedShare)) return;
+  std::string flags;
+  if (loop.frame.bilateral && !loop.frame.bilateral_range_grows) flags = "--bilateral-range-grows";
+  if (loop.icp.association.max_normal_angle_deg < 60.0) {
+    flags += (flags.empty() ? "" : " and ") + std::string("--max-angle 60");
+  }
+  std::string text;
+  Appendf(&text,
+          "the frames matched %.2f of their pixels on average: their normals may be too noisy to "
+          "associate by (stereo depth, far depth)%s%s (docs/rgbd.md section 2)",
+          mean_share, flags.empty() ? "" : "; try ", flags.c_str());
+  log.Warning(text);
+}
+
 std::vector<std::string> GuardMetadata(const std::string& command, const GuardCounts& counts) {
   std::vector<std::string> lines;
   std::string line;

@@ -109,6 +109,15 @@ GuardCounts GuardCountsOf(const Result& result) {
   return counts;
 }
 
+/// A run whose frames matched less than this share of their pixels on average has normals too
+/// noisy to associate by: the matched-share column of docs/benchmarks.md ("Dense RGB-D
+/// tracking") puts stereo depth below it, Kinect-like noise and the real sequences above.
+inline constexpr double kLowMatchedShare = 0.6;
+
+/// Warns when `mean_share` is below kLowMatchedShare, naming the flags (those not given) that
+/// smooth the normals of far depth and widen their gate.
+void WarnLowMatchedShare(double mean_share, const TrackingLoopOptions& loop, const Log& log);
+
 /// The guard's line of the summary: "degenerate views: W frame(s) with weak directions, C of them
 /// aligned by colour, L relocalised after a lone plane;
 /// divergence: R recovered, D diverged"; also warns (log) when frames had weak directions, naming

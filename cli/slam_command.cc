@@ -125,12 +125,13 @@ int RunSlamCommand(SlamArgs a) {
   Appendf(&summary, "map %d points (largest %d, compression %.2f%s)%s%s\n", result.map.size(),
           largest, result.map.CompressionRatio(), result.map.has_color() ? ", with colours" : "",
           a.map_path.empty() ? "" : " -> ", a.map_path.c_str());
+  const double mean_matched = frames > 1 ? matched / (frames - 1) : 0.0;
+  if (frames > 1) WarnLowMatchedShare(mean_matched, a.slam, log);
   Appendf(&summary,
           "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, rendering %.2f, "
           "tracking %.2f, fusion %.2f (%.1f frames/s with loading, %.1f without)\n",
-          frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s,
-          result.render_s, result.track_s, result.fuse_s, FramesPerSecond(frames, loop_s),
-          FramesPerSecond(frames, work_s));
+          mean_matched, result.load_s, result.preprocess_s, result.render_s, result.track_s,
+          result.fuse_s, FramesPerSecond(frames, loop_s), FramesPerSecond(frames, work_s));
   summary += GuardSummaryText(counts, log);
   if (closed) summary += LoopClosureSummaryText(*closed);
   if (a.evaluate && closed && closed->applied) {

@@ -58,11 +58,13 @@ int RunTrack(TrackArgs a) {
   const double loop_s = result.load_s + tracked_s;
   std::printf("tracked %d frames (%d failed, %d restarts, %d keyframes) -> %s\n", frames,
               result.failures, result.restarts, keyframes, a.out_path.c_str());
+  const double mean_matched = frames > 1 ? matched / (frames - 1) : 0.0;
   std::printf(
       "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, tracking %.2f "
       "(%.1f frames/s with loading, %.1f without)\n",
-      frames > 1 ? matched / (frames - 1) : 0.0, result.load_s, result.preprocess_s, result.track_s,
+      mean_matched, result.load_s, result.preprocess_s, result.track_s,
       FramesPerSecond(frames, loop_s), FramesPerSecond(frames, tracked_s));
+  if (frames > 1) WarnLowMatchedShare(mean_matched, a.odometry, log);
   std::fputs(GuardSummaryText(counts, log).c_str(), stdout);
   if (closed) std::fputs(LoopClosureSummaryText(*closed).c_str(), stdout);
   if (a.evaluate && closed && closed->applied) {
