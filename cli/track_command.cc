@@ -91,9 +91,10 @@ Command AddTrackCommand(CLI::App& app) {
   AddSequenceArguments(sub, &a);
   AddFrameSelectionFlags(sub, &a, &a.odometry);
   AddFrameStartFlags(sub, &a);
-  sub->add_flag("--keyframes,!--no-keyframes", a.odometry.keyframes,
-                "Track against a keyframe, renewed after 10 cm, 5 deg or half the pixels lost "
-                "(default), or against the previous frame");
+  sub->add_flag(
+      "--keyframes,!--no-keyframes", a.odometry.keyframes,
+      "Track against a keyframe, renewed after 10 cm, 5 deg or half its matched pixels lost "
+      "(default), or against the previous frame");
   AddDepthAndPairFlags(sub, &a.odometry);
   sub->add_option("--min-step", a.min_step_m,
                   "A pyramid level ends when a step moves the camera less than this (metres) and "

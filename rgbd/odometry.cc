@@ -29,9 +29,14 @@ class KeyframeTarget : public TrackingTarget {
     tracked.track = step.track;
     tracked.recovered = step.recovered;
     tracked.diverged = step.diverged;
+    // The share of pixels the keyframe's first tracked frame matched: what "half of them lost"
+    // is measured against (on noisy depth the angle gate drops many from the start).
+    if (first_after_keyframe_ && step.track.success) first_share_ = step.track.matched_ratio;
     tracked.keyframe =
         step.first || step.restart || step.relocalised || (step.track.success && NewKeyframe(step));
+    first_after_keyframe_ = tracked.keyframe;
     if (tracked.keyframe) {
+      first_share_ = 1.0;
       reference_ = std::move(pyramid);
       T_world_reference_ = step.T_world_camera;
       reference_plane_ = LonePlaneNormal(reference_, options_.icp.lone_plane);
@@ -47,13 +52,15 @@ class KeyframeTarget : public TrackingTarget {
     return !options_.keyframes ||
            from_reference.translation().norm() > options_.keyframe_translation_m ||
            LogSO3(from_reference.linear()).norm() > options_.keyframe_rotation_deg * kDegToRad ||
-           step.track.matched_ratio < options_.keyframe_min_matched_ratio;
+           step.track.matched_ratio < options_.keyframe_min_matched_ratio * first_share_;
   }
 
   const OdometryOptions& options_;
   FramePyramid reference_;
   std::optional<Vec3> reference_plane_;  // its lone plane (LonePlaneNormal), checked once
   Pose T_world_reference_ = Pose::Identity();
+  double first_share_ = 1.0;
+  bool first_after_keyframe_ = false;
   std::vector<OdometryFrame> frames_;
 };
 

@@ -22,7 +22,9 @@ struct OdometryOptions : TrackingLoopOptions {
   /// Track against a keyframe instead of the previous frame (on by default: the small errors
   /// of consecutive frame-to-frame steps do not add up while the keyframe stays); a new
   /// keyframe is taken when the camera has moved or turned more than these from it, or when
-  /// fewer than keyframe_min_matched_ratio of the pixels still match it.
+  /// the share of pixels that match it falls below keyframe_min_matched_ratio of the share its
+  /// first tracked frame matched (half of them lost; on noisy depth, where the angle gate drops
+  /// many pixels from the start, an absolute share renewed the keyframe every frame).
   bool keyframes = true;
   double keyframe_translation_m = 0.1;
   double keyframe_rotation_deg = 5.0;
