@@ -56,7 +56,8 @@
 #   rgbd      dense RGB-D tracking: rigfit track --evaluate on the 400 7-Scenes frames (default,
 #             without keyframes, and the variants of docs/benchmarks.md), on the TUM fr1/xyz
 #             subset, on rigfit simulate-sequence sequences (noise-free, Kinect noise and stereo
-#             block matching; the stereo one also with --max-depth 2.5, --bilateral-range-grows
+#             block matching; the stereo one also with --color-tracking off, --max-depth 2.5,
+#             --bilateral-range-grows
 #             (and --max-angle 60) and by rigfit slam; Kinect noise and the kitchen with
 #             --bilateral-range-grows), and
 #             bench/rgbd_bench (pyramid, normal equations, both solve paths, tracking at 640x480
@@ -66,7 +67,8 @@
 #             /usr/bin/time. Not niced.
 #   loops     rigfit track and slam on synthetic closed loops (seeds 1..5, 600 frames 320x240;
 #             seed 1 at 640x480; seeds 1 and 2 with stereo depth, track also with
-#             --bilateral-range-grows --max-angle 60) and the real sequences: loop
+#             --bilateral-range-grows --max-angle 60 and with --color-tracking off) and the
+#             real sequences: loop
 #             closure's counts, ATE, RPE and end
 #             drift without and with it; then the same loops with a lone-plane stretch (floor
 #             only for 0.7 s), depth only and with textured colour: ATE against the loop
@@ -930,6 +932,7 @@ run_rgbd() {
     [ $quick = 1 ] || track_row "simulated, Kinect noise" "$sim/kinect" --no-keyframes
     track_row "simulated, stereo depth" "$sim/stereo"
     if [ $quick = 0 ]; then
+      track_row "simulated, stereo depth" "$sim/stereo" --color-tracking off
       track_row "simulated, stereo depth" "$sim/stereo" --max-depth 2.5
       track_row "simulated, stereo depth" "$sim/stereo" --bilateral-range-grows
       track_row "simulated, stereo depth" "$sim/stereo" --bilateral-range-grows --max-angle 60
@@ -1072,6 +1075,10 @@ run_loops() {
         "${grows[@]}"
       loop_row "$out/raw/loops-grows-stereo$s.txt" "stereo loop seed $s, 320x240" \
         "track ${grows[*]}" >>"$loops"
+      loop_run "$out/raw/loops-nocolor-stereo$s.txt" track "$sim/stereo$s" "${intrinsics[@]}" \
+        --color-tracking off
+      loop_row "$out/raw/loops-nocolor-stereo$s.txt" "stereo loop seed $s, 320x240" \
+        "track --color-tracking off" >>"$loops"
     done
     for run in track slam; do
       loop_run "$out/raw/loops-$run-kitchen.txt" "$run" "$data/sevenscenes_kitchen"

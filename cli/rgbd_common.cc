@@ -120,6 +120,15 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
   return text;
 }
 
+std::string ColorTrackingSummaryText(const TrackingLoopOptions& loop, int refined, int frames) {
+  std::string text;
+  if (loop.color_tracking != ColorTracking::kOff) {
+    Appendf(&text, "colour tracking (%s): %d of %d frames refined by colour\n",
+            ColorTrackingName(loop.color_tracking), refined, frames);
+  }
+  return text;
+}
+
 void WarnLowMatchedShare(double mean_share, const TrackingLoopOptions& loop, const Log& log) {
   if (!(mean_share < kLowMatchedShare)) return;
   std::string flags;
@@ -257,6 +266,13 @@ void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
                 "Align a frame's weak directions (a lone floor or wall) by colour against the "
                 "previous frame when both have colour registered to depth (default; "
                 "docs/rgbd.md)");
+  sub->add_option("--color-tracking", args->color_tracking,
+                  "Refine each track by colour against a recent frame's, the depth's "
+                  "information as a prior, when the frames have colour registered to depth: "
+                  "auto (frames that matched under 0.6 of their pixels: noisy depth such as "
+                  "stereo matching's), on (every frame without weak directions) or off "
+                  "(docs/rgbd.md section 4c)")
+      ->capture_default_str();
   AddLoopClosureFlag(sub, &args->loop_closure);
   sub->add_option("--threads", loop->threads, "Threads")->capture_default_str();
   sub->add_flag("--evaluate", args->evaluate,
@@ -270,6 +286,7 @@ void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
 void ApplyTrackingArgs(TrackingArgs* args, TrackingLoopOptions* loop) {
   ApplyTrackingSettings(args->prior, args->iterations, loop);
   ApplyWeakRatio(args->weak_ratio, &loop->icp);
+  ApplyColorTracking(args->color_tracking, loop);
   SetSequenceIntrinsics(args->intrinsics, &args->sequence);
 }
 

@@ -18,6 +18,7 @@
 #include "rgbd/odometry.h"
 #include "rgbd/projective_icp.h"
 #include "rgbd/tracking_loop.h"
+#include "rgbd/tracking_options.h"
 
 namespace rigfit::cli {
 
@@ -31,6 +32,7 @@ struct TrackingArgs {
   std::vector<double> intrinsics;  ///< fx, fy, cx, cy
   double weak_ratio = ProjectiveIcpOptions{}.weak_direction_ratio;
   bool loop_closure = LoopClosureOptions{}.enabled;
+  std::string color_tracking = ColorTrackingName(TrackingLoopOptions{}.color_tracking);
   bool evaluate = false;
   bool quiet = false;
   bool verbose = false;
@@ -108,6 +110,10 @@ GuardCounts GuardCountsOf(const Result& result) {
   for (const auto& frame : result.frames) CountWeakDirections(frame.track, &counts);
   return counts;
 }
+
+/// The summary line "colour tracking (MODE): N of F frames refined by colour", empty when the
+/// mode is off.
+std::string ColorTrackingSummaryText(const TrackingLoopOptions& loop, int refined, int frames);
 
 /// A run whose frames matched less than this share of their pixels on average has normals too
 /// noisy to associate by: the matched-share column of docs/benchmarks.md ("Dense RGB-D

@@ -305,6 +305,7 @@ py::dict RunToDict(const Result& result) {
   out["weak_frames"] = result.weak_frames;
   out["relocalised"] = result.relocalised;
   out["color_aligned"] = result.color_aligned;
+  out["color_tracked"] = result.color_tracked;
   return out;
 }
 
@@ -317,6 +318,7 @@ struct TrackKeywords {
   double min_step = OdometryOptions{}.icp.converged_translation_m;
   double weak_ratio = OdometryOptions{}.icp.weak_direction_ratio;
   bool loop_closure = LoopClosureOptions{}.enabled;
+  std::string color_tracking = ColorTrackingName(OdometryOptions{}.color_tracking);
 };
 
 const KeywordTable<TrackKeywords>& TrackTable() {
@@ -343,6 +345,7 @@ const KeywordTable<TrackKeywords>& TrackTable() {
           .Add("min_step", [](K& k) { return &k.min_step; })
           .Add("guard", [](K& k) { return &k.odometry.guard.enabled; })
           .Add("color_align", [](K& k) { return &k.odometry.photometric.enabled; })
+          .Add("color_tracking", [](K& k) { return &k.color_tracking; })
           .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
           .Add("loop_closure", [](K& k) { return &k.loop_closure; })
           .Add("threads", [](K& k) { return &k.odometry.threads; });
@@ -357,6 +360,7 @@ TrackKeywords TrackOptionsOf(const py::dict& keywords) {
     ApplyTrackingSettings(k.prior, k.iterations, &o);
     ApplyMinStep(k.min_step, &o.icp);
     ApplyWeakRatio(k.weak_ratio, &o.icp);
+    ApplyColorTracking(k.color_tracking, &o);
   });
   return k;
 }
@@ -425,6 +429,7 @@ struct SlamKeywords {
   std::string prior = MotionPriorName(SlamOptions{}.prior);
   double weak_ratio = SlamOptions{}.icp.weak_direction_ratio;
   bool loop_closure = LoopClosureOptions{}.enabled;
+  std::string color_tracking = ColorTrackingName(SlamOptions{}.color_tracking);
 };
 
 const KeywordTable<SlamKeywords>& SlamTable() {
@@ -458,6 +463,7 @@ const KeywordTable<SlamKeywords>& SlamTable() {
           .Add("color", [](K& k) { return &k.slam.color; })
           .Add("guard", [](K& k) { return &k.slam.guard.enabled; })
           .Add("color_align", [](K& k) { return &k.slam.photometric.enabled; })
+          .Add("color_tracking", [](K& k) { return &k.color_tracking; })
           .Add("weak_ratio", [](K& k) { return &k.weak_ratio; })
           .Add("loop_closure", [](K& k) { return &k.loop_closure; })
           .Add("threads", [](K& k) { return &k.slam.threads; });
@@ -472,6 +478,7 @@ SlamKeywords SlamOptionsOf(const py::dict& keywords) {
     ApplyTrackingSettings(k.prior, k.iterations, &o);
     CheckSlamSettings(o);
     ApplyWeakRatio(k.weak_ratio, &o.icp);
+    ApplyColorTracking(k.color_tracking, &o);
   });
   return k;
 }

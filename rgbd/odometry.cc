@@ -21,9 +21,13 @@ class KeyframeTarget : public TrackingTarget {
 
   Pose MotionOrigin() const override { return T_world_reference_; }
 
+  ColorReference ColorReferenceOf() const override {
+    return {reference_grey_ ? &*reference_grey_ : nullptr, T_world_reference_};
+  }
+
   /// A failed frame is nobody's reference: the next frame tries the last good one, unless the
   /// track restarts here.
-  void Accept(const TrackedStep& step, const RgbdFrame& /*frame*/, FramePyramid pyramid) override {
+  void Accept(const TrackedStep& step, const RgbdFrame& frame, FramePyramid pyramid) override {
     OdometryFrame tracked;
     tracked.index = step.index;
     tracked.track = step.track;
@@ -36,6 +40,11 @@ class KeyframeTarget : public TrackingTarget {
         step.first || step.restart || step.relocalised || (step.track.success && NewKeyframe(step));
     first_after_keyframe_ = tracked.keyframe;
     if (tracked.keyframe) {
+      // Its grey images, when colour tracking may measure against them.
+      reference_grey_.reset();
+      if (options_.color_tracking != ColorTracking::kOff && HasColor(frame, pyramid)) {
+        reference_grey_ = BuildGreyPyramid(frame.color, pyramid);
+      }
       first_share_ = 1.0;
       reference_ = std::move(pyramid);
       T_world_reference_ = step.T_world_camera;
@@ -57,7 +66,8 @@ class KeyframeTarget : public TrackingTarget {
 
   const OdometryOptions& options_;
   FramePyramid reference_;
-  std::optional<Vec3> reference_plane_;  // its lone plane (LonePlaneNormal), checked once
+  std::optional<Vec3> reference_plane_;        // its lone plane (LonePlaneNormal), checked once
+  std::optional<GreyPyramid> reference_grey_;  // its grey images (colour tracking)
   Pose T_world_reference_ = Pose::Identity();
   double first_share_ = 1.0;
   bool first_after_keyframe_ = false;

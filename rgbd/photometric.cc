@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -108,16 +109,33 @@ double Rmse(const PhotometricSystem& s) {
   return s.pixels > 0 ? std::sqrt(s.squares / s.pixels) : 0.0;
 }
 
-/// The largest standard deviation of the free coordinates: sigma^2 H^-1 with sigma^2 the
-/// weighted residual variance (infinite without enough pixels).
-double LargestSigma(const PhotometricSystem& s) {
+/// Below any grey-level noise (levels in [0, 1]): what a perfect fit's variance is taken as.
+constexpr double kVarianceFloor = 1e-12;
+
+/// The weighted residual variance sum w r^2 / (pixels - k) (infinite without enough pixels).
+double Variance(const PhotometricSystem& s) {
   const int k = static_cast<int>(s.g.size());
   if (s.pixels <= k) return std::numeric_limits<double>::infinity();
-  const double variance = s.weighted_squares / (s.pixels - k);
-  const Eigen::SelfAdjointEigenSolver<MatK> eigen(s.H);
+  return s.weighted_squares / (s.pixels - k);
+}
+
+/// The largest standard deviation of the free coordinates: sigma^2 H^-1, sigma^2 the weighted
+/// residual variance, or with a prior P_a the inverse of H / sigma^2 + P_a.
+double LargestSigma(const PhotometricSystem& s, const MatK* P_a) {
+  const double variance = Variance(s);
+  if (!std::isfinite(variance)) return std::numeric_limits<double>::infinity();
+  const Eigen::SelfAdjointEigenSolver<MatK> eigen(
+      P_a ? MatK(s.H / std::max(variance, kVarianceFloor) + *P_a) : s.H);
   const double smallest = eigen.eigenvalues()(0);
   if (!(smallest > 0.0)) return std::numeric_limits<double>::infinity();
-  return std::sqrt(variance / smallest);
+  return P_a ? std::sqrt(1.0 / smallest) : std::sqrt(variance / smallest);
+}
+
+/// One Gauss-Newton step in the free coordinates (the header's), a_0 the move so far.
+VecK Step(const PhotometricSystem& s, const MatK* P_a, const VecK& a_0) {
+  if (P_a == nullptr) return -s.H.ldlt().solve(s.g);
+  const double variance = std::max(Variance(s), kVarianceFloor);
+  return -(s.H / variance + *P_a).ldlt().solve(s.g / variance + *P_a * a_0);
 }
 
 /// Why the finest level's alignment is not kept, empty when it is (PhotometricOptions).
@@ -186,12 +204,13 @@ PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose
   PhotometricResult result;
   result.T_reference_source = T_init;
   const PhotometricSystem start = Accumulate(problem, 0, T_init, SF, options);
+  const MatK P_a = problem.prior ? MatK(SF.transpose() * *problem.prior * SF) : MatK::Zero(k, k);
   VecK total = VecK::Zero(k);  // the move from T_init, free coordinates
   for (int l = static_cast<int>(levels) - 1; l >= 0; --l) {
     for (int it = 0; it < options.iterations; ++it) {
       const PhotometricSystem s = Accumulate(problem, l, result.T_reference_source, SF, options);
       if (s.pixels <= k) break;
-      const VecK a = -s.H.ldlt().solve(s.g);
+      const VecK a = Step(s, problem.prior ? &P_a : nullptr, total);
       if (!a.allFinite()) break;
       total += a;
       result.T_reference_source = ApplyLeftUpdate(SF * a, result.T_reference_source);
@@ -201,7 +220,7 @@ PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose
   const PhotometricSystem end = Accumulate(problem, 0, result.T_reference_source, SF, options);
   result.pixels = end.pixels;
   result.rmse = Rmse(end);
-  result.sigma_m = LargestSigma(end);
+  result.sigma_m = LargestSigma(end, problem.prior ? &P_a : nullptr);
   result.change_m = total.norm();
   result.message = Rejection(result, Rmse(start), options);
   result.success = result.message.empty();

@@ -23,6 +23,18 @@
 //
 // and each Gauss-Newton step solves (sum w J^T J) a = -sum w J^T r with Huber weights w, coarse
 // to fine over the frame's pyramid.
+//
+// Colour tracking (rgbd/tracking_loop.h) frees all six directions and adds the depth: the
+// projective ICP's information P about its estimate T_init (TrackResult::information, on the
+// left update x = S F a) as a prior. Each step then solves
+//
+//   (H / s^2 + P_a) a = -(g / s^2 + P_a a_0),   P_a = (S F)^T P (S F),
+//
+// with H, g the sums above, s^2 = sum w r^2 / (pixels - k) the grey levels' variance measured
+// at that step and a_0 the move from T_init so far: one Gauss-Newton step of the photometric
+// cost and the depth's (quadratic about its estimate) together, each weighed by its own
+// measured noise (the ICP's residual variance is in P; as ElasticFusion's joint ICP and RGB
+// cost, with the weight measured instead of fixed).
 #pragma once
 
 #include <cstdint>
@@ -86,15 +98,19 @@ struct PhotometricProblem {
   /// axes (a track's weak directions moved into them: rgbd/tracking_loop.cc).
   std::vector<Vec6> free;
   double length_m = 1.0;  ///< the rotation's scale: the source's mean depth
+  /// Colour tracking: the depth's information about the move from T_init (a left update [w;
+  /// dt] in the reference's axes; TrackResult::information), null for none (header).
+  const Mat6* prior = nullptr;
 };
 
 struct PhotometricResult {
   bool success = false;
   std::string message;  ///< why it was not kept
   Pose T_reference_source = Pose::Identity();
-  int pixels = 0;         ///< taking part at the finest level's last step
-  double rmse = 0.0;      ///< RMS grey-level residual there
-  double sigma_m = 0.0;   ///< the largest standard deviation over the free directions
+  int pixels = 0;     ///< taking part at the finest level's last step
+  double rmse = 0.0;  ///< RMS grey-level residual there
+  double sigma_m =
+      0.0;  ///< the largest standard deviation over the free directions (prior included)
   double change_m = 0.0;  ///< the move from the start pose, scaled space
 };
 

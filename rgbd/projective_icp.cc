@@ -71,6 +71,7 @@ struct Accumulator {
   double h[21] = {};
   double g[6] = {};
   double squared_error = 0.0;
+  double weighted_squares = 0.0;
   int count = 0;
 
   // One pair: A = [(p' x n)^T n^T], b = n^T (p' - q), weighed as PairWeighting says (z_p:
@@ -93,6 +94,7 @@ struct Accumulator {
       g[r] += wa * b;
     }
     squared_error += b * b;
+    weighted_squares += w * b * b;
     ++count;
   }
 };
@@ -107,6 +109,7 @@ NormalEquations Sum(const std::vector<Accumulator>& parts) {
       total.g(r) += part.g[r];
     }
     total.squared_error += part.squared_error;
+    total.weighted_squares += part.weighted_squares;
     total.count += part.count;
   }
   total.H.triangularView<Eigen::StrictlyLower>() = total.H.transpose();
@@ -352,6 +355,9 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   result.correspondences = last.count;
   result.matched_ratio = static_cast<double>(last.count) / valid;
   result.rmse_m = last.count > 0 ? std::sqrt(last.squared_error / last.count) : 0.0;
+  if (last.count > 6 && last.weighted_squares > 0.0) {
+    result.information = last.H * ((last.count - 6) / last.weighted_squares);
+  }
   if (!T.matrix().allFinite()) {
     result.message = "the estimate is not finite";
   } else if (result.matched_ratio < options.min_matched_ratio) {

@@ -101,7 +101,8 @@ inline double DepthNoiseWeight(double z_p, double z_q, double floor_m = 0.0) {
 struct NormalEquations {
   Mat6 H = Mat6::Zero();
   Vec6 g = Vec6::Zero();
-  double squared_error = 0.0;  ///< sum b^2 (unweighted)
+  double squared_error = 0.0;     ///< sum b^2 (unweighted)
+  double weighted_squares = 0.0;  ///< sum w b^2
   int count = 0;
 };
 
@@ -203,6 +204,11 @@ struct TrackResult {
   double length_m = 1.0;    ///< the scale of the rotation: the source's mean depth
   bool lone_plane = false;  ///< the source or the target showed a lone plane (held its three)
   Vec3 plane_normal = Vec3::Zero();  ///< that plane's unit normal in the target's axes
+  /// The information of the estimate's left update x = [w; dt] (target axes): the finest
+  /// level's last H over its weighted residual variance sum w b^2 / (pairs - 6), the noise's
+  /// scale measured, the pairs taken as independent (zero without 7 pairs). What the colour
+  /// tracking weighs the depth by (rgbd/photometric.h).
+  Mat6 information = Mat6::Zero();
 };
 
 /// Coarse-to-fine projective ICP of `source` onto `target` from T_init (T_target_source):

@@ -230,6 +230,10 @@ class ModelTarget : public TrackingTarget {
 
   Pose MotionOrigin() const override { return T_world_model_; }
 
+  ColorReference ColorReferenceOf() const override {
+    return {color_key_ ? &*color_key_ : nullptr, T_world_color_key_};
+  }
+
   /// Fuses the frame unless its track failed (a restart drops the map and fuses it anew) or it
   /// lacks the colour the map has; the first frame decides whether the map is coloured.
   void Accept(const TrackedStep& step, const RgbdFrame& frame, FramePyramid pyramid) override {
@@ -241,7 +245,9 @@ class ModelTarget : public TrackingTarget {
     tracked.recovered = step.recovered;
     tracked.diverged = step.diverged;
     if (step.restart) result_->map = SurfelMap();
+    if (step.restart) color_key_.reset();
     if (Fuses(step, frame)) {
+      KeepColorKey(step, frame, pyramid);
       const auto start = std::chrono::steady_clock::now();
       const std::vector<std::uint8_t> no_color;
       tracked.fusion = result_->map.FuseFrame(pyramid.levels[0], step.T_world_camera, step.index,
@@ -268,6 +274,19 @@ class ModelTarget : public TrackingTarget {
     return false;
   }
 
+  /// A fused frame with colour becomes colour tracking's reference when there is none or it
+  /// moved or turned enough from it (SlamOptions::color_keyframe_*).
+  void KeepColorKey(const TrackedStep& step, const RgbdFrame& frame, const FramePyramid& pyramid) {
+    if (options_.color_tracking == ColorTracking::kOff || !HasColor(frame, pyramid)) return;
+    const Pose from_key = T_world_color_key_.inverse() * step.T_world_camera;
+    if (color_key_ && from_key.translation().norm() <= options_.color_keyframe_translation_m &&
+        LogSO3(from_key.linear()).norm() <= options_.color_keyframe_rotation_deg * kDegToRad) {
+      return;
+    }
+    color_key_ = BuildGreyPyramid(frame.color, pyramid);
+    T_world_color_key_ = step.T_world_camera;
+  }
+
   const SlamOptions& options_;
   const Log& log_;
   SlamResult* result_;
@@ -277,6 +296,8 @@ class ModelTarget : public TrackingTarget {
   MapView view_;  // the map points near the rendered view, for the fusion that follows
   int model_pixels_ = 0;
   Pose T_world_model_ = Pose::Identity();
+  std::optional<GreyPyramid> color_key_;  // colour tracking's reference and its pose
+  Pose T_world_color_key_ = Pose::Identity();
 };
 
 }  // namespace

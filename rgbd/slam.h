@@ -86,6 +86,11 @@ struct SlamOptions : TrackingLoopOptions {
   /// full resolution on the measured sequences in a fraction of the time (docs/rgbd.md
   /// section 6). Timed with the loading (load_s): a sensor of that size would not do it.
   std::optional<int> halvings;
+  /// Colour tracking's reference (TrackingLoopOptions::color_tracking): the last fused frame
+  /// with colour that moved or turned more than these from the one before (the model renders
+  /// no colour), as the odometry's keyframe.
+  double color_keyframe_translation_m = 0.1;
+  double color_keyframe_rotation_deg = 5.0;
 };
 
 /// The widest frame SlamOptions::halvings' default leaves unhalved, pixels.

@@ -17,6 +17,9 @@ std::vector<int> SelectFrames(const RgbdSequence& sequence, const TrackingLoopOp
                               const std::string& name) {
   if (options.stride < 1) throw InputError(name + ": stride must be at least 1");
   if (options.max_frames < 0) throw InputError(name + ": max frames must be >= 0 (0: all)");
+  if (!(options.color_tracking_share >= 0.0 && options.color_tracking_share <= 1.0)) {
+    throw InputError(name + ": colour tracking's matched share must be in [0, 1]");
+  }
   if (options.restart_after_failures < 1) {
     throw InputError(name + ": restart after failures must be at least 1");
   }
@@ -48,6 +51,19 @@ std::vector<Vec6> InAxesOf(const Pose& T_a_b, const std::vector<Vec6>& direction
   return mapped;
 }
 
+/// The information of a left update [w; dt] given in the axes of camera a, for the update in
+/// the axes of camera b: Ad^T P_a Ad with Ad the adjoint of T_a_b (InAxesOf's map,
+/// [R w; R dt + t x R w]); P_a itself when the axes are the same.
+Mat6 InformationInAxesOf(const Pose& T_a_b, const Mat6& P_a) {
+  if (T_a_b.matrix() == Pose::Identity().matrix()) return P_a;
+  const Mat3 R = T_a_b.linear();
+  Mat6 Ad = Mat6::Zero();
+  Ad.topLeftCorner<3, 3>() = R;
+  Ad.bottomRightCorner<3, 3>() = R;
+  Ad.bottomLeftCorner<3, 3>() = Hat(T_a_b.translation()) * R;
+  return Ad.transpose() * P_a * Ad;
+}
+
 /// The loop's state from one frame to the next.
 class TrackingLoop {
  public:
@@ -70,6 +86,7 @@ class TrackingLoop {
     } else {
       start = std::chrono::steady_clock::now();
       Track(frame, pyramid, &step);
+      TrackByColor(frame, pyramid, &step);
       AlignByColor(frame, pyramid, &step);
       Book(frame, pyramid, &step);
       Relocalise(frame, pyramid, &step);
@@ -119,15 +136,48 @@ class TrackingLoop {
 
   bool AligningByColor() const { return options_.guard.enabled && options_.photometric.enabled; }
 
+  /// Whether colour tracking refines this track (TrackingLoopOptions::color_tracking).
+  bool TracksByColor(const TrackResult& track) const {
+    if (options_.color_tracking == ColorTracking::kOff || !track.success || !track.weak.empty()) {
+      return false;
+    }
+    return options_.color_tracking == ColorTracking::kOn ||
+           track.matched_ratio < options_.color_tracking_share;
+  }
+
+  /// Colour tracking: the track refined against the target's colour reference, all six
+  /// directions, the depth's information as a prior (rgbd/photometric.h); the depth's estimate
+  /// stays when the refinement is not kept (debug log).
+  void TrackByColor(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
+    const ColorReference reference = target_->ColorReferenceOf();
+    if (!TracksByColor(step->track) || reference.grey == nullptr || !HasColor(frame, pyramid)) {
+      return;
+    }
+    const Pose& T_world_reference = reference.T_world_reference;
+    // The depth's information, from the axes it was measured in into the reference's.
+    const Mat6 prior = InformationInAxesOf(target_->MotionOrigin().inverse() * T_world_reference,
+                                           step->track.information);
+    const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
+    std::vector<Vec6> all;
+    for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
+    const PhotometricResult refined =
+        AlignPhotometric({&pyramid, &grey, reference.grey, all, step->track.length_m, &prior},
+                         T_world_reference.inverse() * step->T_world_camera, options_.photometric);
+    if (!refined.success) {
+      log_.Debug(FrameName(*step, frame) + ": not refined by colour: " + refined.message);
+      return;
+    }
+    step->T_world_camera = Reorthonormalized(T_world_reference * refined.T_reference_source);
+    ++run_.color_tracked;
+  }
+
   /// A frame with weak directions (a lone plane's three, or what the eigenvalues found) and
   /// colour, after a frame with colour: those directions aligned by colour against that frame
   /// (rgbd/photometric.h), the rest kept; left held when the alignment is not kept (debug log).
   void AlignByColor(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     const TrackResult& track = step->track;
-    const std::size_t pixels =
-        static_cast<std::size_t>(pyramid.levels[0].width) * pyramid.levels[0].height;
-    if (!AligningByColor() || !track.success || track.weak.empty() ||
-        frame.color.size() != 3 * pixels || previous_color_.size() != frame.color.size()) {
+    if (!AligningByColor() || !track.success || track.weak.empty() || !HasColor(frame, pyramid) ||
+        previous_color_.size() != frame.color.size()) {
       return;
     }
     const Pose T_previous_target = T_world_previous_.inverse() * target_->MotionOrigin();
@@ -344,6 +394,11 @@ class TrackingLoop {
 };
 
 }  // namespace
+
+bool HasColor(const RgbdFrame& frame, const FramePyramid& pyramid) {
+  return frame.color.size() ==
+         3 * static_cast<std::size_t>(pyramid.levels[0].width) * pyramid.levels[0].height;
+}
 
 TrackingRun RunTracking(const RgbdSequence& sequence, const TrackingLoopOptions& options,
                         const std::string& name, TrackingTarget* target, const Log& log,

@@ -28,6 +28,9 @@ enum class MotionPrior {
 };
 
 /// The settings odometry and SLAM share (OdometryOptions and SlamOptions extend them).
+/// When a frame's track is refined by colour (TrackingLoopOptions::color_tracking).
+enum class ColorTracking { kOff, kAuto, kOn };
+
 struct TrackingLoopOptions {
   FrameOptions frame;
   ProjectiveIcpOptions icp;
@@ -42,6 +45,14 @@ struct TrackingLoopOptions {
   /// colour against the previous frame, when both have colour (rgbd/photometric.h; with the
   /// guard only).
   PhotometricOptions photometric;
+  /// Colour tracking (rgbd/photometric.h): a frame with colour, tracked with no weak
+  /// direction, refined against its reference's colour with the depth's information as a
+  /// prior. kOn: every such frame; kAuto: those that matched fewer than color_tracking_share of
+  /// their pixels (noisy depth, e.g. stereo matching, whose noisy normals the angle gate
+  /// drops; Kinect-like and real depth match more); kOff: none. Only where the target keeps a
+  /// colour reference (TrackingTarget::ColorReference: the odometry's keyframe).
+  ColorTracking color_tracking = ColorTracking::kAuto;
+  double color_tracking_share = 0.6;
   /// After this many failed frames in a row the track is lost and restarts from the current
   /// frame at its predicted pose (the odometry's next reference; SLAM's new map), counted in
   /// restarts.
@@ -73,6 +84,7 @@ struct TrackingRun {
   int weak_frames = 0;    ///< frames tracked with weak directions (held, or aligned by colour)
   int relocalised = 0;    ///< frames relocalised after a lone-plane stretch (rgbd/relocalise.h)
   int color_aligned = 0;  ///< weak-direction frames whose weak directions colour measured
+  int color_tracked = 0;  ///< frames refined by colour tracking (TrackingLoopOptions)
   std::vector<OpenStretch> open_stretches;
   double load_s = 0.0;  ///< waiting for frames: the loading not overlapped with tracking
   double preprocess_s = 0.0;
@@ -98,6 +110,12 @@ struct TrackedStep {
 };
 
 /// What a frame is tracked against, and what happens once its pose is known.
+/// A frame's grey images and its pose: what colour tracking measures against.
+struct ColorReference {
+  const GreyPyramid* grey = nullptr;
+  Pose T_world_reference = Pose::Identity();
+};
+
 class TrackingTarget {
  public:
   virtual ~TrackingTarget() = default;
@@ -113,12 +131,18 @@ class TrackingTarget {
   /// The pose of the camera the last Track measured the frame against (the keyframe's; the
   /// rendered model's start pose), whose axes the track's weak directions are given in.
   virtual Pose MotionOrigin() const = 0;
+  /// What colour tracking measures the next frames against; none (a null grey) when the
+  /// target keeps no colour.
+  virtual ColorReference ColorReferenceOf() const { return {}; }
   /// The frame, its pose known (called for every frame, failed ones included).
   virtual void Accept(const TrackedStep& step, const RgbdFrame& frame, FramePyramid pyramid) = 0;
   /// The warnings' words: what a failed frame is left with, what a restart restarts.
   virtual std::string FailureNote() const { return "kept the prediction"; }
   virtual std::string RestartNote() const { return "restarted"; }
 };
+
+/// Whether the frame has a colour image of its pyramid's finest size.
+bool HasColor(const RgbdFrame& frame, const FramePyramid& pyramid);
 
 /// Tracks the frames of `sequence` that `options` select against `target`; `name` starts the
 /// messages of bad options ("odometry: stride must be at least 1", InputError).

@@ -49,6 +49,28 @@ void ApplyTrackingSettings(const std::string& prior, const std::vector<int>& ite
   if (loop->max_frames < 0) throw SettingError("max_frames", "must be >= 0 (0: all)");
 }
 
+const char* ColorTrackingName(ColorTracking mode) {
+  switch (mode) {
+    case ColorTracking::kOff:
+      return "off";
+    case ColorTracking::kOn:
+      return "on";
+    case ColorTracking::kAuto:
+      break;
+  }
+  return "auto";
+}
+
+void ApplyColorTracking(const std::string& mode, TrackingLoopOptions* loop) {
+  for (const ColorTracking m : {ColorTracking::kAuto, ColorTracking::kOn, ColorTracking::kOff}) {
+    if (mode == ColorTrackingName(m)) {
+      loop->color_tracking = m;
+      return;
+    }
+  }
+  throw SettingError("color_tracking", "must be auto, on or off, got " + mode);
+}
+
 void ApplyMinStep(double min_step_m, ProjectiveIcpOptions* icp) {
   if (!(min_step_m > 0.0)) throw SettingError("min_step", "must be > 0");
   icp->converged_translation_m = min_step_m;

@@ -21,6 +21,14 @@ inline constexpr int kMaxTrackingThreads = 64;
 /// or "identity".
 const char* MotionPriorName(MotionPrior prior);
 
+/// The name of a colour-tracking mode as `rigfit track --color-tracking` and rigfit.track's
+/// color_tracking take it: "auto", "on" or "off" (TrackingLoopOptions::color_tracking).
+const char* ColorTrackingName(ColorTracking mode);
+
+/// Sets `--color-tracking` (rigfit.track's color_tracking) from its name. Throws SettingError
+/// "{color_tracking} must be auto, on or off, got X".
+void ApplyColorTracking(const std::string& mode, TrackingLoopOptions* loop);
+
 /// Checks and applies to `loop` the settings both commands have: prior ("constant-velocity" or
 /// "identity"), iterations (1 to 6 counts in [0, 100], finest level first; their count is the
 /// number of pyramid levels), and checks those already in `loop`: min_depth < max_depth

@@ -573,6 +573,7 @@ class TrackResult(Trajectory):
     weak_frames: int = 0  #: frames with a weakly constrained direction held
     relocalised: int = 0  #: frames relocalised after a lone-plane stretch
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
+    color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -666,6 +667,7 @@ class SlamResult(Trajectory):
     weak_frames: int = 0  #: frames with a weakly constrained direction held
     relocalised: int = 0  #: frames relocalised after a lone-plane stretch
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
+    color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -789,6 +791,10 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
     motion guard (weak directions held, divergence detected and re-tracked; docs/rgbd.md);
     ``color_align`` (with the guard: a frame's weak directions aligned by colour against the
     previous frame when both have registered colour; frames given as a list carry none);
+    ``color_tracking`` "auto" (the default: frames that matched under 0.6 of their pixels,
+    noisy depth such as stereo matching's), "on" or "off": a track refined by colour against
+    the keyframe's, the depth's information as a prior (counted in ``color_tracked``; a
+    ``Sequence``'s registered colour only);
     ``loop_closure`` (revisited keyframes verified by ICP, a keyframe pose graph solved, the
     trajectory corrected; counts in the result's ``loop_closure``); ``threads``. Runs without the
     GIL; progress (every tenth) and warnings (failed frames) go to the logger ``"rigfit"``. A
@@ -803,7 +809,7 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
         restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]),
         recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"],
         relocalised=raw["relocalised"], color_aligned=raw["color_aligned"],
-        loop_closure=raw["loop_closure"])
+        color_tracked=raw["color_tracked"], loop_closure=raw["loop_closure"])
 
 
 @_keywords("slam")
@@ -824,8 +830,9 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
     ``huber``);
     fusion: ``fuse_distance`` (m) and ``fuse_angle`` (deg) gates, ``dormant_frames`` and ``min_stable_weight`` (dormant removal; 0 frames: off),
     ``cover_radius`` (the coverage rule; 0: off), ``fold``; the model: ``model_weight``,
-    ``model_recent``, ``splat``; ``color``; ``guard``, ``weak_ratio``, ``color_align`` and
-    ``loop_closure`` as for ``track`` (the map's points moved with the frame that last saw
+    ``model_recent``, ``splat``; ``color``; ``guard``, ``weak_ratio``, ``color_align``,
+    ``color_tracking`` (against the last fused frame with colour 10 cm or 5 deg from the one
+    before: the map renders no colour) and ``loop_closure`` as for ``track`` (the map's points moved with the frame that last saw
     them); ``threads``. Runs without the GIL; progress (every tenth, with the map size) and warnings go to the logger ``"rigfit"``. A failed frame keeps
     its prediction and is not fused; a frame without colour while the map is coloured is
     tracked but not fused, with a warning (``color=False`` fuses depth only).
@@ -839,8 +846,8 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         restarts=raw["restarts"], timings=SlamTimings(**raw["timings"]),
         map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
         diverged=raw["diverged"], weak_frames=raw["weak_frames"], relocalised=raw["relocalised"],
-        color_aligned=raw["color_aligned"], loop_closure=raw["loop_closure"],
-        halvings=raw["halvings"])
+        color_aligned=raw["color_aligned"], color_tracked=raw["color_tracked"],
+        loop_closure=raw["loop_closure"], halvings=raw["halvings"])
 
 
 @dataclass

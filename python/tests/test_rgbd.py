@@ -190,7 +190,7 @@ def assert_defaults_and_names_are_the_clis(command, function, switches):
         default = defaults[name]
         if name == "iterations":
             assert value == "[" + ",".join(map(str, default)) + "]"
-        elif name == "prior":
+        elif name in ("prior", "color_tracking"):
             assert value == default
         elif name == "halve":
             assert value == "auto" and default is None
@@ -221,6 +221,7 @@ def test_track_defaults_and_names_are_the_clis():
     ({"min_step": 0.0}, ["--min-step", "0"]),
     ({"first": 400}, ["--first", "400"]),
     ({"stride": 0}, ["--stride", "0"]),
+    ({"color_tracking": "yes"}, ["--color-tracking", "yes"]),
 ])
 def test_track_checks_are_the_clis(kitchen, tmp_path, kwargs, flags):
     expected = as_keywords(cli_error(["track", str(KITCHEN), "--out", str(tmp_path / "t.txt"),
