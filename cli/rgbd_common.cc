@@ -120,11 +120,14 @@ std::string GuardSummaryText(const GuardCounts& counts, const Log& log) {
   return text;
 }
 
-std::string ColorTrackingSummaryText(const TrackingLoopOptions& loop, int refined, int frames) {
+std::string ColorTrackingSummaryText(const TrackingLoopOptions& loop, const TrackingRun& run,
+                                     int frames) {
   std::string text;
   if (loop.color_tracking != ColorTracking::kOff) {
-    Appendf(&text, "colour tracking (%s): %d of %d frames refined by colour\n",
-            ColorTrackingName(loop.color_tracking), refined, frames);
+    Appendf(&text,
+            "colour tracking (%s): %d of %d frames refined by colour, %d of them tracked by "
+            "colour alone where the depth failed\n",
+            ColorTrackingName(loop.color_tracking), run.color_tracked, frames, run.color_rescued);
   }
   return text;
 }
@@ -270,7 +273,8 @@ void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
                   "Refine each track by colour against a recent frame's, the depth's "
                   "information as a prior, when the frames have colour registered to depth: "
                   "auto (frames that matched under 0.6 of their pixels: noisy depth such as "
-                  "stereo matching's), on (every frame without weak directions) or off "
+                  "stereo matching's), on (every frame without weak directions) or off; unless "
+                  "off, a frame whose depth track failed or diverged is tracked by colour alone "
                   "(docs/rgbd.md section 4c)")
       ->capture_default_str();
   AddLoopClosureFlag(sub, &args->loop_closure);

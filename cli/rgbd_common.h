@@ -111,9 +111,10 @@ GuardCounts GuardCountsOf(const Result& result) {
   return counts;
 }
 
-/// The summary line "colour tracking (MODE): N of F frames refined by colour", empty when the
-/// mode is off.
-std::string ColorTrackingSummaryText(const TrackingLoopOptions& loop, int refined, int frames);
+/// The summary line "colour tracking (MODE): N of F frames refined by colour, R of them tracked
+/// by colour alone where the depth failed", empty when the mode is off.
+std::string ColorTrackingSummaryText(const TrackingLoopOptions& loop, const TrackingRun& run,
+                                     int frames);
 
 /// A run whose frames matched less than this share of their pixels on average has normals too
 /// noisy to associate by: the matched-share column of docs/benchmarks.md ("Dense RGB-D

@@ -132,7 +132,7 @@ int RunSlamCommand(SlamArgs a) {
           "tracking %.2f, fusion %.2f (%.1f frames/s with loading, %.1f without)\n",
           mean_matched, result.load_s, result.preprocess_s, result.render_s, result.track_s,
           result.fuse_s, FramesPerSecond(frames, loop_s), FramesPerSecond(frames, work_s));
-  summary += ColorTrackingSummaryText(a.slam, result.color_tracked, frames);
+  summary += ColorTrackingSummaryText(a.slam, result, frames);
   summary += GuardSummaryText(counts, log);
   if (closed) summary += LoopClosureSummaryText(*closed);
   if (a.evaluate && closed && closed->applied) {

@@ -64,7 +64,7 @@ int RunTrack(TrackArgs a) {
       "(%.1f frames/s with loading, %.1f without)\n",
       mean_matched, result.load_s, result.preprocess_s, result.track_s,
       FramesPerSecond(frames, loop_s), FramesPerSecond(frames, tracked_s));
-  std::fputs(ColorTrackingSummaryText(a.odometry, result.color_tracked, frames).c_str(), stdout);
+  std::fputs(ColorTrackingSummaryText(a.odometry, result, frames).c_str(), stdout);
   if (frames > 1) WarnLowMatchedShare(mean_matched, a.odometry, log);
   std::fputs(GuardSummaryText(counts, log).c_str(), stdout);
   if (closed) std::fputs(LoopClosureSummaryText(*closed).c_str(), stdout);

@@ -306,6 +306,7 @@ py::dict RunToDict(const Result& result) {
   out["relocalised"] = result.relocalised;
   out["color_aligned"] = result.color_aligned;
   out["color_tracked"] = result.color_tracked;
+  out["color_rescued"] = result.color_rescued;
   return out;
 }
 

@@ -35,9 +35,11 @@ class KeyframeTarget : public TrackingTarget {
     tracked.diverged = step.diverged;
     // The share of pixels the keyframe's first tracked frame matched: what "half of them lost"
     // is measured against (on noisy depth the angle gate drops many from the start).
-    if (first_after_keyframe_ && step.track.success) first_share_ = step.track.matched_ratio;
-    tracked.keyframe =
-        step.first || step.restart || step.relocalised || (step.track.success && NewKeyframe(step));
+    if (first_after_keyframe_ && step.track.success && !step.color_rescued) {
+      first_share_ = step.track.matched_ratio;
+    }
+    tracked.keyframe = step.first || step.restart || step.relocalised ||
+                       (step.track.success && !step.color_rescued && NewKeyframe(step));
     first_after_keyframe_ = tracked.keyframe;
     if (tracked.keyframe) {
       // Its grey images, when colour tracking may measure against them.

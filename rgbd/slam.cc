@@ -234,8 +234,9 @@ class ModelTarget : public TrackingTarget {
     return {color_key_ ? &*color_key_ : nullptr, T_world_color_key_};
   }
 
-  /// Fuses the frame unless its track failed (a restart drops the map and fuses it anew) or it
-  /// lacks the colour the map has; the first frame decides whether the map is coloured.
+  /// Fuses the frame unless its track failed (a restart drops the map and fuses it anew), colour
+  /// alone tracked it (its depth did not match the model) or it lacks the colour the map has; the
+  /// first frame decides whether the map is coloured.
   void Accept(const TrackedStep& step, const RgbdFrame& frame, FramePyramid pyramid) override {
     if (result_->frames.empty()) use_color_ = options_.color && !frame.color.empty();
     SlamFrame tracked;
@@ -264,7 +265,9 @@ class ModelTarget : public TrackingTarget {
 
  private:
   bool Fuses(const TrackedStep& step, const RgbdFrame& frame) {
-    if ((!step.track.success || step.unverified) && !step.restart) return false;
+    if ((!step.track.success || step.unverified || step.color_rescued) && !step.restart) {
+      return false;
+    }
     if (!use_color_ || !frame.color.empty()) return true;
     // A coloured map takes no colourless points (TUM: a depth image without a colour image
     // within the association's time window): tracked, not fused.

@@ -145,30 +145,89 @@ class TrackingLoop {
            track.matched_ratio < options_.color_tracking_share;
   }
 
-  /// Colour tracking: the track refined against the target's colour reference, all six
-  /// directions, the depth's information as a prior (rgbd/photometric.h); the depth's estimate
-  /// stays when the refinement is not kept (debug log).
+  /// Colour tracking (rgbd/photometric.h, "Colour tracking"): a track refined against the
+  /// target's colour reference over all six directions, the depth's information as a prior,
+  /// the depth's estimate kept when the refinement is not (debug log); a frame whose depth track
+  /// failed or diverged aligned by colour alone from the prediction (RescueByColor).
   void TrackByColor(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     const ColorReference reference = target_->ColorReferenceOf();
-    if (!TracksByColor(step->track) || reference.grey == nullptr || !HasColor(frame, pyramid)) {
+    if (reference.grey == nullptr || !HasColor(frame, pyramid)) return;
+    if (!step->track.success) {
+      RescueByColor(frame, pyramid, reference, step);
       return;
     }
-    const Pose& T_world_reference = reference.T_world_reference;
+    if (!TracksByColor(step->track)) return;
     // The depth's information, from the axes it was measured in into the reference's.
-    const Mat6 prior = InformationInAxesOf(target_->MotionOrigin().inverse() * T_world_reference,
-                                           step->track.information);
-    const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
-    std::vector<Vec6> all;
-    for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
+    const Mat6 prior = InformationInAxesOf(
+        target_->MotionOrigin().inverse() * reference.T_world_reference, step->track.information);
+    Pose T_world_camera;
     const PhotometricResult refined =
-        AlignPhotometric({&pyramid, &grey, reference.grey, all, step->track.length_m, &prior},
-                         T_world_reference.inverse() * step->T_world_camera, options_.photometric);
+        AlignAllByColor(frame, pyramid, reference, {prior, step->track.length_m},
+                        step->T_world_camera, &T_world_camera);
     if (!refined.success) {
       log_.Debug(FrameName(*step, frame) + ": not refined by colour: " + refined.message);
       return;
     }
-    step->T_world_camera = Reorthonormalized(T_world_reference * refined.T_reference_source);
+    step->T_world_camera = T_world_camera;
     ++run_.color_tracked;
+  }
+
+  /// A frame whose depth track failed (too few pixels matched) or diverged, not a lone plane's
+  /// (the guard's stretch handles those), aligned by colour alone (the depth's estimate is what
+  /// failed) from the prediction; kept when the alignment
+  /// is and it lies within the guard's jump of the prediction: the frame is then tracked, its
+  /// weak directions none (colour measured every direction), counted in color_rescued.
+  void RescueByColor(const RgbdFrame& frame, const FramePyramid& pyramid,
+                     const ColorReference& reference, TrackedStep* step) {
+    if (options_.color_tracking == ColorTracking::kOff || step->track.lone_plane ||
+        !(step->diverged || step->track.matched_ratio < options_.icp.min_matched_ratio)) {
+      return;
+    }
+    Pose T_world_camera;
+    const PhotometricResult aligned =
+        AlignAllByColor(frame, pyramid, reference, {Mat6::Zero(), step->track.length_m}, predicted_,
+                        &T_world_camera);
+    const Pose jump = predicted_.inverse() * T_world_camera;
+    if (!aligned.success || jump.translation().norm() > options_.guard.max_correction_m ||
+        LogSO3(jump.linear()).norm() > options_.guard.max_correction_deg * kDegToRad) {
+      log_.Debug(FrameName(*step, frame) + ": not tracked by colour either: " +
+                 (aligned.success ? "too far from the prediction" : aligned.message));
+      return;
+    }
+    log_.Warning(FrameName(*step, frame) + ": the depth " +
+                 (step->diverged ? "diverged" : "matched too few pixels") +
+                 "; tracked by colour alone");
+    step->T_world_camera = T_world_camera;
+    step->track.success = true;
+    step->track.weak.clear();
+    step->track.weak_directions = 0;
+    step->diverged = false;
+    step->color_rescued = true;
+    ++run_.color_tracked;
+    ++run_.color_rescued;
+  }
+
+  /// The prior of AlignAllByColor: the information of the move from the start (the
+  /// reference's axes) and the rotation's scale (TrackResult::length_m).
+  struct ColorPrior {
+    Mat6 information;
+    double length_m = 1.0;
+  };
+
+  /// Aligns the frame to `reference`'s colour over all six directions from T_world_start with
+  /// `prior`; the aligned pose in *T_world_camera.
+  PhotometricResult AlignAllByColor(const RgbdFrame& frame, const FramePyramid& pyramid,
+                                    const ColorReference& reference, const ColorPrior& prior,
+                                    const Pose& T_world_start, Pose* T_world_camera) const {
+    const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
+    std::vector<Vec6> all;
+    for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
+    const Pose& T_world_reference = reference.T_world_reference;
+    const PhotometricResult aligned =
+        AlignPhotometric({&pyramid, &grey, reference.grey, all, prior.length_m, &prior.information},
+                         T_world_reference.inverse() * T_world_start, options_.photometric);
+    *T_world_camera = Reorthonormalized(T_world_reference * aligned.T_reference_source);
+    return aligned;
   }
 
   /// A frame with weak directions (a lone plane's three, or what the eigenvalues found) and

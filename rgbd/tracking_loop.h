@@ -85,6 +85,7 @@ struct TrackingRun {
   int relocalised = 0;    ///< frames relocalised after a lone-plane stretch (rgbd/relocalise.h)
   int color_aligned = 0;  ///< weak-direction frames whose weak directions colour measured
   int color_tracked = 0;  ///< frames refined by colour tracking (TrackingLoopOptions)
+  int color_rescued = 0;  ///< of them, frames whose depth track failed: colour alone
   std::vector<OpenStretch> open_stretches;
   double load_s = 0.0;  ///< waiting for frames: the loading not overlapped with tracking
   double preprocess_s = 0.0;
@@ -107,14 +108,18 @@ struct TrackedStep {
   /// Structure again after a lone-plane stretch, not relocalised yet: its pose along the
   /// plane is still the held prediction (SLAM does not fuse it into the map).
   bool unverified = false;
+  /// Its depth track failed and colour alone tracked it (colour tracking): its depth is not
+  /// trusted, so it becomes no keyframe and SLAM does not fuse it.
+  bool color_rescued = false;
 };
 
-/// What a frame is tracked against, and what happens once its pose is known.
 /// A frame's grey images and its pose: what colour tracking measures against.
 struct ColorReference {
   const GreyPyramid* grey = nullptr;
   Pose T_world_reference = Pose::Identity();
 };
+
+/// What a frame is tracked against, and what happens once its pose is known.
 
 class TrackingTarget {
  public:

@@ -287,6 +287,44 @@ TEST(ColorTracking, TrackAndSlamRefineEveryFrameWhenOn) {
   EXPECT_EQ(RunSlam(sequence, slam).color_tracked, 0);
 }
 
+// Frames whose depth tracks all fail (a matched share of 0.95 asked for, which Kinect-like
+// depth does not reach): they are tracked by colour alone from the prediction against the
+// first keyframe, which stays (a frame colour alone tracked is no keyframe: its depth is not
+// trusted), and SLAM fuses none of them; off, they keep the prediction.
+TEST(ColorTracking, FramesWhoseDepthFailsAreTrackedByColourAlone) {
+  const SimulatedSequence sequence(TexturedSequence(7, 320, 240, 5, SequenceNoise::kKinect));
+  OdometryOptions track;
+  track.icp.min_matched_ratio = 0.95;
+  track.guard.enabled = false;
+  track.restart_after_failures = 100;
+  const OdometryResult rescued = RunOdometry(sequence, track);
+  track.color_tracking = ColorTracking::kOff;
+  const OdometryResult held = RunOdometry(sequence, track);
+  const auto ate = [&](const TrackingRun& run) {
+    return EvaluateTrajectory(run.trajectory, sequence.GroundTruth(), 0.01, 1).ate_rmse_m;
+  };
+  int keyframes = 0;
+  for (const OdometryFrame& frame : rescued.frames) keyframes += frame.keyframe ? 1 : 0;
+  // Measured: 5 of the 6 frames tracked by colour alone, ATE 1.80 mm; frame 2 is not (its
+  // prediction fits the colour as well as the alignment: "the residual rose") and keeps the
+  // prediction; off, all 6 keep it: 26.39 mm.
+  EXPECT_GE(rescued.color_rescued, 5);
+  EXPECT_LE(rescued.failures, 1);
+  EXPECT_EQ(keyframes, 1);
+  EXPECT_LT(ate(rescued), 3.6e-3);
+  EXPECT_EQ(held.failures, 6);
+  EXPECT_GT(ate(held), 5 * ate(rescued));
+  SlamOptions slam;
+  slam.icp.min_matched_ratio = 0.95;
+  slam.guard.enabled = false;
+  slam.restart_after_failures = 100;
+  const SlamResult mapped = RunSlam(sequence, slam);
+  EXPECT_GE(mapped.color_rescued, 5);
+  for (std::size_t k = 1; k < mapped.frames.size(); ++k) {
+    EXPECT_EQ(mapped.frames[k].fusion.input_points, 0) << k;
+  }
+}
+
 TEST(ColorTracking, SettingsByName) {
   TrackingLoopOptions loop;
   EXPECT_EQ(loop.color_tracking, ColorTracking::kAuto);

@@ -574,6 +574,7 @@ class TrackResult(Trajectory):
     relocalised: int = 0  #: frames relocalised after a lone-plane stretch
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
+    color_rescued: int = 0  #: of them, frames whose depth track failed: tracked by colour alone
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -668,6 +669,7 @@ class SlamResult(Trajectory):
     relocalised: int = 0  #: frames relocalised after a lone-plane stretch
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
+    color_rescued: int = 0  #: of them, frames whose depth track failed: tracked by colour alone
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
     #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
     #: the check after the solve, whether the trajectory was corrected)
@@ -809,7 +811,8 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
         restarts=raw["restarts"], timings=TrackTimings(**raw["timings"]),
         recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"],
         relocalised=raw["relocalised"], color_aligned=raw["color_aligned"],
-        color_tracked=raw["color_tracked"], loop_closure=raw["loop_closure"])
+        color_tracked=raw["color_tracked"], color_rescued=raw["color_rescued"],
+        loop_closure=raw["loop_closure"])
 
 
 @_keywords("slam")
@@ -847,7 +850,8 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
         diverged=raw["diverged"], weak_frames=raw["weak_frames"], relocalised=raw["relocalised"],
         color_aligned=raw["color_aligned"], color_tracked=raw["color_tracked"],
-        loop_closure=raw["loop_closure"], halvings=raw["halvings"])
+        color_rescued=raw["color_rescued"], loop_closure=raw["loop_closure"],
+        halvings=raw["halvings"])
 
 
 @dataclass
