@@ -67,6 +67,11 @@ Vec3 LogSO3(const Mat3& R) {
   return QuaternionLog(q);
 }
 
+bool WithinMotion(const Pose& T, double translation_m, double rotation_deg) {
+  return T.translation().norm() <= translation_m &&
+         LogSO3(T.linear()).norm() <= rotation_deg * kDegToRad;
+}
+
 Vec6 PoseDifference(const Pose& T_a, const Pose& T_b) {
   Vec6 delta;
   delta.head<3>() = LogSO3(T_b.linear() * T_a.linear().transpose());

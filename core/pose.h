@@ -51,6 +51,9 @@ Mat3 Hat(const Vec3& v);
 Mat3 ExpSO3(const Vec3& w);
 /// SO(3) logarithm: the rotation vector of R, with angle in [0, pi].
 Vec3 LogSO3(const Mat3& R);
+/// Whether the relative pose T moves at most translation_m and turns at most rotation_deg (the
+/// keyframe rules of loop closure and SLAM's colour reference).
+bool WithinMotion(const Pose& T, double translation_m, double rotation_deg);
 /// Tangent difference of two poses in the convention above: T_b = Exp(delta) * T_a,
 /// i.e. w = Log(R_b R_a^T), d = t_b - t_a.
 Vec6 PoseDifference(const Pose& T_a, const Pose& T_b);

@@ -292,8 +292,7 @@ std::vector<bool> SelectKeyframes(const Trajectory& trajectory, const std::vecto
     if (!usable[k]) continue;
     if (last >= 0) {
       const Pose T_last_k = trajectory.poses[last].inverse() * trajectory.poses[k];
-      if (T_last_k.translation().norm() <= options.keyframe_translation_m &&
-          LogSO3(T_last_k.linear()).norm() <= options.keyframe_rotation_deg * kDegToRad) {
+      if (WithinMotion(T_last_k, options.keyframe_translation_m, options.keyframe_rotation_deg)) {
         continue;
       }
     }

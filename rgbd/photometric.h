@@ -107,10 +107,9 @@ struct PhotometricResult {
   bool success = false;
   std::string message;  ///< why it was not kept
   Pose T_reference_source = Pose::Identity();
-  int pixels = 0;     ///< taking part at the finest level's last step
-  double rmse = 0.0;  ///< RMS grey-level residual there
-  double sigma_m =
-      0.0;  ///< the largest standard deviation over the free directions (prior included)
+  int pixels = 0;         ///< taking part at the finest level's last step
+  double rmse = 0.0;      ///< RMS grey-level residual there
+  double sigma_m = 0.0;   ///< the largest standard deviation, free directions (and prior)
   double change_m = 0.0;  ///< the move from the start pose, scaled space
 };
 

@@ -281,9 +281,9 @@ class ModelTarget : public TrackingTarget {
   /// moved or turned enough from it (SlamOptions::color_keyframe_*).
   void KeepColorKey(const TrackedStep& step, const RgbdFrame& frame, const FramePyramid& pyramid) {
     if (options_.color_tracking == ColorTracking::kOff || !HasColor(frame, pyramid)) return;
-    const Pose from_key = T_world_color_key_.inverse() * step.T_world_camera;
-    if (color_key_ && from_key.translation().norm() <= options_.color_keyframe_translation_m &&
-        LogSO3(from_key.linear()).norm() <= options_.color_keyframe_rotation_deg * kDegToRad) {
+    if (color_key_ &&
+        WithinMotion(T_world_color_key_.inverse() * step.T_world_camera,
+                     options_.color_keyframe_translation_m, options_.color_keyframe_rotation_deg)) {
       return;
     }
     color_key_ = BuildGreyPyramid(frame.color, pyramid);
