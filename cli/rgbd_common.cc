@@ -169,6 +169,9 @@ std::string LoopClosureSummaryText(const LoopClosureResult& closed) {
   if (closed.accepted_across > 0) {
     Appendf(&kept, "; %d across an open lone-plane stretch", closed.accepted_across);
   }
+  if (closed.accepted_by_color > 0) {
+    Appendf(&kept, "; %d refined by colour", closed.accepted_by_color);
+  }
   std::string text;
   Appendf(&text,
           "loop closure: %zu keyframes, %d candidate(s), %d loop(s) accepted, %d rejected after "
@@ -184,9 +187,9 @@ std::string LoopClosureMetadata(const LoopClosureResult& closed) {
   std::string line;
   Appendf(&line,
           "loop closure: keyframes %zu, candidates %d, accepted %d (across an open lone-plane "
-          "stretch %d), rejected after the solve %d, applied %s",
+          "stretch %d, refined by colour %d), rejected after the solve %d, applied %s",
           closed.keyframes.size(), closed.candidates, closed.accepted, closed.accepted_across,
-          closed.rejected_after_solve, closed.applied ? "yes" : "no");
+          closed.accepted_by_color, closed.rejected_after_solve, closed.applied ? "yes" : "no");
   return line;
 }
 
@@ -275,7 +278,8 @@ void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
                   "auto (frames that matched under 0.6 of their pixels: noisy depth such as "
                   "stereo matching's), on (every frame without weak directions) or off; unless "
                   "off, a frame whose depth track failed or diverged is tracked by colour alone "
-                  "(docs/rgbd.md section 4c)")
+                  "and the loop closure registers its candidates by colour too (docs/rgbd.md "
+                  "sections 4c and 7)")
       ->capture_default_str();
   AddLoopClosureFlag(sub, &args->loop_closure);
   sub->add_option("--threads", loop->threads, "Threads")->capture_default_str();

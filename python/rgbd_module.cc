@@ -377,6 +377,7 @@ void AddLoopClosure(const std::optional<LoopClosureResult>& closed, py::dict* ou
   d["candidates"] = closed->candidates;
   d["accepted"] = closed->accepted;
   d["accepted_across_stretch"] = closed->accepted_across;
+  d["accepted_by_color"] = closed->accepted_by_color;
   d["rejected_after_solve"] = closed->rejected_after_solve;
   d["applied"] = closed->applied;
   d["message"] = closed->message;

@@ -246,6 +246,12 @@ void ComputeVertexNormalMaps(FrameLevel* level, double max_depth_jump_ratio, int
   }
 }
 
+double MeanDepth(const FrameLevel& level) {
+  double sum = 0.0;
+  for (const int i : level.valid_pixels) sum += level.vertices[i].z();
+  return level.valid_pixels.empty() ? 0.0 : sum / static_cast<double>(level.valid_pixels.size());
+}
+
 FramePyramid BuildFramePyramid(const RgbdFrame& frame, const FrameOptions& options, int threads) {
   if (options.levels < 1) throw InputError("frame options: levels must be at least 1");
   if (options.bilateral && !(options.bilateral_sigma_px > 0.0 && options.bilateral_sigma_m > 0.0)) {

@@ -61,6 +61,9 @@ struct FramePyramid {
   std::vector<FrameLevel> levels;
 };
 
+/// The mean depth of the level's valid pixels; 0 when it has none.
+double MeanDepth(const FrameLevel& level);
+
 /// Truncates the frame's depth and builds `options.levels` levels (the level-0 normals from
 /// the bilateral-filtered depth when options.bilateral).
 /// Each coarser level averages the valid depths of a 2x2 block that lie within the depth-jump

@@ -14,21 +14,51 @@
 namespace rigfit {
 namespace {
 
-/// The keyframe's pyramid as the run built it.
-FramePyramid LoadPyramid(const RgbdSequence& sequence, int index,
-                         const LoopClosureOptions& options) {
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const auto middle = values.begin() + values.size() / 2;
+  std::nth_element(values.begin(), middle, values.end());
+  return *middle;
+}
+
+/// The keyframe's pyramid as the run built it, with its grey pyramid when `color` and the
+/// frame has colour.
+LoopKeyframe LoadKeyframe(const RgbdSequence& sequence, int index,
+                          const LoopClosureOptions& options, bool color = false) {
   RgbdFrame frame = sequence.Frame(index);
   for (int h = 0; h < options.halvings; ++h) {
     frame = HalveFrame(frame, options.frame.max_depth_jump_ratio);
   }
-  return BuildFramePyramid(frame, options.frame, options.threads);
+  LoopKeyframe keyframe{BuildFramePyramid(frame, options.frame, options.threads), {}};
+  if (color && HasColor(frame, keyframe.pyramid)) {
+    keyframe.grey = BuildGreyPyramid(frame.color, keyframe.pyramid);
+  }
+  return keyframe;
+}
+
+/// `later` against `earlier` by colour over all six directions (rgbd/photometric.h), with the
+/// depth's `prior` (null: none).
+PhotometricProblem ColorProblem(const LoopKeyframe& later, const LoopKeyframe& earlier,
+                                const Mat6* prior) {
+  std::vector<Vec6> all;
+  for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
+  return {&later.pyramid, &later.grey, &earlier.grey, all, MeanDepth(later.pyramid.levels[0]),
+          prior};
+}
+
+/// Whether the candidates are refined by colour, given the sequential edges' median share.
+bool LoopsByColor(const LoopClosureOptions& options, double median_share) {
+  return options.color_tracking == ColorTracking::kOn ||
+         (options.color_tracking == ColorTracking::kAuto &&
+          median_share < options.color_tracking_share);
 }
 
 /// The edge a -> b measured at T_a_b, weighed by the information of the ICP's pairs there
-/// (header comment); rmse_m of its pairs.
+/// (header comment); rmse_m of its pairs, matched_share their share of b's pixels.
 struct MeasuredEdge {
   PoseGraphEdge edge;
   double rmse_m = 0.0;
+  double matched_share = 0.0;
 };
 
 MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_a, int node_b,
@@ -43,6 +73,8 @@ MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_
   Mat6 information = Mat6::Zero();
   if (eq.count > 0) {
     measured.rmse_m = std::sqrt(eq.squared_error / eq.count);
+    measured.matched_share =
+        static_cast<double>(eq.count) / static_cast<double>(b.levels[0].valid_pixels.size());
     const double variance = std::max(measured.rmse_m * measured.rmse_m, 1e-12);
     Mat6 J_inverse = Mat6::Identity();
     J_inverse.block<3, 3>(3, 0) = Hat(T_a_b.translation());
@@ -50,6 +82,34 @@ MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_
   }
   measured.edge.information = information + options.floor_information * Mat6::Identity();
   return measured;
+}
+
+/// The sequential edges between consecutive keyframes (trajectory positions `nodes`) at the
+/// run's relative poses, and their medians; the grey-level residual's only where colour may be
+/// used (LoopClosureOptions::color_tracking) and both keyframes have colour.
+SequentialMedians MeasureSequential(const RgbdSequence& sequence, const std::vector<int>& frames,
+                                    const std::vector<int>& nodes, const Trajectory& trajectory,
+                                    const LoopClosureOptions& options,
+                                    std::vector<PoseGraphEdge>* edges) {
+  const bool color = options.color_tracking != ColorTracking::kOff;
+  std::vector<double> rmse;
+  std::vector<double> share;
+  std::vector<double> grey;
+  LoopKeyframe previous = LoadKeyframe(sequence, frames[nodes[0]], options, color);
+  for (std::size_t j = 1; j < nodes.size(); ++j) {
+    LoopKeyframe current = LoadKeyframe(sequence, frames[nodes[j]], options, color);
+    const Pose T_a_b = trajectory.poses[nodes[j - 1]].inverse() * trajectory.poses[nodes[j]];
+    const MeasuredEdge m = MeasureEdge(current.pyramid, previous.pyramid, j - 1, j, T_a_b, options);
+    edges->push_back(m.edge);
+    rmse.push_back(m.rmse_m);
+    share.push_back(m.matched_share);
+    if (!current.grey.levels.empty() && !previous.grey.levels.empty()) {
+      grey.push_back(
+          PhotometricRmse(ColorProblem(current, previous, nullptr), T_a_b, options.photometric));
+    }
+    previous = std::move(current);
+  }
+  return {Median(rmse), Median(share), Median(grey)};
 }
 
 /// The path length travelled up to every pose.
@@ -165,33 +225,89 @@ void FreeAcrossOpenStretches(const std::vector<int>& nodes, const Trajectory& tr
   }
 }
 
+/// `later` aligned to `earlier` by colour from T_start (T_earlier_later; ColorProblem).
+PhotometricResult AlignLoopByColor(const LoopKeyframe& later, const LoopKeyframe& earlier,
+                                   const Pose& T_start, const Mat6* prior,
+                                   const PhotometricOptions& options) {
+  return AlignPhotometric(ColorProblem(later, earlier, prior), T_start, options);
+}
+
+/// The check's track moved to T_earlier_later: the depth's pairs there (their share of the
+/// later keyframe's pixels and RMS distance) judge it, and colour measured every direction.
+void TrackAtColorPose(const LoopKeyframe& later, const LoopKeyframe& earlier,
+                      const Pose& T_earlier_later, const LoopClosureOptions& options,
+                      TrackResult* track) {
+  const FrameLevel& source = later.pyramid.levels[0];
+  const NormalEquations eq =
+      AccumulateProjective(source, earlier.pyramid.levels[0], T_earlier_later,
+                           options.icp.association, options.icp.weighting, options.threads);
+  track->T_target_source = T_earlier_later;
+  track->correspondences = eq.count;
+  track->matched_ratio =
+      static_cast<double>(eq.count) / static_cast<double>(source.valid_pixels.size());
+  track->rmse_m = eq.count > 0 ? std::sqrt(eq.squared_error / eq.count) : 0.0;
+  track->success = track->matched_ratio >= options.icp.min_matched_ratio;
+  track->message = track->success ? "" : "too few pixels matched at the pose colour found";
+  track->weak.clear();
+  track->weak_directions = 0;
+}
+
+/// A candidate with colour: aligned by colour alone from the run's pose (the drift a loop
+/// closes is larger than depth ICP's reach on noisy depth, and colour's coarse levels reach
+/// further), then by ICP from there, then refined by colour with the ICP's information as a
+/// prior (colour tracking); judged by the depth at the last pose colour kept
+/// (TrackAtColorPose). False, with the reason, when colour kept none: on the depth colour is
+/// used for, the ICP alone also accepts pairs far from the truth.
+bool VerifyByColor(const LoopKeyframe& later, const LoopKeyframe& earlier, const Pose& T_init,
+                   const LoopClosureOptions& options, LoopCheck* check) {
+  PhotometricOptions wide = options.photometric;
+  wide.max_change_m = options.color_max_change_m;
+  const PhotometricResult coarse = AlignLoopByColor(later, earlier, T_init, nullptr, wide);
+  const Pose start = coarse.success ? coarse.T_reference_source : T_init;
+  check->track =
+      TrackProjective(later.pyramid, earlier.pyramid, start, options.icp, options.threads);
+  const TrackResult& t = check->track;
+  if (t.success && t.weak_directions == 0) {
+    const PhotometricResult fine =
+        AlignLoopByColor(later, earlier, t.T_target_source, &t.information, options.photometric);
+    if (fine.success) {
+      TrackAtColorPose(later, earlier, fine.T_reference_source, options, &check->track);
+      check->color_refined = true;
+      check->grey_rmse = fine.rmse;
+      return true;
+    }
+  }
+  if (!coarse.success) {
+    check->reason = "not registered by colour: " + coarse.message;
+    return false;
+  }
+  TrackAtColorPose(later, earlier, coarse.T_reference_source, options, &check->track);
+  check->color_refined = true;
+  check->grey_rmse = coarse.rmse;
+  return true;
+}
+
 /// A candidate across an open stretch: `later` searched for over the free directions of the
 /// stretch's plane (normal n_world) around its run pose with `earlier` as the one anchor, and
 /// the pose found checked as any candidate's (VerifyLoop).
-LoopCheck VerifyAcross(const FramePyramid& later, const FramePyramid& earlier,
+LoopCheck VerifyAcross(const LoopKeyframe& later, const LoopKeyframe& earlier,
                        const Pose& T_world_later, const Pose& T_world_earlier, const Vec3& n_world,
-                       double median_rmse_m, const LoopClosureOptions& options) {
-  const std::vector<Anchor> anchor = {{earlier, T_world_earlier, 0}};
-  const Relocalisation found = Relocalise({&later, T_world_later, n_world, median_rmse_m}, anchor,
-                                          options.icp, options.relocalise, options.threads);
+                       const SequentialMedians& sequential, const LoopClosureOptions& options) {
+  const std::vector<Anchor> anchor = {{earlier.pyramid, T_world_earlier, 0}};
+  const Relocalisation found =
+      Relocalise({&later.pyramid, T_world_later, n_world, sequential.rmse_m}, anchor, options.icp,
+                 options.relocalise, options.threads);
   if (!found.success) {
     LoopCheck check;
     check.reason = "not found over the free directions of the open stretch's plane (" +
                    std::to_string(found.candidates) + " poses scored; no track within " +
                    std::to_string(options.relocalise.max_rmse_ratio) +
-                   " x the sequential edges' RMS distance " + std::to_string(median_rmse_m * 1e3) +
-                   " mm)";
+                   " x the sequential edges' RMS distance " +
+                   std::to_string(sequential.rmse_m * 1e3) + " mm)";
     return check;
   }
-  return VerifyLoop(later, earlier, T_world_earlier.inverse() * found.T_world_camera, median_rmse_m,
+  return VerifyLoop(later, earlier, T_world_earlier.inverse() * found.T_world_camera, sequential,
                     options);
-}
-
-double Median(std::vector<double> values) {
-  if (values.empty()) return 0.0;
-  const auto middle = values.begin() + values.size() / 2;
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
 }
 
 /// The pose between A (s = 0) and B (s = 1): rotation along the geodesic, position on the line.
@@ -334,22 +450,34 @@ std::vector<Pose> InterpolatedCorrections(const Trajectory& run, const std::vect
   return result;
 }
 
-LoopCheck VerifyLoop(const FramePyramid& later, const FramePyramid& earlier, const Pose& T_init,
-                     double median_rmse_m, const LoopClosureOptions& options) {
+LoopCheck VerifyLoop(const LoopKeyframe& later, const LoopKeyframe& earlier, const Pose& T_init,
+                     const SequentialMedians& sequential, const LoopClosureOptions& options) {
   LoopCheck check;
-  check.track = TrackProjective(later, earlier, T_init, options.icp, options.threads);
+  if (later.grey.levels.empty() || earlier.grey.levels.empty()) {
+    check.track =
+        TrackProjective(later.pyramid, earlier.pyramid, T_init, options.icp, options.threads);
+  } else if (!VerifyByColor(later, earlier, T_init, options, &check)) {
+    return check;
+  }
   const TrackResult& t = check.track;
+  const double min_share =
+      std::min(options.min_matched_ratio, options.matched_share_ratio * sequential.matched_share);
   if (!t.success) {
     check.reason = "ICP failed: " + t.message;
   } else if (t.weak_directions > 0) {
     check.reason = "weak directions (the views do not fix the motion)";
-  } else if (t.matched_ratio < options.min_matched_ratio) {
-    check.reason = "matched share " + std::to_string(t.matched_ratio) + " below " +
-                   std::to_string(options.min_matched_ratio);
-  } else if (t.rmse_m > options.max_rmse_ratio * median_rmse_m) {
+  } else if (t.matched_ratio < min_share) {
+    check.reason =
+        "matched share " + std::to_string(t.matched_ratio) + " below " + std::to_string(min_share);
+  } else if (t.rmse_m > options.max_rmse_ratio * sequential.rmse_m) {
     check.reason = "RMS distance " + std::to_string(t.rmse_m * 1e3) + " mm above " +
                    std::to_string(options.max_rmse_ratio) + " x the sequential edges' " +
-                   std::to_string(median_rmse_m * 1e3) + " mm";
+                   std::to_string(sequential.rmse_m * 1e3) + " mm";
+  } else if (check.color_refined && sequential.grey_rmse > 0.0 &&
+             check.grey_rmse > options.max_grey_rmse_ratio * sequential.grey_rmse) {
+    check.reason = "RMS grey-level residual " + std::to_string(check.grey_rmse) + " above " +
+                   std::to_string(options.max_grey_rmse_ratio) + " x the sequential edges' " +
+                   std::to_string(sequential.grey_rmse);
   } else {
     check.accepted = true;
   }
@@ -379,48 +507,44 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
   // Sequential edges, then each keyframe's revisit candidate.
   std::vector<PoseGraphEdge> sequential;
   std::vector<PoseGraphEdge> loops;
-  std::vector<double> rmse;
-  FramePyramid previous = LoadPyramid(sequence, frames[nodes[0]], options);
-  for (std::size_t j = 1; j < nodes.size(); ++j) {
-    FramePyramid current = LoadPyramid(sequence, frames[nodes[j]], options);
-    const Pose T_a_b = trajectory.poses[nodes[j - 1]].inverse() * trajectory.poses[nodes[j]];
-    const MeasuredEdge m = MeasureEdge(current, previous, j - 1, j, T_a_b, options);
-    sequential.push_back(m.edge);
-    rmse.push_back(m.rmse_m);
-    previous = std::move(current);
-  }
+  const SequentialMedians medians =
+      MeasureSequential(sequence, frames, nodes, trajectory, options, &sequential);
   const std::vector<Candidate> candidate = FindCandidates(nodes, trajectory, open, options);
   FreeAcrossOpenStretches(nodes, trajectory, open, options.floor_information, &sequential);
-  const double median_rmse_m = Median(rmse);
-  // Each candidate verified by ICP from the run's relative pose (across an open stretch: from
-  // the pose the search over the plane's free directions found).
+  const bool color = LoopsByColor(options, medians.matched_share);
+  // Each candidate verified by ICP (and colour) from the run's relative pose (across an open
+  // stretch: from the pose the search over the plane's free directions found).
   for (std::size_t j = 1; j < nodes.size(); ++j) {
     if (candidate[j].node < 0) continue;
     ++result.candidates;
     const int i = candidate[j].node;
     const int across = candidate[j].across;
-    const FramePyramid later = LoadPyramid(sequence, frames[nodes[j]], options);
-    const FramePyramid earlier = LoadPyramid(sequence, frames[nodes[i]], options);
+    const LoopKeyframe later = LoadKeyframe(sequence, frames[nodes[j]], options, color);
+    const LoopKeyframe earlier = LoadKeyframe(sequence, frames[nodes[i]], options, color);
     const Pose& T_world_i = trajectory.poses[nodes[i]];
     const Pose& T_world_j = trajectory.poses[nodes[j]];
-    LoopCheck check = across < 0 ? VerifyLoop(later, earlier, T_world_i.inverse() * T_world_j,
-                                              median_rmse_m, options)
-                                 : VerifyAcross(later, earlier, T_world_j, T_world_i,
-                                                open[across].n_world, median_rmse_m, options);
+    LoopCheck check =
+        across < 0 ? VerifyLoop(later, earlier, T_world_i.inverse() * T_world_j, medians, options)
+                   : VerifyAcross(later, earlier, T_world_j, T_world_i, open[across].n_world,
+                                  medians, options);
     check.frame_a = nodes[i];
     check.frame_b = nodes[j];
     if (check.accepted) {
       ++result.accepted;
       result.accepted_across += across >= 0 ? 1 : 0;
-      PoseGraphEdge loop =
-          MeasureEdge(later, earlier, i, static_cast<int>(j), check.track.T_target_source, options)
-              .edge;
+      result.accepted_by_color += check.color_refined ? 1 : 0;
+      PoseGraphEdge loop = MeasureEdge(later.pyramid, earlier.pyramid, i, static_cast<int>(j),
+                                       check.track.T_target_source, options)
+                               .edge;
       loop.robust = false;  // verified; the loss would reject it while the drift is open
       loops.push_back(loop);
-    } else {
-      log.Debug("loop closure: frames " + std::to_string(frames[nodes[i]]) + " and " +
-                std::to_string(frames[nodes[j]]) + " rejected: " + check.reason);
     }
+    log.Debug("loop closure: frames " + std::to_string(frames[nodes[i]]) + " and " +
+              std::to_string(frames[nodes[j]]) + ": share " +
+              std::to_string(check.track.matched_ratio) + ", RMS " +
+              std::to_string(check.track.rmse_m * 1e3) + " mm" +
+              (check.color_refined ? ", refined by colour" : "") + ": " +
+              (check.accepted ? "accepted" : "rejected: " + check.reason));
     result.checks.push_back(std::move(check));
   }
   if (result.accepted == 0) {
@@ -434,12 +558,15 @@ LoopClosureResult CloseLoops(const RgbdSequence& sequence, const std::vector<int
 
 namespace {
 
-/// The settings a loop closure shares with the run it closes: frames, ICP, threads.
+/// The settings a loop closure shares with the run it closes: frames, ICP, colour, threads.
 LoopClosureOptions LoopClosureOptionsOfLoop(const TrackingLoopOptions& options) {
   LoopClosureOptions o;
   o.frame = options.frame;
   o.icp = options.icp;
   o.relocalise = options.relocalise;
+  o.color_tracking = options.color_tracking;
+  o.color_tracking_share = options.color_tracking_share;
+  o.photometric = options.photometric;
   o.threads = options.threads;
   return o;
 }

@@ -25,8 +25,10 @@
 #include "registration/pose_graph.h"
 #include "rgbd/frame.h"
 #include "rgbd/odometry.h"
+#include "rgbd/photometric.h"
 #include "rgbd/projective_icp.h"
 #include "rgbd/slam.h"
+#include "rgbd/tracking_loop.h"
 
 namespace rigfit {
 
@@ -57,10 +59,30 @@ struct LoopClosureOptions {
   RelocaliseOptions relocalise;
   int max_searches_across = 30;
   /// A candidate is accepted when its ICP succeeds with no weak direction, matches at least
-  /// this share of the later keyframe's pixels, and its RMS distance is at most
-  /// max_rmse_ratio times the median of the sequential edges'.
+  /// min(min_matched_ratio, matched_share_ratio times the sequential edges' median share) of
+  /// the later keyframe's pixels (noisy depth such as stereo matching's matches a third of
+  /// them between neighbouring keyframes), and its RMS distance is at most max_rmse_ratio
+  /// times the median of the sequential edges'.
   double min_matched_ratio = 0.5;
+  double matched_share_ratio = 0.6;
   double max_rmse_ratio = 1.5;
+  /// Colour (rgbd/photometric.h; the run's TrackingLoopOptions settings): a candidate whose
+  /// keyframes both have colour is refined by colour after its ICP, the ICP's information as
+  /// a prior (from the run's relative pose, no prior, when the ICP failed), and judged by the
+  /// depth at the refined pose (VerifyLoop). kOn: every candidate; kAuto: when the sequential
+  /// edges' median share is below color_tracking_share (the depth the run refined by colour);
+  /// kOff: none.
+  ColorTracking color_tracking = ColorTracking::kAuto;
+  double color_tracking_share = 0.6;
+  PhotometricOptions photometric;
+  /// The first alignment by colour, from the run's relative pose, may move this far (the
+  /// scaled space of rgbd/photometric.h: metres, a rotation times the mean depth): about the
+  /// candidate gate's reach.
+  double color_max_change_m = 0.6;
+  /// A candidate refined by colour is also rejected when its RMS grey-level residual exceeds
+  /// max_grey_rmse_ratio times the sequential edges' median at the run's poses (a colour
+  /// alignment caught in a wrong minimum leaves 3-5 times the right one's).
+  double max_grey_rmse_ratio = 1.5;
   /// Information = information_scale H / rmse^2 (header comment), plus floor_information on
   /// the diagonal (a sequential edge across a view that fixes no direction keeps the graph
   /// whole). The scale makes the sequential edges' chi-square against the ground truth about
@@ -82,7 +104,10 @@ struct LoopClosureOptions {
 struct LoopCheck {
   int frame_a = 0;  ///< positions in the run's trajectory
   int frame_b = 0;
-  TrackResult track;  ///< T_target_source = T_a_b
+  /// T_target_source = T_a_b; refined by colour: its pairs' share and RMS distance there.
+  TrackResult track;
+  bool color_refined = false;
+  double grey_rmse = 0.0;  ///< refined by colour: its RMS grey-level residual there
   bool accepted = false;
   std::string reason;  ///< why rejected
   /// Accepted by the ICP: the graph's cost drop when it is left out (ConsistentLoopGraph).
@@ -97,6 +122,7 @@ struct LoopClosureResult {
   int candidates = 0;
   int accepted = 0;              ///< verified by the ICP check
   int accepted_across = 0;       ///< of those, across an open lone-plane stretch
+  int accepted_by_color = 0;     ///< of those, refined by colour (LoopCheck::color_refined)
   int rejected_after_solve = 0;  ///< of those, dropped by ConsistentLoopGraph
   bool applied = false;          ///< the graph was solved and the trajectory corrected
   std::string message;
@@ -140,10 +166,26 @@ std::vector<Pose> InterpolatedCorrections(const Trajectory& run, const std::vect
                                           const std::vector<Pose>& solved,
                                           const std::vector<double>& progress = {});
 
-/// Registers `later` onto `earlier` from T_init (T_earlier_later) and judges it by the
-/// options' acceptance rules, with `median_rmse_m` the sequential edges' median RMS distance.
-LoopCheck VerifyLoop(const FramePyramid& later, const FramePyramid& earlier, const Pose& T_init,
-                     double median_rmse_m, const LoopClosureOptions& options);
+/// A keyframe as the loop closure registers it: its pyramid and, to refine by colour, its
+/// grey pyramid (no levels: not refined by colour).
+struct LoopKeyframe {
+  FramePyramid pyramid;
+  GreyPyramid grey;
+};
+
+/// What a candidate is judged against: the sequential edges' median RMS distance, share of
+/// the later keyframe's pixels matched and RMS grey-level residual (0: not measured).
+struct SequentialMedians {
+  double rmse_m = 0.0;
+  double matched_share = 1.0;
+  double grey_rmse = 0.0;
+};
+
+/// Registers `later` onto `earlier` from T_init (T_earlier_later), by ICP and then by colour
+/// when both have grey levels (LoopClosureOptions::color_tracking), and judges it by the
+/// options' acceptance rules against the sequential edges' medians.
+LoopCheck VerifyLoop(const LoopKeyframe& later, const LoopKeyframe& earlier, const Pose& T_init,
+                     const SequentialMedians& sequential, const LoopClosureOptions& options);
 
 /// Closes the loops of a run: `frames` are the sequence indices of the trajectory's poses,
 /// `keyframes` flags the poses to build the graph on (the first must be one). Never throws

@@ -151,7 +151,44 @@ std::string Rejection(const PhotometricResult& result, double start_rmse,
   return "";
 }
 
+/// Throws std::invalid_argument (naming `caller`) unless the problem has 1 to 6 free
+/// directions and grey pyramids of the source's levels and sizes.
+void CheckProblem(const PhotometricProblem& problem, const std::string& caller) {
+  const int k = static_cast<int>(problem.free.size());
+  const std::size_t levels = problem.source->levels.size();
+  if (k < 1 || k > 6 || levels == 0 || problem.source_grey->levels.size() != levels ||
+      problem.reference_grey->levels.size() != levels) {
+    throw std::invalid_argument(
+        caller + ": 1 to 6 free directions and grey pyramids of the source's levels");
+  }
+  for (std::size_t l = 0; l < levels; ++l) {
+    const FrameLevel& level = problem.source->levels[l];
+    for (const GreyPyramid* grey : {problem.source_grey, problem.reference_grey}) {
+      if (grey->levels[l].width != level.width || grey->levels[l].height != level.height) {
+        throw std::invalid_argument(caller + ": a grey level's size is not the source's");
+      }
+    }
+  }
+}
+
+/// The free directions as columns of the left update [w; dt] (rotation unscaled).
+Mat6K FreeBasis(const PhotometricProblem& problem) {
+  const int k = static_cast<int>(problem.free.size());
+  Mat6K SF(6, k);
+  for (int j = 0; j < k; ++j) {
+    SF.col(j) = problem.free[j];
+    SF.col(j).head<3>() /= problem.length_m;
+  }
+  return SF;
+}
+
 }  // namespace
+
+double PhotometricRmse(const PhotometricProblem& problem, const Pose& T,
+                       const PhotometricOptions& options) {
+  CheckProblem(problem, "PhotometricRmse");
+  return Rmse(Accumulate(problem, 0, T, FreeBasis(problem), options));
+}
 
 GreyPyramid BuildGreyPyramid(const std::vector<std::uint8_t>& color, const FramePyramid& pyramid) {
   if (pyramid.levels.empty()) throw std::invalid_argument("BuildGreyPyramid: empty pyramid");
@@ -181,26 +218,10 @@ GreyPyramid BuildGreyPyramid(const std::vector<std::uint8_t>& color, const Frame
 
 PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose& T_init,
                                    const PhotometricOptions& options) {
-  const int k = static_cast<int>(problem.free.size());
+  CheckProblem(problem, "AlignPhotometric");
   const std::size_t levels = problem.source->levels.size();
-  if (k < 1 || k > 6 || levels == 0 || problem.source_grey->levels.size() != levels ||
-      problem.reference_grey->levels.size() != levels) {
-    throw std::invalid_argument(
-        "AlignPhotometric: 1 to 6 free directions and grey pyramids of the source's levels");
-  }
-  for (std::size_t l = 0; l < levels; ++l) {
-    const FrameLevel& level = problem.source->levels[l];
-    for (const GreyPyramid* grey : {problem.source_grey, problem.reference_grey}) {
-      if (grey->levels[l].width != level.width || grey->levels[l].height != level.height) {
-        throw std::invalid_argument("AlignPhotometric: a grey level's size is not the source's");
-      }
-    }
-  }
-  Mat6K SF(6, k);
-  for (int j = 0; j < k; ++j) {
-    SF.col(j) = problem.free[j];
-    SF.col(j).head<3>() /= problem.length_m;
-  }
+  const int k = static_cast<int>(problem.free.size());
+  const Mat6K SF = FreeBasis(problem);
   PhotometricResult result;
   result.T_reference_source = T_init;
   const PhotometricSystem start = Accumulate(problem, 0, T_init, SF, options);

@@ -113,6 +113,12 @@ struct PhotometricResult {
   double change_m = 0.0;  ///< the move from the start pose, scaled space
 };
 
+/// The RMS grey-level residual at T (T_reference_source) over the finest level's pixels that
+/// take part: what AlignPhotometric reports as rmse at its estimate; 0 when none take part.
+/// Throws as AlignPhotometric does.
+double PhotometricRmse(const PhotometricProblem& problem, const Pose& T,
+                       const PhotometricOptions& options);
+
 /// Aligns the source to the reference along the free directions from T_init
 /// (T_reference_source), as the header says; the other directions keep T_init's. Throws
 /// std::invalid_argument unless there are 1 to 6 free directions and both grey pyramids have

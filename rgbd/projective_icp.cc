@@ -307,15 +307,13 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
     return result;
   }
   // Rotation weighs as the displacement it causes at the scene's depth: the mean source depth.
-  double depth_sum = 0.0;
   const FrameLevel& finest = source.levels[0];
   const int valid = static_cast<int>(finest.valid_pixels.size());
-  for (const int i : finest.valid_pixels) depth_sum += finest.vertices[i].z();
   if (valid == 0) {
     result.message = "the source frame has no valid pixel";
     return result;
   }
-  const double length_m = depth_sum / valid;
+  const double length_m = MeanDepth(finest);
   result.length_m = length_m;
 
   // A lone plane in the target (its axes) or the source (turned into them at each step).

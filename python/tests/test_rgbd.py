@@ -454,6 +454,7 @@ def test_track_reports_its_loop_closure(tracked):
     assert 0 <= closure["accepted"] <= closure["candidates"]
     assert 0 <= closure["rejected_after_solve"] <= closure["accepted"]
     assert 0 <= closure["accepted_across_stretch"] <= closure["accepted"]
+    assert 0 <= closure["accepted_by_color"] <= closure["accepted"]
     assert isinstance(closure["applied"], bool) and closure["seconds"] >= 0
 
 
