@@ -104,8 +104,8 @@ SequentialMedians MeasureSequential(const RgbdSequence& sequence, const std::vec
     rmse.push_back(m.rmse_m);
     share.push_back(m.matched_share);
     if (!current.grey.levels.empty() && !previous.grey.levels.empty()) {
-      grey.push_back(
-          PhotometricRmse(ColorProblem(current, previous, nullptr), T_a_b, options.photometric));
+      grey.push_back(PhotometricRmse(ColorProblem(current, previous, nullptr), T_a_b,
+                                     options.photometric, options.threads));
     }
     previous = std::move(current);
   }
@@ -228,8 +228,8 @@ void FreeAcrossOpenStretches(const std::vector<int>& nodes, const Trajectory& tr
 /// `later` aligned to `earlier` by colour from T_start (T_earlier_later; ColorProblem).
 PhotometricResult AlignLoopByColor(const LoopKeyframe& later, const LoopKeyframe& earlier,
                                    const Pose& T_start, const Mat6* prior,
-                                   const PhotometricOptions& options) {
-  return AlignPhotometric(ColorProblem(later, earlier, prior), T_start, options);
+                                   const PhotometricOptions& options, int threads) {
+  return AlignPhotometric(ColorProblem(later, earlier, prior), T_start, options, threads);
 }
 
 /// The check's track moved to T_earlier_later: the depth's pairs there (their share of the
@@ -262,14 +262,15 @@ bool VerifyByColor(const LoopKeyframe& later, const LoopKeyframe& earlier, const
                    const LoopClosureOptions& options, LoopCheck* check) {
   PhotometricOptions wide = options.photometric;
   wide.max_change_m = options.color_max_change_m;
-  const PhotometricResult coarse = AlignLoopByColor(later, earlier, T_init, nullptr, wide);
+  const PhotometricResult coarse =
+      AlignLoopByColor(later, earlier, T_init, nullptr, wide, options.threads);
   const Pose start = coarse.success ? coarse.T_reference_source : T_init;
   check->track =
       TrackProjective(later.pyramid, earlier.pyramid, start, options.icp, options.threads);
   const TrackResult& t = check->track;
   if (t.success && t.weak_directions == 0) {
-    const PhotometricResult fine =
-        AlignLoopByColor(later, earlier, t.T_target_source, &t.information, options.photometric);
+    const PhotometricResult fine = AlignLoopByColor(
+        later, earlier, t.T_target_source, &t.information, options.photometric, options.threads);
     if (fine.success) {
       TrackAtColorPose(later, earlier, fine.T_reference_source, options, &check->track);
       check->color_refined = true;

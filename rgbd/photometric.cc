@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "core/parallel.h"
 #include "rgbd/projective_icp.h"
 
 namespace rigfit {
@@ -68,42 +69,83 @@ struct PhotometricSystem {
   int pixels = 0;
 };
 
-/// The system at level l for the estimate T (the header's J and r), SF = S F.
-PhotometricSystem Accumulate(const PhotometricProblem& problem, int l, const Pose& T,
-                             const Mat6K& SF, const PhotometricOptions& options) {
+/// Adds source pixel i's residual and Jacobian at level l for the estimate T (R, t) to s.
+void AddPixel(const PhotometricProblem& problem, int l, const Mat3& R, const Vec3& t,
+              const Mat6K& SF, const PhotometricOptions& options, int i, PhotometricSystem* s) {
   const FrameLevel& source = problem.source->levels[l];
   const GreyLevel& own = problem.source_grey->levels[l];
   const GreyLevel& reference = problem.reference_grey->levels[l];
   const PinholeIntrinsics& K = source.intrinsics;
-  const int k = static_cast<int>(SF.cols());
-  PhotometricSystem s{MatK::Zero(k, k), VecK::Zero(k)};
-  const Mat3 R = T.linear();
-  const Vec3 t = T.translation();
-  for (const int i : source.valid_pixels) {
-    if (std::hypot(own.gx[i], own.gy[i]) < options.min_gradient) continue;
-    const Vec3 z = R * source.vertices[i].cast<double>() + t;
-    if (z.z() <= 1e-3) continue;
-    const double x = K.fx * z.x() / z.z() + K.cx;
-    const double y = K.fy * z.y() / z.z() + K.cy;
-    if (!(x >= 0.0 && y >= 0.0 && x < reference.width - 1 && y < reference.height - 1)) continue;
-    const double r = Bilinear(reference.grey, reference.width, x, y) - own.grey[i];
-    const double gx = Bilinear(reference.gx, reference.width, x, y);
-    const double gy = Bilinear(reference.gy, reference.width, x, y);
-    const double iz = 1.0 / z.z();
-    const Vec3 Jz(gx * K.fx * iz, gy * K.fy * iz,
-                  -(gx * K.fx * z.x() + gy * K.fy * z.y()) * iz * iz);
-    Vec6 Jx;
-    Jx << z.cross(Jz), Jz;  // Jz [-[z]_x  I]: (Jz . (w x z)) = w . (z x Jz)
-    const VecK J = SF.transpose() * Jx;
-    const double w = std::abs(r) <= options.huber ? 1.0 : options.huber / std::abs(r);
-    s.H.noalias() += w * J * J.transpose();
-    s.g.noalias() += w * r * J;
-    s.weighted_squares += w * r * r;
-    s.squares += r * r;
-    ++s.pixels;
-  }
-  return s;
+  const Vec3 z = R * source.vertices[i].cast<double>() + t;
+  if (z.z() <= 1e-3) return;
+  const double x = K.fx * z.x() / z.z() + K.cx;
+  const double y = K.fy * z.y() / z.z() + K.cy;
+  if (!(x >= 0.0 && y >= 0.0 && x < reference.width - 1 && y < reference.height - 1)) return;
+  const double r = Bilinear(reference.grey, reference.width, x, y) - own.grey[i];
+  const double gx = Bilinear(reference.gx, reference.width, x, y);
+  const double gy = Bilinear(reference.gy, reference.width, x, y);
+  const double iz = 1.0 / z.z();
+  const Vec3 Jz(gx * K.fx * iz, gy * K.fy * iz, -(gx * K.fx * z.x() + gy * K.fy * z.y()) * iz * iz);
+  Vec6 Jx;
+  Jx << z.cross(Jz), Jz;  // Jz [-[z]_x  I]: (Jz . (w x z)) = w . (z x Jz)
+  const VecK J = SF.transpose() * Jx;
+  const double w = std::abs(r) <= options.huber ? 1.0 : options.huber / std::abs(r);
+  s->H.noalias() += w * J * J.transpose();
+  s->g.noalias() += w * r * J;
+  s->weighted_squares += w * r * r;
+  s->squares += r * r;
+  ++s->pixels;
 }
+
+/// The normal equations of a problem at any level and estimate (the header's J and r, SF =
+/// S F): each level's textured source pixels (valid, with a grey-level gradient of at least
+/// options.min_gradient) found once, summed in `threads` contiguous chunks, each on its own
+/// thread's stack, then in chunk order.
+class PhotometricSystems {
+ public:
+  PhotometricSystems(const PhotometricProblem& problem, const Mat6K& SF,
+                     const PhotometricOptions& options, int levels, int threads)
+      : problem_(problem), SF_(SF), options_(options), threads_(std::max(1, threads)) {
+    for (int l = 0; l < levels; ++l) {
+      const FrameLevel& source = problem.source->levels[l];
+      const GreyLevel& own = problem.source_grey->levels[l];
+      std::vector<int>& pixels = textured_.emplace_back();
+      for (const int i : source.valid_pixels) {
+        if (!(std::hypot(own.gx[i], own.gy[i]) < options.min_gradient)) pixels.push_back(i);
+      }
+    }
+  }
+
+  PhotometricSystem At(int l, const Pose& T) const {
+    const int k = static_cast<int>(SF_.cols());
+    const std::vector<int>& pixels = textured_[l];
+    std::vector<PhotometricSystem> partial(threads_);
+    ParallelForChunks(static_cast<int>(pixels.size()), threads_, [&](int c, int begin, int end) {
+      PhotometricSystem s{MatK::Zero(k, k), VecK::Zero(k)};
+      for (int p = begin; p < end; ++p) {
+        AddPixel(problem_, l, T.linear(), T.translation(), SF_, options_, pixels[p], &s);
+      }
+      partial[c] = s;
+    });
+    PhotometricSystem sum{MatK::Zero(k, k), VecK::Zero(k)};
+    for (const PhotometricSystem& s : partial) {
+      if (s.H.size() == 0) continue;  // a chunk with no pixel range
+      sum.H += s.H;
+      sum.g += s.g;
+      sum.weighted_squares += s.weighted_squares;
+      sum.squares += s.squares;
+      sum.pixels += s.pixels;
+    }
+    return sum;
+  }
+
+ private:
+  const PhotometricProblem& problem_;
+  const Mat6K& SF_;
+  const PhotometricOptions& options_;
+  int threads_;
+  std::vector<std::vector<int>> textured_;
+};
 
 double Rmse(const PhotometricSystem& s) {
   return s.pixels > 0 ? std::sqrt(s.squares / s.pixels) : 0.0;
@@ -185,9 +227,10 @@ Mat6K FreeBasis(const PhotometricProblem& problem) {
 }  // namespace
 
 double PhotometricRmse(const PhotometricProblem& problem, const Pose& T,
-                       const PhotometricOptions& options) {
+                       const PhotometricOptions& options, int threads) {
   CheckProblem(problem, "PhotometricRmse");
-  return Rmse(Accumulate(problem, 0, T, FreeBasis(problem), options));
+  const Mat6K SF = FreeBasis(problem);
+  return Rmse(PhotometricSystems(problem, SF, options, 1, threads).At(0, T));
 }
 
 GreyPyramid BuildGreyPyramid(const std::vector<std::uint8_t>& color, const FramePyramid& pyramid) {
@@ -217,19 +260,20 @@ GreyPyramid BuildGreyPyramid(const std::vector<std::uint8_t>& color, const Frame
 }
 
 PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose& T_init,
-                                   const PhotometricOptions& options) {
+                                   const PhotometricOptions& options, int threads) {
   CheckProblem(problem, "AlignPhotometric");
   const std::size_t levels = problem.source->levels.size();
   const int k = static_cast<int>(problem.free.size());
   const Mat6K SF = FreeBasis(problem);
+  const PhotometricSystems systems(problem, SF, options, static_cast<int>(levels), threads);
   PhotometricResult result;
   result.T_reference_source = T_init;
-  const PhotometricSystem start = Accumulate(problem, 0, T_init, SF, options);
+  const PhotometricSystem start = systems.At(0, T_init);
   const MatK P_a = problem.prior ? MatK(SF.transpose() * *problem.prior * SF) : MatK::Zero(k, k);
   VecK total = VecK::Zero(k);  // the move from T_init, free coordinates
   for (int l = static_cast<int>(levels) - 1; l >= 0; --l) {
     for (int it = 0; it < options.iterations; ++it) {
-      const PhotometricSystem s = Accumulate(problem, l, result.T_reference_source, SF, options);
+      const PhotometricSystem s = systems.At(l, result.T_reference_source);
       if (s.pixels <= k) break;
       const VecK a = Step(s, problem.prior ? &P_a : nullptr, total);
       if (!a.allFinite()) break;
@@ -238,7 +282,7 @@ PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose
       if (a.norm() < options.converged_m) break;
     }
   }
-  const PhotometricSystem end = Accumulate(problem, 0, result.T_reference_source, SF, options);
+  const PhotometricSystem end = systems.At(0, result.T_reference_source);
   result.pixels = end.pixels;
   result.rmse = Rmse(end);
   result.sigma_m = LargestSigma(end, problem.prior ? &P_a : nullptr);

@@ -117,13 +117,15 @@ struct PhotometricResult {
 /// take part: what AlignPhotometric reports as rmse at its estimate; 0 when none take part.
 /// Throws as AlignPhotometric does.
 double PhotometricRmse(const PhotometricProblem& problem, const Pose& T,
-                       const PhotometricOptions& options);
+                       const PhotometricOptions& options, int threads = 2);
 
 /// Aligns the source to the reference along the free directions from T_init
 /// (T_reference_source), as the header says; the other directions keep T_init's. Throws
 /// std::invalid_argument unless there are 1 to 6 free directions and both grey pyramids have
-/// the source pyramid's levels and sizes.
+/// the source pyramid's levels and sizes. Each step's sums are taken in `threads` contiguous
+/// chunks of the pixels, one thread each, then added in order (as AccumulateProjective's: the
+/// result depends on the thread count in its last bits, not on the run).
 PhotometricResult AlignPhotometric(const PhotometricProblem& problem, const Pose& T_init,
-                                   const PhotometricOptions& options);
+                                   const PhotometricOptions& options, int threads = 2);
 
 }  // namespace rigfit

@@ -223,9 +223,9 @@ class TrackingLoop {
     std::vector<Vec6> all;
     for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
     const Pose& T_world_reference = reference.T_world_reference;
-    const PhotometricResult aligned =
-        AlignPhotometric({&pyramid, &grey, reference.grey, all, prior.length_m, &prior.information},
-                         T_world_reference.inverse() * T_world_start, options_.photometric);
+    const PhotometricResult aligned = AlignPhotometric(
+        {&pyramid, &grey, reference.grey, all, prior.length_m, &prior.information},
+        T_world_reference.inverse() * T_world_start, options_.photometric, options_.threads);
     *T_world_camera = Reorthonormalized(T_world_reference * aligned.T_reference_source);
     return aligned;
   }
@@ -242,10 +242,10 @@ class TrackingLoop {
     const Pose T_previous_target = T_world_previous_.inverse() * target_->MotionOrigin();
     const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
     const GreyPyramid previous = BuildGreyPyramid(previous_color_, pyramid);
-    const PhotometricResult aligned =
-        AlignPhotometric({&pyramid, &grey, &previous,
-                          InAxesOf(T_previous_target, track.weak, track.length_m), track.length_m},
-                         T_world_previous_.inverse() * step->T_world_camera, options_.photometric);
+    const PhotometricResult aligned = AlignPhotometric(
+        {&pyramid, &grey, &previous, InAxesOf(T_previous_target, track.weak, track.length_m),
+         track.length_m},
+        T_world_previous_.inverse() * step->T_world_camera, options_.photometric, options_.threads);
     if (!aligned.success) {
       log_.Debug(FrameName(*step, frame) +
                  ": weak directions not aligned by colour: " + aligned.message);
