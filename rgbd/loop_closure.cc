@@ -252,18 +252,34 @@ void TrackAtColorPose(const LoopKeyframe& later, const LoopKeyframe& earlier,
   track->weak_directions = 0;
 }
 
+/// The first colour alignment of a candidate, without a prior, from T_init and from T_init
+/// turned both ways about each axis (LoopClosureOptions::color_start_turn_deg): the kept one
+/// with the lowest grey-level residual, else the one from T_init.
+PhotometricResult FirstColorAlignment(const LoopKeyframe& later, const LoopKeyframe& earlier,
+                                      const Pose& T_init, const LoopClosureOptions& options) {
+  PhotometricOptions wide = options.photometric;
+  wide.max_change_m = options.color_max_change_m;
+  PhotometricResult best = AlignLoopByColor(later, earlier, T_init, nullptr, wide, options.threads);
+  if (options.color_start_turn_deg <= 0.0) return best;
+  for (int i = 0; i < 6; ++i) {
+    Vec6 turn = Vec6::Zero();
+    turn(i / 2) = (i % 2 == 0 ? 1.0 : -1.0) * options.color_start_turn_deg * kDegToRad;
+    const PhotometricResult r = AlignLoopByColor(later, earlier, ApplyLeftUpdate(turn, T_init),
+                                                 nullptr, wide, options.threads);
+    if (r.success && (!best.success || r.rmse < best.rmse)) best = r;
+  }
+  return best;
+}
+
 /// A candidate with colour: aligned by colour alone from the run's pose (the drift a loop
 /// closes is larger than depth ICP's reach on noisy depth, and colour's coarse levels reach
-/// further), then by ICP from there, then refined by colour with the ICP's information as a
-/// prior (colour tracking); judged by the depth at the last pose colour kept
+/// further; FirstColorAlignment), then by ICP from there, then refined by colour with the ICP's
+/// information as a prior (colour tracking); judged by the depth at the last pose colour kept
 /// (TrackAtColorPose). False, with the reason, when colour kept none: on the depth colour is
 /// used for, the ICP alone also accepts pairs far from the truth.
 bool VerifyByColor(const LoopKeyframe& later, const LoopKeyframe& earlier, const Pose& T_init,
                    const LoopClosureOptions& options, LoopCheck* check) {
-  PhotometricOptions wide = options.photometric;
-  wide.max_change_m = options.color_max_change_m;
-  const PhotometricResult coarse =
-      AlignLoopByColor(later, earlier, T_init, nullptr, wide, options.threads);
+  const PhotometricResult coarse = FirstColorAlignment(later, earlier, T_init, options);
   const Pose start = coarse.success ? coarse.T_reference_source : T_init;
   check->track =
       TrackProjective(later.pyramid, earlier.pyramid, start, options.icp, options.threads);

@@ -77,8 +77,12 @@ struct LoopClosureOptions {
   PhotometricOptions photometric;
   /// The first alignment by colour, from the run's relative pose, may move this far (the
   /// scaled space of rgbd/photometric.h: metres, a rotation times the mean depth): about the
-  /// candidate gate's reach.
+  /// candidate gate's reach. It also starts from that pose turned by color_start_turn_deg
+  /// about each axis of the earlier keyframe, both ways (six more starts; 0: none), and keeps
+  /// the kept alignment with the lowest grey-level residual: a wrong minimum from one start is
+  /// often the right one from another.
   double color_max_change_m = 0.6;
+  double color_start_turn_deg = 4.0;
   /// A candidate refined by colour is also rejected when its RMS grey-level residual exceeds
   /// max_grey_rmse_ratio times the sequential edges' median at the run's poses (a colour
   /// alignment caught in a wrong minimum leaves 3-5 times the right one's).
