@@ -40,9 +40,11 @@ LoopKeyframe LoadKeyframe(const RgbdSequence& sequence, int index,
 /// depth's `prior` (null: none).
 PhotometricProblem ColorProblem(const LoopKeyframe& later, const LoopKeyframe& earlier,
                                 const Mat6* prior) {
-  std::vector<Vec6> all;
-  for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
-  return {&later.pyramid, &later.grey, &earlier.grey, all, MeanDepth(later.pyramid.levels[0]),
+  return {&later.pyramid,
+          &later.grey,
+          &earlier.grey,
+          AllDirections(),
+          MeanDepth(later.pyramid.levels[0]),
           prior};
 }
 
@@ -51,6 +53,19 @@ bool LoopsByColor(const LoopClosureOptions& options, double median_share) {
   return options.color_tracking == ColorTracking::kOn ||
          (options.color_tracking == ColorTracking::kAuto &&
           median_share < options.color_tracking_share);
+}
+
+/// What the depth's pairs of `source` say at their pose: their RMS distance and their share of
+/// the source's pixels (0 and 0 without pairs).
+struct PairStats {
+  double rmse_m = 0.0;
+  double matched_share = 0.0;
+};
+
+PairStats StatsOf(const NormalEquations& eq, const FrameLevel& source) {
+  if (eq.count == 0) return {};
+  return {std::sqrt(eq.squared_error / eq.count),
+          static_cast<double>(eq.count) / static_cast<double>(source.valid_pixels.size())};
 }
 
 /// The edge a -> b measured at T_a_b, weighed by the information of the ICP's pairs there
@@ -72,9 +87,9 @@ MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_
   measured.edge.T_a_b = T_a_b;
   Mat6 information = Mat6::Zero();
   if (eq.count > 0) {
-    measured.rmse_m = std::sqrt(eq.squared_error / eq.count);
-    measured.matched_share =
-        static_cast<double>(eq.count) / static_cast<double>(b.levels[0].valid_pixels.size());
+    const PairStats stats = StatsOf(eq, b.levels[0]);
+    measured.rmse_m = stats.rmse_m;
+    measured.matched_share = stats.matched_share;
     const double variance = std::max(measured.rmse_m * measured.rmse_m, 1e-12);
     Mat6 J_inverse = Mat6::Identity();
     J_inverse.block<3, 3>(3, 0) = Hat(T_a_b.translation());
@@ -241,11 +256,11 @@ void TrackAtColorPose(const LoopKeyframe& later, const LoopKeyframe& earlier,
   const NormalEquations eq =
       AccumulateProjective(source, earlier.pyramid.levels[0], T_earlier_later,
                            options.icp.association, options.icp.weighting, options.threads);
+  const PairStats stats = StatsOf(eq, source);
   track->T_target_source = T_earlier_later;
   track->correspondences = eq.count;
-  track->matched_ratio =
-      static_cast<double>(eq.count) / static_cast<double>(source.valid_pixels.size());
-  track->rmse_m = eq.count > 0 ? std::sqrt(eq.squared_error / eq.count) : 0.0;
+  track->matched_ratio = stats.matched_share;
+  track->rmse_m = stats.rmse_m;
   track->success = track->matched_ratio >= options.icp.min_matched_ratio;
   track->message = track->success ? "" : "too few pixels matched at the pose colour found";
   track->weak.clear();

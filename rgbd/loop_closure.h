@@ -67,11 +67,10 @@ struct LoopClosureOptions {
   double matched_share_ratio = 0.6;
   double max_rmse_ratio = 1.5;
   /// Colour (rgbd/photometric.h; the run's TrackingLoopOptions settings): a candidate whose
-  /// keyframes both have colour is refined by colour after its ICP, the ICP's information as
-  /// a prior (from the run's relative pose, no prior, when the ICP failed), and judged by the
-  /// depth at the refined pose (VerifyLoop). kOn: every candidate; kAuto: when the sequential
-  /// edges' median share is below color_tracking_share (the depth the run refined by colour);
-  /// kOff: none.
+  /// keyframes both have colour is aligned by colour alone, then by ICP, then by colour with the
+  /// ICP's information as a prior, and judged by the depth at the pose colour kept (VerifyLoop;
+  /// docs/rgbd.md section 7). kOn: every candidate; kAuto: when the sequential edges' median
+  /// share is below color_tracking_share (the depth the run refined by colour); kOff: none.
   ColorTracking color_tracking = ColorTracking::kAuto;
   double color_tracking_share = 0.6;
   PhotometricOptions photometric;

@@ -100,9 +100,7 @@ std::string MotionGuard::SuspectHistory(const TrackResult& track) const {
 }
 
 bool MotionGuard::SamePose(const Pose& a, const Pose& b) const {
-  const Pose d = a.inverse() * b;
-  return d.translation().norm() <= options_.same_pose_m &&
-         LogSO3(d.linear()).norm() <= options_.same_pose_deg * kDegToRad;
+  return WithinMotion(a.inverse() * b, options_.same_pose_m, options_.same_pose_deg);
 }
 
 void MotionGuard::Forget() {

@@ -118,18 +118,18 @@ class PhotometricSystems {
 
   PhotometricSystem At(int l, const Pose& T) const {
     const int k = static_cast<int>(SF_.cols());
+    const PhotometricSystem zero{MatK::Zero(k, k), VecK::Zero(k)};
     const std::vector<int>& pixels = textured_[l];
-    std::vector<PhotometricSystem> partial(threads_);
+    const Mat3 R = T.linear();
+    const Vec3 t = T.translation();
+    std::vector<PhotometricSystem> partial(threads_, zero);
     ParallelForChunks(static_cast<int>(pixels.size()), threads_, [&](int c, int begin, int end) {
-      PhotometricSystem s{MatK::Zero(k, k), VecK::Zero(k)};
-      for (int p = begin; p < end; ++p) {
-        AddPixel(problem_, l, T.linear(), T.translation(), SF_, options_, pixels[p], &s);
-      }
+      PhotometricSystem s = zero;
+      for (int p = begin; p < end; ++p) AddPixel(problem_, l, R, t, SF_, options_, pixels[p], &s);
       partial[c] = s;
     });
-    PhotometricSystem sum{MatK::Zero(k, k), VecK::Zero(k)};
+    PhotometricSystem sum = zero;
     for (const PhotometricSystem& s : partial) {
-      if (s.H.size() == 0) continue;  // a chunk with no pixel range
       sum.H += s.H;
       sum.g += s.g;
       sum.weighted_squares += s.weighted_squares;
@@ -225,6 +225,12 @@ Mat6K FreeBasis(const PhotometricProblem& problem) {
 }
 
 }  // namespace
+
+std::vector<Vec6> AllDirections() {
+  std::vector<Vec6> all;
+  for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
+  return all;
+}
 
 double PhotometricRmse(const PhotometricProblem& problem, const Pose& T,
                        const PhotometricOptions& options, int threads) {

@@ -103,6 +103,9 @@ struct PhotometricProblem {
   const Mat6* prior = nullptr;
 };
 
+/// The six unit directions of the scaled space: a problem free in every direction.
+std::vector<Vec6> AllDirections();
+
 struct PhotometricResult {
   bool success = false;
   std::string message;  ///< why it was not kept

@@ -187,9 +187,9 @@ class TrackingLoop {
     const PhotometricResult aligned =
         AlignAllByColor(frame, pyramid, reference, {Mat6::Zero(), step->track.length_m}, predicted_,
                         &T_world_camera);
-    const Pose jump = predicted_.inverse() * T_world_camera;
-    if (!aligned.success || jump.translation().norm() > options_.guard.max_correction_m ||
-        LogSO3(jump.linear()).norm() > options_.guard.max_correction_deg * kDegToRad) {
+    if (!aligned.success ||
+        !WithinMotion(predicted_.inverse() * T_world_camera, options_.guard.max_correction_m,
+                      options_.guard.max_correction_deg)) {
       log_.Debug(FrameName(*step, frame) + ": not tracked by colour either: " +
                  (aligned.success ? "too far from the prediction" : aligned.message));
       return;
@@ -220,11 +220,9 @@ class TrackingLoop {
                                     const ColorReference& reference, const ColorPrior& prior,
                                     const Pose& T_world_start, Pose* T_world_camera) const {
     const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
-    std::vector<Vec6> all;
-    for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
     const Pose& T_world_reference = reference.T_world_reference;
     const PhotometricResult aligned = AlignPhotometric(
-        {&pyramid, &grey, reference.grey, all, prior.length_m, &prior.information},
+        {&pyramid, &grey, reference.grey, AllDirections(), prior.length_m, &prior.information},
         T_world_reference.inverse() * T_world_start, options_.photometric, options_.threads);
     *T_world_camera = Reorthonormalized(T_world_reference * aligned.T_reference_source);
     return aligned;

@@ -120,7 +120,6 @@ struct ColorReference {
 };
 
 /// What a frame is tracked against, and what happens once its pose is known.
-
 class TrackingTarget {
  public:
   virtual ~TrackingTarget() = default;

@@ -126,12 +126,10 @@ StereoRevisit CheckStereoRevisit(std::uint64_t seed, double start_turn_deg = 4.0
   const FrameLevel& neighbour = c.pyramid.levels[0];
   const NormalEquations pairs = AccumulateProjective(
       neighbour, a.pyramid.levels[0], T_a_c, options.icp.association, options.icp.weighting);
-  std::vector<Vec6> all;
-  for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
   const SequentialMedians sequential{
       std::sqrt(pairs.squared_error / pairs.count),
       static_cast<double>(pairs.count) / static_cast<double>(neighbour.valid_pixels.size()),
-      PhotometricRmse({&c.pyramid, &c.grey, &a.grey, all, MeanDepth(neighbour)}, T_a_c,
+      PhotometricRmse({&c.pyramid, &c.grey, &a.grey, AllDirections(), MeanDepth(neighbour)}, T_a_c,
                       options.photometric)};
   const Pose T_init = PosePlus(T_a_b, (Vec6() << 0.0, 0.1, 0.0, 0.06, -0.05, 0.04).finished());
   StereoRevisit out;

@@ -213,9 +213,7 @@ class RoomPair : public ::testing::Test {
     Vec6 x;
     x << 0.0, 0.0, 0.0, 0.005, 0.004, 0.0;
     const GreyPyramid grey = BuildGreyPyramid(frame_.color, pyramid_);
-    std::vector<Vec6> all;
-    for (int i = 0; i < 6; ++i) all.push_back(Vec6::Unit(i));
-    *aligned = AlignPhotometric({&pyramid_, &grey, &grey, all, 2.0, &prior},
+    *aligned = AlignPhotometric({&pyramid_, &grey, &grey, AllDirections(), 2.0, &prior},
                                 ApplyLeftUpdate(x, Pose::Identity()), PhotometricOptions{});
     return aligned->T_reference_source.translation();
   }

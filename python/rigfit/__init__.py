@@ -575,9 +575,11 @@ class TrackResult(Trajectory):
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
     color_rescued: int = 0  #: of them, frames whose depth track failed: tracked by colour alone
-    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
-    #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
-    #: the check after the solve, whether the trajectory was corrected)
+    #: with ``loop_closure``: {"keyframes", "candidates", "accepted",
+    #: "accepted_across_stretch", "accepted_by_color", "rejected_after_solve", "applied",
+    #: "message", "seconds"} (the loops checked, accepted by their check, of those across a
+    #: lone-plane stretch and refined by colour, dropped by the check after the solve, whether
+    #: the trajectory was corrected)
     loop_closure: Optional[Dict[str, Any]] = None
 
 
@@ -670,9 +672,11 @@ class SlamResult(Trajectory):
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
     color_rescued: int = 0  #: of them, frames whose depth track failed: tracked by colour alone
-    #: with ``loop_closure``: {"keyframes", "candidates", "accepted", "rejected_after_solve",
-    #: "applied", "message", "seconds"} (the loops checked, accepted by their ICP, dropped by
-    #: the check after the solve, whether the trajectory was corrected)
+    #: with ``loop_closure``: {"keyframes", "candidates", "accepted",
+    #: "accepted_across_stretch", "accepted_by_color", "rejected_after_solve", "applied",
+    #: "message", "seconds"} (the loops checked, accepted by their check, of those across a
+    #: lone-plane stretch and refined by colour, dropped by the check after the solve, whether
+    #: the trajectory was corrected)
     loop_closure: Optional[Dict[str, Any]] = None
     halvings: int = 0  #: times every frame was halved (``halve``, or its default's choice)
 
