@@ -126,8 +126,9 @@ std::string ColorTrackingSummaryText(const TrackingLoopOptions& loop, const Trac
   if (loop.color_tracking != ColorTracking::kOff) {
     Appendf(&text,
             "colour tracking (%s): %d of %d frames refined by colour, %d of them tracked by "
-            "colour alone where the depth failed\n",
-            ColorTrackingName(loop.color_tracking), run.color_tracked, frames, run.color_rescued);
+            "colour alone where the depth failed, %d where its track was unverified\n",
+            ColorTrackingName(loop.color_tracking), run.color_tracked, frames, run.color_rescued,
+            run.color_alone);
   }
   return text;
 }
@@ -277,9 +278,10 @@ void AddRunFlags(CLI::App* sub, TrackingArgs* args, TrackingLoopOptions* loop) {
                   "information as a prior, when the frames have colour registered to depth: "
                   "auto (frames that matched under 0.6 of their pixels: noisy depth such as "
                   "stereo matching's), on (every frame without weak directions) or off; unless "
-                  "off, a frame whose depth track failed or diverged is tracked by colour alone "
-                  "and the loop closure registers its candidates by colour too (docs/rgbd.md "
-                  "sections 4c and 7)")
+                  "off, a frame whose depth track failed or diverged is tracked by colour alone, "
+                  "one whose depth track is unverified (not converged, or re-tracked) also "
+                  "aligned by colour alone and the better kept, and the loop closure registers "
+                  "its candidates by colour too (docs/rgbd.md sections 4c and 7)")
       ->capture_default_str();
   AddLoopClosureFlag(sub, &args->loop_closure);
   sub->add_option("--threads", loop->threads, "Threads")->capture_default_str();

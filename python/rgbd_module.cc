@@ -307,6 +307,7 @@ py::dict RunToDict(const Result& result) {
   out["color_aligned"] = result.color_aligned;
   out["color_tracked"] = result.color_tracked;
   out["color_rescued"] = result.color_rescued;
+  out["color_alone"] = result.color_alone;
   return out;
 }
 

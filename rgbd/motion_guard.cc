@@ -103,6 +103,10 @@ bool MotionGuard::SamePose(const Pose& a, const Pose& b) const {
   return WithinMotion(a.inverse() * b, options_.same_pose_m, options_.same_pose_deg);
 }
 
+double MotionGuard::RecentMatchedShare() const {
+  return matched_.size() < kMinHistory ? 1.0 : Median(matched_);
+}
+
 void MotionGuard::Forget() {
   matched_.clear();
   rmse_.clear();

@@ -97,6 +97,9 @@ class MotionGuard {
   /// the residuals of the one before.
   void Forget();
 
+  /// The recent accepted frames' median matched share; 1 before there are enough of them.
+  double RecentMatchedShare() const;
+
  private:
   /// Suspect's two halves: the motion (a jump, a speed) and the history (matched share,
   /// residual against the recent frames').

@@ -340,7 +340,10 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
       result.weak_directions = step.weak_directions;
       result.weak = step.weak;
       result.conditioning = step.conditioning;
-      if (Converged(step.x, options)) break;
+      if (Converged(step.x, options)) {
+        result.converged = level == 0;
+        break;
+      }
     }
   }
   if (last_level != 0) {

@@ -136,19 +136,28 @@ class TrackingLoop {
 
   bool AligningByColor() const { return options_.guard.enabled && options_.photometric.enabled; }
 
-  /// Whether colour tracking refines this track (TrackingLoopOptions::color_tracking).
+  /// Whether colour tracking refines this track (TrackingLoopOptions::color_tracking). A track
+  /// with weak directions only where the depth matches poorly throughout (the frame and the
+  /// recent frames' median below color_tracking_share, not a lone plane): there the depth's
+  /// other directions are no better than its weak ones; elsewhere AlignByColor aligns the weak
+  /// directions alone.
   bool TracksByColor(const TrackResult& track) const {
-    if (options_.color_tracking == ColorTracking::kOff || !track.success || !track.weak.empty()) {
+    if (options_.color_tracking == ColorTracking::kOff || !track.success) return false;
+    const double share = options_.color_tracking_share;
+    const bool poor_depth = track.matched_ratio < share;
+    if (!track.weak.empty() &&
+        (!poor_depth || track.lone_plane || guard_.RecentMatchedShare() >= share)) {
       return false;
     }
-    return options_.color_tracking == ColorTracking::kOn ||
-           track.matched_ratio < options_.color_tracking_share;
+    return options_.color_tracking == ColorTracking::kOn || poor_depth;
   }
 
   /// Colour tracking (rgbd/photometric.h, "Colour tracking"): a track refined against the
   /// target's colour reference over all six directions, the depth's information as a prior,
-  /// the depth's estimate kept when the refinement is not (debug log); a frame whose depth track
-  /// failed or diverged aligned by colour alone from the prediction (RescueByColor).
+  /// and, where the depth's track is unverified (not converged, or re-tracked by the guard),
+  /// also aligned by colour alone from the prediction, the lower grey-level residual kept; the
+  /// depth's estimate kept when neither is (debug log); a frame whose depth track failed or
+  /// diverged aligned by colour alone from the prediction (RescueByColor).
   void TrackByColor(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     const ColorReference reference = target_->ColorReferenceOf();
     if (reference.grey == nullptr || !HasColor(frame, pyramid)) return;
@@ -161,15 +170,32 @@ class TrackingLoop {
     const Mat6 prior = InformationInAxesOf(
         target_->MotionOrigin().inverse() * reference.T_world_reference, step->track.information);
     Pose T_world_camera;
-    const PhotometricResult refined =
+    PhotometricResult refined =
         AlignAllByColor(frame, pyramid, reference, {prior, step->track.length_m},
                         step->T_world_camera, &T_world_camera);
+    if (step->recovered || !step->track.converged) {
+      // The depth's estimate is unverified (the guard re-tracked it, or its ICP ran out of
+      // steps): colour alone from the prediction too, the lower grey-level residual kept.
+      Pose T_world_alone;
+      const PhotometricResult alone =
+          AlignAllByColor(frame, pyramid, reference, {Mat6::Zero(), step->track.length_m},
+                          predicted_, &T_world_alone);
+      if (alone.success && (!refined.success || alone.rmse < refined.rmse)) {
+        refined = alone;
+        T_world_camera = T_world_alone;
+        ++run_.color_alone;
+      }
+    }
     if (!refined.success) {
       log_.Debug(FrameName(*step, frame) + ": not refined by colour: " + refined.message);
       return;
     }
     step->T_world_camera = T_world_camera;
     ++run_.color_tracked;
+    if (!step->track.weak.empty()) {  // colour measured the weak directions too
+      step->color_aligned = true;
+      ++run_.color_aligned;
+    }
   }
 
   /// A frame whose depth track failed (too few pixels matched) or diverged, not a lone plane's
@@ -233,8 +259,8 @@ class TrackingLoop {
   /// (rgbd/photometric.h), the rest kept; left held when the alignment is not kept (debug log).
   void AlignByColor(const RgbdFrame& frame, const FramePyramid& pyramid, TrackedStep* step) {
     const TrackResult& track = step->track;
-    if (!AligningByColor() || !track.success || track.weak.empty() || !HasColor(frame, pyramid) ||
-        previous_color_.size() != frame.color.size()) {
+    if (!AligningByColor() || step->color_aligned || !track.success || track.weak.empty() ||
+        !HasColor(frame, pyramid) || previous_color_.size() != frame.color.size()) {
       return;
     }
     const Pose T_previous_target = T_world_previous_.inverse() * target_->MotionOrigin();

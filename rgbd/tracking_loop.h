@@ -86,6 +86,9 @@ struct TrackingRun {
   int color_aligned = 0;  ///< weak-direction frames whose weak directions colour measured
   int color_tracked = 0;  ///< frames refined by colour tracking (TrackingLoopOptions)
   int color_rescued = 0;  ///< of them, frames whose depth track failed: colour alone
+  /// Of them, frames whose depth track was unverified (not converged, or re-tracked by the
+  /// guard) and that colour alone from the prediction aligned better (a lower grey residual).
+  int color_alone = 0;
   std::vector<OpenStretch> open_stretches;
   double load_s = 0.0;  ///< waiting for frames: the loading not overlapped with tracking
   double preprocess_s = 0.0;

@@ -575,6 +575,9 @@ class TrackResult(Trajectory):
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
     color_rescued: int = 0  #: of them, frames whose depth track failed: tracked by colour alone
+    #: of them, frames whose depth track was unverified (not converged, or re-tracked by the
+    #: guard) and colour alone from the prediction aligned better (a lower grey residual)
+    color_alone: int = 0
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted",
     #: "accepted_across_stretch", "accepted_by_color", "rejected_after_solve", "applied",
     #: "message", "seconds"} (the loops checked, accepted by their check, of those across a
@@ -672,6 +675,9 @@ class SlamResult(Trajectory):
     color_aligned: int = 0  #: weak-direction frames whose weak directions colour measured
     color_tracked: int = 0  #: frames refined by colour tracking (``color_tracking``)
     color_rescued: int = 0  #: of them, frames whose depth track failed: tracked by colour alone
+    #: of them, frames whose depth track was unverified (not converged, or re-tracked by the
+    #: guard) and colour alone from the prediction aligned better (a lower grey residual)
+    color_alone: int = 0
     #: with ``loop_closure``: {"keyframes", "candidates", "accepted",
     #: "accepted_across_stretch", "accepted_by_color", "rejected_after_solve", "applied",
     #: "message", "seconds"} (the loops checked, accepted by their check, of those across a
@@ -816,7 +822,7 @@ def track(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> TrackResu
         recovered=raw["recovered"], diverged=raw["diverged"], weak_frames=raw["weak_frames"],
         relocalised=raw["relocalised"], color_aligned=raw["color_aligned"],
         color_tracked=raw["color_tracked"], color_rescued=raw["color_rescued"],
-        loop_closure=raw["loop_closure"])
+        color_alone=raw["color_alone"], loop_closure=raw["loop_closure"])
 
 
 @_keywords("slam")
@@ -854,8 +860,8 @@ def slam(frames: Union[Sequence, _Seq[FrameLike]], **options: Any) -> SlamResult
         map=SurfelMap(**raw["map"]), map_sizes=raw["map_sizes"], recovered=raw["recovered"],
         diverged=raw["diverged"], weak_frames=raw["weak_frames"], relocalised=raw["relocalised"],
         color_aligned=raw["color_aligned"], color_tracked=raw["color_tracked"],
-        color_rescued=raw["color_rescued"], loop_closure=raw["loop_closure"],
-        halvings=raw["halvings"])
+        color_rescued=raw["color_rescued"], color_alone=raw["color_alone"],
+        loop_closure=raw["loop_closure"], halvings=raw["halvings"])
 
 
 @dataclass
