@@ -169,16 +169,17 @@ class TrackingLoop {
     // The depth's information, from the axes it was measured in into the reference's.
     const Mat6 prior = InformationInAxesOf(
         target_->MotionOrigin().inverse() * reference.T_world_reference, step->track.information);
+    const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
     Pose T_world_camera;
     PhotometricResult refined =
-        AlignAllByColor(frame, pyramid, reference, {prior, step->track.length_m},
+        AlignAllByColor(pyramid, grey, reference, {prior, step->track.length_m},
                         step->T_world_camera, &T_world_camera);
     if (step->recovered || !step->track.converged) {
       // The depth's estimate is unverified (the guard re-tracked it, or its ICP ran out of
       // steps): colour alone from the prediction too, the lower grey-level residual kept.
       Pose T_world_alone;
       const PhotometricResult alone =
-          AlignAllByColor(frame, pyramid, reference, {Mat6::Zero(), step->track.length_m},
+          AlignAllByColor(pyramid, grey, reference, {Mat6::Zero(), step->track.length_m},
                           predicted_, &T_world_alone);
       if (alone.success && (!refined.success || alone.rmse < refined.rmse)) {
         refined = alone;
@@ -211,8 +212,8 @@ class TrackingLoop {
     }
     Pose T_world_camera;
     const PhotometricResult aligned =
-        AlignAllByColor(frame, pyramid, reference, {Mat6::Zero(), step->track.length_m}, predicted_,
-                        &T_world_camera);
+        AlignAllByColor(pyramid, BuildGreyPyramid(frame.color, pyramid), reference,
+                        {Mat6::Zero(), step->track.length_m}, predicted_, &T_world_camera);
     if (!aligned.success ||
         !WithinMotion(predicted_.inverse() * T_world_camera, options_.guard.max_correction_m,
                       options_.guard.max_correction_deg)) {
@@ -240,12 +241,11 @@ class TrackingLoop {
     double length_m = 1.0;
   };
 
-  /// Aligns the frame to `reference`'s colour over all six directions from T_world_start with
-  /// `prior`; the aligned pose in *T_world_camera.
-  PhotometricResult AlignAllByColor(const RgbdFrame& frame, const FramePyramid& pyramid,
+  /// Aligns the frame (its pyramid and grey pyramid) to `reference`'s colour over all six
+  /// directions from T_world_start with `prior`; the aligned pose in *T_world_camera.
+  PhotometricResult AlignAllByColor(const FramePyramid& pyramid, const GreyPyramid& grey,
                                     const ColorReference& reference, const ColorPrior& prior,
                                     const Pose& T_world_start, Pose* T_world_camera) const {
-    const GreyPyramid grey = BuildGreyPyramid(frame.color, pyramid);
     const Pose& T_world_reference = reference.T_world_reference;
     const PhotometricResult aligned = AlignPhotometric(
         {&pyramid, &grey, reference.grey, AllDirections(), prior.length_m, &prior.information},
