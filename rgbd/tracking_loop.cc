@@ -96,10 +96,17 @@ class TrackingLoop {
     KeepAnchor(pyramid, step);
     TrackResult measured = step.track;
     if (step.color_aligned) measured.weak.clear();  // colour measured them: not damped
-    velocity_ = first
-                    ? Pose::Identity()
-                    : NextVelocity(T_world_previous_, step.T_world_camera, target_->MotionOrigin(),
-                                   measured, step.diverged, options_.guard);
+    if (first) {
+      velocity_ = verified_velocity_ = Pose::Identity();
+    } else if (step.color_rescued) {
+      // Colour alone, where the depth failed: its step is not verified by the depth and does
+      // not become the motion model's (a wrong one would carry every held frame after it).
+      velocity_ = verified_velocity_;
+    } else {
+      velocity_ = NextVelocity(T_world_previous_, step.T_world_camera, target_->MotionOrigin(),
+                               measured, step.diverged, options_.guard);
+      if (step.track.success && !step.diverged) verified_velocity_ = velocity_;
+    }
     T_world_previous_ = step.T_world_camera;
     previous_timestamp_ = frame.timestamp;
     // The next frame aligns against this one's image at this pose: not after a failed or
@@ -458,6 +465,7 @@ class TrackingLoop {
   Pose T_world_previous_ = Pose::Identity();
   Pose velocity_ = Pose::Identity();  // T_previous_current of the last step, weak parts damped
   Pose predicted_ = Pose::Identity();
+  Pose verified_velocity_ = Pose::Identity();  // the velocity after the last depth-tracked step
   double previous_timestamp_ = 0.0;
   std::vector<std::uint8_t> previous_color_;  // the last frame's, when aligning by colour
   std::vector<double> drift_;  // per trajectory pose: frames up to it not aligned by colour
