@@ -323,9 +323,15 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
   Pose T = T_init;
   NormalEquations last;
   int last_level = -1;  // the level `last` was accumulated at
+  const auto iterations_at = [&](int level) {
+    return options.iterations[std::min<std::size_t>(level, options.iterations.size() - 1)];
+  };
+  // Convergence is judged at the finest level that runs steps (level 0 unless its iterations
+  // are set to 0).
+  int finest_run = 0;
+  while (finest_run < levels - 1 && iterations_at(finest_run) <= 0) ++finest_run;
   for (int level = levels - 1; level >= 0; --level) {
-    const int iterations =
-        options.iterations[std::min<std::size_t>(level, options.iterations.size() - 1)];
+    const int iterations = iterations_at(level);
     for (int it = 0; it < iterations; ++it) {
       last = AccumulateProjective(source.levels[level], target.levels[level], T,
                                   options.association, options.weighting, threads);
@@ -341,7 +347,7 @@ TrackResult TrackProjective(const FramePyramid& source, const FramePyramid& targ
       result.weak = step.weak;
       result.conditioning = step.conditioning;
       if (Converged(step.x, options)) {
-        result.converged = level == 0;
+        result.converged = level == finest_run;
         break;
       }
     }

@@ -189,8 +189,10 @@ struct TrackResult {
   Pose T_target_source = Pose::Identity();
   bool success = false;
   std::string message;
-  int iterations = 0;      ///< Gauss-Newton steps over all levels
-  bool converged = false;  ///< the finest level stopped on a step below the thresholds
+  int iterations = 0;  ///< Gauss-Newton steps over all levels
+  /// The finest level that runs steps (level 0 unless its iterations are 0) stopped on a step
+  /// below the thresholds.
+  bool converged = false;
   /// correspondences, matched_ratio and rmse_m: the pairs of the last Gauss-Newton system at
   /// the finest level (one step before the estimate, a step below the convergence threshold
   /// or that level's last).

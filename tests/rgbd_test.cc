@@ -546,6 +546,23 @@ TEST_F(RgbdTracking, AFlatWallHoldsWhatItCannotFix) {
   EXPECT_NEAR(result.T_target_source.translation().y(), 0.0, 1e-6);
 }
 
+// TrackResult::converged: judged at the finest level that runs steps, so that a pyramid whose
+// finest level is skipped (its iterations 0) can converge; one step there cannot.
+TEST(ProjectiveIcp, ConvergedAtTheFinestLevelThatRuns) {
+  const Scene scene = TestRoom();
+  const RenderedSequence sequence(scene, Walk(2), 160, 120, 0.0);
+  const FramePyramid target = BuildFramePyramid(sequence.Frame(0), FrameOptions{});
+  const FramePyramid source = BuildFramePyramid(sequence.Frame(1), FrameOptions{});
+  ProjectiveIcpOptions options;
+  EXPECT_TRUE(TrackProjective(source, target, Pose::Identity(), options).converged);
+  options.iterations = {0, 10, 10};
+  const TrackResult skipped = TrackProjective(source, target, Pose::Identity(), options);
+  ASSERT_TRUE(skipped.success) << skipped.message;
+  EXPECT_TRUE(skipped.converged);
+  options.iterations = {1, 0, 0};
+  EXPECT_FALSE(TrackProjective(source, target, Pose::Identity(), options).converged);
+}
+
 TEST(RgbdOdometry, NoiseFreeWalkDriftsLessThanAMillimetrePerMetre) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(30), 320, 240, 0.0);
