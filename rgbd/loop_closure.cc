@@ -74,6 +74,7 @@ struct MeasuredEdge {
   PoseGraphEdge edge;
   double rmse_m = 0.0;
   double matched_share = 0.0;
+  double overlap = 0.0;  ///< OverlapShare of b at T_a_b
 };
 
 MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_a, int node_b,
@@ -90,6 +91,7 @@ MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_
     const PairStats stats = StatsOf(eq, b.levels[0]);
     measured.rmse_m = stats.rmse_m;
     measured.matched_share = stats.matched_share;
+    measured.overlap = OverlapShare(b.levels[0], a.levels[0], T_a_b, options.icp.association);
     const double variance = std::max(measured.rmse_m * measured.rmse_m, 1e-12);
     Mat6 J_inverse = Mat6::Identity();
     J_inverse.block<3, 3>(3, 0) = Hat(T_a_b.translation());
@@ -110,6 +112,7 @@ SequentialMedians MeasureSequential(const RgbdSequence& sequence, const std::vec
   std::vector<double> rmse;
   std::vector<double> share;
   std::vector<double> grey;
+  std::vector<double> overlap_matched;
   LoopKeyframe previous = LoadKeyframe(sequence, frames[nodes[0]], options, color);
   for (std::size_t j = 1; j < nodes.size(); ++j) {
     LoopKeyframe current = LoadKeyframe(sequence, frames[nodes[j]], options, color);
@@ -118,13 +121,14 @@ SequentialMedians MeasureSequential(const RgbdSequence& sequence, const std::vec
     edges->push_back(m.edge);
     rmse.push_back(m.rmse_m);
     share.push_back(m.matched_share);
+    if (m.overlap > 0.0) overlap_matched.push_back(m.matched_share / m.overlap);
     if (!current.grey.levels.empty() && !previous.grey.levels.empty()) {
       grey.push_back(PhotometricRmse(ColorProblem(current, previous, nullptr), T_a_b,
                                      options.photometric, options.threads));
     }
     previous = std::move(current);
   }
-  return {Median(rmse), Median(share), Median(grey)};
+  return {Median(rmse), Median(share), Median(grey), Median(overlap_matched)};
 }
 
 /// The path length travelled up to every pose.
@@ -492,15 +496,28 @@ LoopCheck VerifyLoop(const LoopKeyframe& later, const LoopKeyframe& earlier, con
     return check;
   }
   const TrackResult& t = check.track;
-  const double min_share =
-      std::min(options.min_matched_ratio, options.matched_share_ratio * sequential.matched_share);
+  const auto least = [&](double median) {
+    return std::min(options.min_matched_ratio, options.matched_share_ratio * median);
+  };
+  const double min_share = least(sequential.matched_share);
+  const double min_of_overlap = least(sequential.overlap_matched);
+  if (t.success) {
+    check.overlap = OverlapShare(later.pyramid.levels[0], earlier.pyramid.levels[0],
+                                 t.T_target_source, options.icp.association);
+  }
+  const bool overlap_matched = check.color_refined && check.overlap > 0.0 &&
+                               t.matched_ratio / check.overlap >= min_of_overlap;
   if (!t.success) {
     check.reason = "ICP failed: " + t.message;
   } else if (t.weak_directions > 0) {
     check.reason = "weak directions (the views do not fix the motion)";
-  } else if (t.matched_ratio < min_share) {
+  } else if (t.matched_ratio < min_share && !overlap_matched) {
     check.reason =
-        "matched share " + std::to_string(t.matched_ratio) + " below " + std::to_string(min_share);
+        "matched share " + std::to_string(t.matched_ratio) + " below " + std::to_string(min_share) +
+        (check.color_refined && check.overlap > 0.0
+             ? " (" + std::to_string(t.matched_ratio / check.overlap) + " of its overlap " +
+                   std::to_string(check.overlap) + ", below " + std::to_string(min_of_overlap) + ")"
+             : "");
   } else if (t.rmse_m > options.max_rmse_ratio * sequential.rmse_m) {
     check.reason = "RMS distance " + std::to_string(t.rmse_m * 1e3) + " mm above " +
                    std::to_string(options.max_rmse_ratio) + " x the sequential edges' " +

@@ -62,7 +62,11 @@ struct LoopClosureOptions {
   /// min(min_matched_ratio, matched_share_ratio times the sequential edges' median share) of
   /// the later keyframe's pixels (noisy depth such as stereo matching's matches a third of
   /// them between neighbouring keyframes), and its RMS distance is at most max_rmse_ratio
-  /// times the median of the sequential edges'.
+  /// times the median of the sequential edges'. A candidate refined by colour may instead
+  /// match that share of its overlap (OverlapShare: the pixels that land on the earlier
+  /// keyframe's depth), against the sequential edges' median of the same: a revisit from 15-30
+  /// degrees away sees less of the earlier view than a neighbour does, and colour, not the
+  /// matched share, tells a plane registered onto the wrong plane.
   double min_matched_ratio = 0.5;
   double matched_share_ratio = 0.6;
   double max_rmse_ratio = 1.5;
@@ -84,8 +88,9 @@ struct LoopClosureOptions {
   double color_start_turn_deg = 4.0;
   /// A candidate refined by colour is also rejected when its RMS grey-level residual exceeds
   /// max_grey_rmse_ratio times the sequential edges' median at the run's poses (a colour
-  /// alignment caught in a wrong minimum leaves 3-5 times the right one's).
-  double max_grey_rmse_ratio = 1.5;
+  /// alignment caught in a wrong minimum leaves 3-5 times the right one's; right ones on
+  /// stereo loops 1.3-1.9 times, seen from further away than a neighbour).
+  double max_grey_rmse_ratio = 2.0;
   /// Information = information_scale H / rmse^2 (header comment), plus floor_information on
   /// the diagonal (a sequential edge across a view that fixes no direction keeps the graph
   /// whole). The scale makes the sequential edges' chi-square against the ground truth about
@@ -111,6 +116,7 @@ struct LoopCheck {
   TrackResult track;
   bool color_refined = false;
   double grey_rmse = 0.0;  ///< refined by colour: its RMS grey-level residual there
+  double overlap = 0.0;    ///< OverlapShare of the later keyframe at the track's pose
   bool accepted = false;
   std::string reason;  ///< why rejected
   /// Accepted by the ICP: the graph's cost drop when it is left out (ConsistentLoopGraph).
@@ -182,6 +188,7 @@ struct SequentialMedians {
   double rmse_m = 0.0;
   double matched_share = 1.0;
   double grey_rmse = 0.0;
+  double overlap_matched = 1.0;  ///< the matched share of each edge's overlap
 };
 
 /// Registers `later` onto `earlier` from T_init (T_earlier_later), by ICP and then by colour

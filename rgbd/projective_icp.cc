@@ -130,6 +130,21 @@ AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLe
   return Associator(source, target, T_target_source, options)(i, &moved, target_index);
 }
 
+double OverlapShare(const FrameLevel& source, const FrameLevel& target, const Pose& T_target_source,
+                    const AssociationOptions& options) {
+  if (source.valid_pixels.empty()) return 0.0;
+  const Associator associate(source, target, T_target_source, options);
+  int landed = 0;
+  for (const int i : source.valid_pixels) {
+    Vec3 moved;
+    int j = 0;
+    const AssociationOutcome outcome = associate(i, &moved, &j);
+    landed += outcome == AssociationOutcome::kMatched || outcome == AssociationOutcome::kTooFar ||
+              outcome == AssociationOutcome::kNormalsDisagree;
+  }
+  return static_cast<double>(landed) / static_cast<double>(source.valid_pixels.size());
+}
+
 std::vector<ProjectiveCorrespondence> FindCorrespondences(const FrameLevel& source,
                                                           const FrameLevel& target,
                                                           const Pose& T_target_source,

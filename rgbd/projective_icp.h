@@ -61,6 +61,13 @@ AssociationOutcome AssociatePixel(const FrameLevel& source, int i, const FrameLe
                                   const Pose& T_target_source, const AssociationOptions& options,
                                   int* target_index);
 
+/// How much of the source the target sees under T_target_source: the share of the source's
+/// valid pixels that land on a target pixel with a vertex and normal, matched or not (kMatched,
+/// kTooFar, kNormalsDisagree); 0 for a source without valid pixels. Matched pixels over it is
+/// the share of the views' overlap that agrees, whatever the overlap's size.
+double OverlapShare(const FrameLevel& source, const FrameLevel& target, const Pose& T_target_source,
+                    const AssociationOptions& options);
+
 /// Every matched pair of the source's pixels, in pixel order.
 std::vector<ProjectiveCorrespondence> FindCorrespondences(const FrameLevel& source,
                                                           const FrameLevel& target,

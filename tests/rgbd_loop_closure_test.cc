@@ -99,7 +99,18 @@ struct StereoRevisit {
   double error_deg = 0.0;
 };
 
-StereoRevisit CheckStereoRevisit(std::uint64_t seed, double start_turn_deg = 4.0) {
+// Keyframes 0 and 6 of a stereo sequence, the start of their check, and the sequential edges'
+// medians: a neighbouring keyframe's (3) pairs and grey levels at its true pose, as CloseLoops
+// measures them at the run's.
+struct StereoPair {
+  LoopKeyframe a;
+  LoopKeyframe b;
+  Pose T_a_b;
+  Pose T_init;
+  SequentialMedians sequential;
+};
+
+StereoPair MakeStereoPair(std::uint64_t seed) {
   SimSequenceOptions o;
   o.frames = 7;
   o.width = 320;
@@ -113,29 +124,35 @@ StereoRevisit CheckStereoRevisit(std::uint64_t seed, double start_turn_deg = 4.0
     loaded.grey = BuildGreyPyramid(frame.color, loaded.pyramid);
     return loaded;
   };
-  const LoopKeyframe a = keyframe(0);
-  const LoopKeyframe b = keyframe(6);
+  StereoPair pair{keyframe(0), keyframe(6), {}, {}, {}};
   const LoopKeyframe c = keyframe(3);
   const std::vector<Pose>& truth = sequence.GroundTruth().poses;
-  const Pose T_a_b = truth[0].inverse() * truth[6];
+  pair.T_a_b = truth[0].inverse() * truth[6];
   const Pose T_a_c = truth[0].inverse() * truth[3];
-  LoopClosureOptions options;
-  options.color_start_turn_deg = start_turn_deg;
-  // The sequential edges' medians: a neighbouring keyframe's pairs and grey levels at its true
-  // pose, as CloseLoops measures them at the run's.
+  const LoopClosureOptions options;
   const FrameLevel& neighbour = c.pyramid.levels[0];
   const NormalEquations pairs = AccumulateProjective(
-      neighbour, a.pyramid.levels[0], T_a_c, options.icp.association, options.icp.weighting);
-  const SequentialMedians sequential{
-      std::sqrt(pairs.squared_error / pairs.count),
-      static_cast<double>(pairs.count) / static_cast<double>(neighbour.valid_pixels.size()),
-      PhotometricRmse({&c.pyramid, &c.grey, &a.grey, AllDirections(), MeanDepth(neighbour)}, T_a_c,
-                      options.photometric)};
-  const Pose T_init = PosePlus(T_a_b, (Vec6() << 0.0, 0.1, 0.0, 0.06, -0.05, 0.04).finished());
+      neighbour, pair.a.pyramid.levels[0], T_a_c, options.icp.association, options.icp.weighting);
+  const double share =
+      static_cast<double>(pairs.count) / static_cast<double>(neighbour.valid_pixels.size());
+  pair.sequential = {
+      std::sqrt(pairs.squared_error / pairs.count), share,
+      PhotometricRmse({&c.pyramid, &c.grey, &pair.a.grey, AllDirections(), MeanDepth(neighbour)},
+                      T_a_c, options.photometric),
+      share / OverlapShare(neighbour, pair.a.pyramid.levels[0], T_a_c, options.icp.association)};
+  pair.T_init = PosePlus(pair.T_a_b, (Vec6() << 0.0, 0.1, 0.0, 0.06, -0.05, 0.04).finished());
+  return pair;
+}
+
+StereoRevisit CheckStereoRevisit(std::uint64_t seed, double start_turn_deg = 4.0) {
+  const StereoPair pair = MakeStereoPair(seed);
+  LoopClosureOptions options;
+  options.color_start_turn_deg = start_turn_deg;
   StereoRevisit out;
-  out.by_color = VerifyLoop(b, a, T_init, sequential, options);
-  out.by_depth = VerifyLoop({b.pyramid, {}}, {a.pyramid, {}}, T_init, sequential, options);
-  const Pose e = T_a_b.inverse() * out.by_color.track.T_target_source;
+  out.by_color = VerifyLoop(pair.b, pair.a, pair.T_init, pair.sequential, options);
+  out.by_depth =
+      VerifyLoop({pair.b.pyramid, {}}, {pair.a.pyramid, {}}, pair.T_init, pair.sequential, options);
+  const Pose e = pair.T_a_b.inverse() * out.by_color.track.T_target_source;
   out.error_m = e.translation().norm();
   out.error_deg = LogSO3(e.linear()).norm() * kRadToDeg;
   return out;
@@ -165,6 +182,42 @@ TEST(RgbdLoopClosure, TurnedStartsRegisterARevisitOneStartDoesNot) {
   EXPECT_TRUE(turned.by_color.accepted) << turned.by_color.reason;
   EXPECT_LT(turned.error_m, 6e-3);
   EXPECT_LT(turned.error_deg, 0.1);
+}
+
+// A revisit sees less of the earlier view than a neighbour does (stereo loop seed 5: three right
+// candidates, 3-9 mm off, matched 0.14-0.17 of their pixels against the neighbours' median 0.31,
+// and 0.24-0.28 of their overlap against 0.38). Colour-refined, it may be judged by the share of
+// its overlap; by depth alone, only by its share of the pixels.
+TEST(RgbdLoopClosure, ARevisitRefinedByColourIsJudgedByTheShareOfItsOverlap) {
+  const StereoPair pair = MakeStereoPair(4);
+  LoopClosureOptions options;
+  options.min_matched_ratio = 1.0;  // the medians alone set the thresholds
+  const LoopCheck measured = VerifyLoop(pair.b, pair.a, pair.T_init, pair.sequential, options);
+  ASSERT_TRUE(measured.accepted) << measured.reason;
+  const double share = measured.track.matched_ratio;
+  const double of_overlap = share / measured.overlap;
+  // Measured: matched 0.473 of its pixels, 0.532 of its overlap (0.890 of them); the
+  // neighbour 0.506 and 0.552.
+  EXPECT_GT(measured.overlap, 0.8);
+  EXPECT_LT(measured.overlap, 0.98);
+  // Neighbours said to match more than this revisit by the ratio's margin: its share fails...
+  SequentialMedians sequential = pair.sequential;
+  sequential.matched_share = (share + 0.02) / options.matched_share_ratio;
+  sequential.overlap_matched = (of_overlap - 0.02) / options.matched_share_ratio;
+  const LoopCheck by_overlap = VerifyLoop(pair.b, pair.a, pair.T_init, sequential, options);
+  EXPECT_TRUE(by_overlap.accepted) << by_overlap.reason;  // ...the share of its overlap holds
+  sequential.overlap_matched = (of_overlap + 0.02) / options.matched_share_ratio;
+  const LoopCheck neither = VerifyLoop(pair.b, pair.a, pair.T_init, sequential, options);
+  EXPECT_FALSE(neither.accepted);
+  EXPECT_NE(neither.reason.find("of its overlap"), std::string::npos) << neither.reason;
+  // Depth alone: the matched share, whatever the overlap (a plane registered onto the wrong
+  // plane matches all of its overlap).
+  sequential.overlap_matched = 0.0;
+  const LoopCheck by_depth =
+      VerifyLoop({pair.b.pyramid, {}}, {pair.a.pyramid, {}}, pair.T_a_b, sequential, options);
+  EXPECT_FALSE(by_depth.color_refined);
+  EXPECT_FALSE(by_depth.accepted);
+  EXPECT_NE(by_depth.reason.find("matched share"), std::string::npos) << by_depth.reason;
 }
 
 TEST(RgbdLoopClosure, AColourAlignmentCaughtInAWrongMinimumIsRejected) {

@@ -363,6 +363,34 @@ TEST(RgbdAssociation, EachConditionIsTested) {
             AssociationOutcome::kMatched);
 }
 
+// The overlap counts the pixels that land on the target's depth, matched or not.
+TEST(RgbdAssociation, OverlapShareCountsThePixelsThatLandOnTheTarget) {
+  const Scene room = TestRoom();
+  const Pose T = LookAt(Vec3(0.0, 1.4, 0.0), Vec3(0.0, 1.0, -2.5));
+  const FramePyramid frame = BuildFramePyramid(Render(room, T, 160, 120, 0.0015, 1), {});
+  const FrameLevel& level = frame.levels[0];
+  const AssociationOptions options;
+  EXPECT_EQ(OverlapShare(level, level, Pose::Identity(), options), 1.0);
+  // Turned 20 degrees about the camera's y axis: the pixels that land in the image on a
+  // vertex, whatever the distance and normal gates say.
+  const Pose turned = PosePlus(Pose::Identity(), (Vec6() << 0, 0.35, 0, 0, 0, 0).finished());
+  int landed = 0;
+  for (const int i : level.valid_pixels) {
+    int j = -1;
+    const AssociationOutcome outcome = AssociatePixel(level, i, level, turned, options, &j);
+    landed += outcome == AssociationOutcome::kMatched || outcome == AssociationOutcome::kTooFar ||
+              outcome == AssociationOutcome::kNormalsDisagree;
+  }
+  const double share = OverlapShare(level, level, turned, options);
+  EXPECT_DOUBLE_EQ(share, static_cast<double>(landed) / level.valid_pixels.size());
+  EXPECT_GT(share, 0.3);
+  EXPECT_LT(share, 0.8);
+  // Turned half a turn: everything behind the camera.
+  const Pose behind = PosePlus(Pose::Identity(), (Vec6() << 0, M_PI, 0, 0, 0, 0).finished());
+  EXPECT_EQ(OverlapShare(level, level, behind, options), 0.0);
+  EXPECT_EQ(OverlapShare(FrameLevel{}, level, Pose::Identity(), options), 0.0);
+}
+
 TEST(RgbdAssociation, RoundsToTheNearestPixelUpToTheImageEdge) {
   // A target whose every pixel is valid at 2 m, f = 10 px, c = 2: a source point at
   // x = (u - 2) z / f lands on column u.
