@@ -74,7 +74,6 @@ struct MeasuredEdge {
   PoseGraphEdge edge;
   double rmse_m = 0.0;
   double matched_share = 0.0;
-  double overlap = 0.0;  ///< OverlapShare of b at T_a_b
 };
 
 MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_a, int node_b,
@@ -91,7 +90,6 @@ MeasuredEdge MeasureEdge(const FramePyramid& b, const FramePyramid& a, int node_
     const PairStats stats = StatsOf(eq, b.levels[0]);
     measured.rmse_m = stats.rmse_m;
     measured.matched_share = stats.matched_share;
-    measured.overlap = OverlapShare(b.levels[0], a.levels[0], T_a_b, options.icp.association);
     const double variance = std::max(measured.rmse_m * measured.rmse_m, 1e-12);
     Mat6 J_inverse = Mat6::Identity();
     J_inverse.block<3, 3>(3, 0) = Hat(T_a_b.translation());
@@ -121,7 +119,11 @@ SequentialMedians MeasureSequential(const RgbdSequence& sequence, const std::vec
     edges->push_back(m.edge);
     rmse.push_back(m.rmse_m);
     share.push_back(m.matched_share);
-    if (m.overlap > 0.0) overlap_matched.push_back(m.matched_share / m.overlap);
+    if (color && m.matched_share > 0.0) {  // what colour-refined candidates are judged by
+      const double overlap = OverlapShare(current.pyramid.levels[0], previous.pyramid.levels[0],
+                                          T_a_b, options.icp.association);
+      if (overlap > 0.0) overlap_matched.push_back(m.matched_share / overlap);
+    }
     if (!current.grey.levels.empty() && !previous.grey.levels.empty()) {
       grey.push_back(PhotometricRmse(ColorProblem(current, previous, nullptr), T_a_b,
                                      options.photometric, options.threads));
@@ -501,12 +503,12 @@ LoopCheck VerifyLoop(const LoopKeyframe& later, const LoopKeyframe& earlier, con
   };
   const double min_share = least(sequential.matched_share);
   const double min_of_overlap = least(sequential.overlap_matched);
-  if (t.success) {
+  if (t.success && check.color_refined) {
     check.overlap = OverlapShare(later.pyramid.levels[0], earlier.pyramid.levels[0],
                                  t.T_target_source, options.icp.association);
   }
-  const bool overlap_matched = check.color_refined && check.overlap > 0.0 &&
-                               t.matched_ratio / check.overlap >= min_of_overlap;
+  const bool overlap_matched =
+      check.overlap > 0.0 && t.matched_ratio / check.overlap >= min_of_overlap;
   if (!t.success) {
     check.reason = "ICP failed: " + t.message;
   } else if (t.weak_directions > 0) {
@@ -514,7 +516,7 @@ LoopCheck VerifyLoop(const LoopKeyframe& later, const LoopKeyframe& earlier, con
   } else if (t.matched_ratio < min_share && !overlap_matched) {
     check.reason =
         "matched share " + std::to_string(t.matched_ratio) + " below " + std::to_string(min_share) +
-        (check.color_refined && check.overlap > 0.0
+        (check.overlap > 0.0
              ? " (" + std::to_string(t.matched_ratio / check.overlap) + " of its overlap " +
                    std::to_string(check.overlap) + ", below " + std::to_string(min_of_overlap) + ")"
              : "");

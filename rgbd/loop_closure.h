@@ -116,7 +116,7 @@ struct LoopCheck {
   TrackResult track;
   bool color_refined = false;
   double grey_rmse = 0.0;  ///< refined by colour: its RMS grey-level residual there
-  double overlap = 0.0;    ///< OverlapShare of the later keyframe at the track's pose
+  double overlap = 0.0;    ///< refined by colour: the later keyframe's OverlapShare there
   bool accepted = false;
   std::string reason;  ///< why rejected
   /// Accepted by the ICP: the graph's cost drop when it is left out (ConsistentLoopGraph).
