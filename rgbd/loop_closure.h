@@ -88,8 +88,8 @@ struct LoopClosureOptions {
   double color_start_turn_deg = 4.0;
   /// A candidate refined by colour is also rejected when its RMS grey-level residual exceeds
   /// max_grey_rmse_ratio times the sequential edges' median at the run's poses (a colour
-  /// alignment caught in a wrong minimum leaves 3-5 times the right one's; right ones on
-  /// stereo loops 1.3-1.9 times, seen from further away than a neighbour).
+  /// alignment caught in a wrong minimum leaves several times the right one's; a right one
+  /// seen from further away than a neighbour leaves more than the neighbour; docs/rgbd.md).
   double max_grey_rmse_ratio = 2.0;
   /// Information = information_scale H / rmse^2 (header comment), plus floor_information on
   /// the diagonal (a sequential edge across a view that fixes no direction keeps the graph
