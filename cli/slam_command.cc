@@ -109,8 +109,6 @@ int RunSlamCommand(SlamArgs a) {
   WriteTumTrajectory(a.out_path, result.trajectory, metadata);
   if (!a.map_path.empty()) WritePly(a.map_path, SurfelMapToPly(result.map));
 
-  const double work_s = result.preprocess_s + result.render_s + result.track_s + result.fuse_s;
-  const double loop_s = result.load_s + work_s;
   std::string summary;
   const std::string halved = result.halvings == 0 ? ""
                              : result.halvings == 1
@@ -128,10 +126,12 @@ int RunSlamCommand(SlamArgs a) {
   const double mean_matched = frames > 1 ? matched / (frames - 1) : 0.0;
   if (frames > 1) WarnLowMatchedShare(mean_matched, a.slam, log);
   Appendf(&summary,
-          "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, rendering %.2f, "
-          "tracking %.2f, fusion %.2f (%.1f frames/s with loading, %.1f without)\n",
-          mean_matched, result.load_s, result.preprocess_s, result.render_s, result.track_s,
-          result.fuse_s, FramesPerSecond(frames, loop_s), FramesPerSecond(frames, work_s));
+          "mean matched share %.2f; time (s): waiting for frames %.2f, rendering %.2f, tracking "
+          "%.2f, fusion %.2f, all %.2f (%.1f frames/s with loading, %.1f without); "
+          "preprocessing %.2f while the frame before was tracked\n",
+          mean_matched, result.load_s, result.render_s, result.track_s, result.fuse_s,
+          result.loop_s, FramesPerSecond(frames, result.loop_s),
+          FramesPerSecond(frames, result.loop_s - result.load_s), result.preprocess_s);
   summary += ColorTrackingSummaryText(a.slam, result, frames);
   summary += GuardSummaryText(counts, log);
   if (closed) summary += LoopClosureSummaryText(*closed);

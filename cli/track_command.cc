@@ -54,16 +54,16 @@ int RunTrack(TrackArgs a) {
   std::vector<std::string> metadata = GuardMetadata("track", counts);
   if (closed) metadata.push_back(LoopClosureMetadata(*closed));
   WriteTumTrajectory(a.out_path, result.trajectory, metadata);
-  const double tracked_s = result.preprocess_s + result.track_s;
-  const double loop_s = result.load_s + tracked_s;
   std::printf("tracked %d frames (%d failed, %d restarts, %d keyframes) -> %s\n", frames,
               result.failures, result.restarts, keyframes, a.out_path.c_str());
   const double mean_matched = frames > 1 ? matched / (frames - 1) : 0.0;
   std::printf(
-      "mean matched share %.2f; time (s): load %.2f, preprocessing %.2f, tracking %.2f "
-      "(%.1f frames/s with loading, %.1f without)\n",
-      mean_matched, result.load_s, result.preprocess_s, result.track_s,
-      FramesPerSecond(frames, loop_s), FramesPerSecond(frames, tracked_s));
+      "mean matched share %.2f; time (s): waiting for frames %.2f, tracking %.2f, all %.2f "
+      "(%.1f frames/s with loading, %.1f without); preprocessing %.2f while the frame before "
+      "was tracked\n",
+      mean_matched, result.load_s, result.track_s, result.loop_s,
+      FramesPerSecond(frames, result.loop_s),
+      FramesPerSecond(frames, result.loop_s - result.load_s), result.preprocess_s);
   std::fputs(ColorTrackingSummaryText(a.odometry, result, frames).c_str(), stdout);
   if (frames > 1) WarnLowMatchedShare(mean_matched, a.odometry, log);
   std::fputs(GuardSummaryText(counts, log).c_str(), stdout);

@@ -416,6 +416,7 @@ py::dict Track(const py::object& source, const py::dict& keywords, const py::obj
   py::dict out = RunToDict(result);
   out["frames"] = frames;
   py::dict timings;
+  timings["loop_s"] = result.loop_s;
   timings["load_s"] = result.load_s;
   timings["preprocess_s"] = result.preprocess_s;
   timings["track_s"] = result.track_s;
@@ -554,6 +555,7 @@ py::dict Slam(const py::object& source, const py::dict& keywords, const py::obje
   const auto n = static_cast<py::ssize_t>(map_sizes.size());
   out["map_sizes"] = VectorToNumpy(std::move(map_sizes), {n});
   py::dict timings;
+  timings["loop_s"] = result.loop_s;
   timings["load_s"] = result.load_s;
   timings["preprocess_s"] = result.preprocess_s;
   timings["render_s"] = result.render_s;

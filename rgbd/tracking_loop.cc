@@ -4,6 +4,12 @@
 #include <future>
 #include <vector>
 
+#ifdef __linux__
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+#endif
+
 #include "core/errors.h"
 #include "core/format.h"
 #include "core/stopwatch.h"
@@ -64,18 +70,34 @@ Mat6 InformationInAxesOf(const Pose& T_a_b, const Mat6& P_a) {
   return Ad.transpose() * P_a * Ad;
 }
 
+/// Lowers the calling thread's priority (Linux: its nice value to 19), so that it runs where
+/// the other threads leave a core idle.
+void YieldToOtherThreads() {
+#ifdef __linux__
+  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
+#endif
+}
+
+/// A frame as the loader hands it over: read, and its pyramid built.
+struct LoadedFrame {
+  RgbdFrame frame;
+  FramePyramid pyramid;
+  double preprocess_s = 0.0;  ///< building the pyramid, on the loader's thread
+};
+
 /// The loop's state from one frame to the next.
 class TrackingLoop {
  public:
   TrackingLoop(const TrackingLoopOptions& options, TrackingTarget* target, const Log& log)
       : options_(options), target_(target), log_(log), guard_(options.guard) {}
 
-  /// Tracks and hands over the frame `index` (loaded: the loop waited load_s for it).
-  void Step(const RgbdFrame& frame, int index, bool first, double load_s) {
+  /// Tracks and hands over the frame `index` (loaded and preprocessed: the loop waited load_s
+  /// for it).
+  void Step(LoadedFrame loaded, int index, bool first, double load_s) {
     run_.load_s += load_s;
-    auto start = std::chrono::steady_clock::now();
-    FramePyramid pyramid = BuildFramePyramid(frame, options_.frame, options_.threads);
-    run_.preprocess_s += SecondsSince(start);
+    run_.preprocess_s += loaded.preprocess_s;
+    const RgbdFrame& frame = loaded.frame;
+    FramePyramid& pyramid = loaded.pyramid;
 
     TrackedStep step;
     step.index = index;
@@ -84,7 +106,7 @@ class TrackingLoop {
       step.T_world_camera = frame.T_world_camera_gt.value_or(Pose::Identity());
       step.track.success = true;
     } else {
-      start = std::chrono::steady_clock::now();
+      const auto start = std::chrono::steady_clock::now();
       Track(frame, pyramid, &step);
       TrackByColor(frame, pyramid, &step);
       AlignByColor(frame, pyramid, &step);
@@ -496,20 +518,31 @@ TrackingRun RunTracking(const RgbdSequence& sequence, const TrackingLoopOptions&
                         const std::function<void(int, int)>& progress) {
   const std::vector<int> indices = SelectFrames(sequence, options, name);
   TrackingLoop loop(options, target, log);
+  // The frame after the current one is loaded and preprocessed on a thread of its own (one
+  // worker: the tracking's own threads keep theirs), which its pose does not take part in.
   const auto load = [&](std::size_t k) {
-    return std::async(std::launch::async,
-                      [&, index = indices[k]] { return target->Load(sequence, index); });
+    return std::async(std::launch::async, [&, index = indices[k]] {
+      YieldToOtherThreads();
+      LoadedFrame loaded{target->Load(sequence, index), {}, 0.0};
+      const auto start = std::chrono::steady_clock::now();
+      loaded.pyramid = BuildFramePyramid(loaded.frame, options.frame, 1);
+      loaded.preprocess_s = SecondsSince(start);
+      return loaded;
+    });
   };
-  std::future<RgbdFrame> next = load(0);
+  const auto loop_start = std::chrono::steady_clock::now();
+  std::future<LoadedFrame> next = load(0);
   for (std::size_t k = 0; k < indices.size(); ++k) {
     const auto start = std::chrono::steady_clock::now();
-    const RgbdFrame frame = next.get();  // a loading error is thrown here, in frame order
+    LoadedFrame loaded = next.get();  // a loading error is thrown here, in frame order
     const double load_s = SecondsSince(start);
     if (k + 1 < indices.size()) next = load(k + 1);
-    loop.Step(frame, indices[k], k == 0, load_s);
+    loop.Step(std::move(loaded), indices[k], k == 0, load_s);
     if (progress) progress(static_cast<int>(k) + 1, static_cast<int>(indices.size()));
   }
-  return loop.TakeRun();
+  TrackingRun run = loop.TakeRun();
+  run.loop_s = SecondsSince(loop_start);
+  return run;
 }
 
 }  // namespace rigfit

@@ -90,7 +90,12 @@ struct TrackingRun {
   /// guard) and that colour alone from the prediction aligned better (a lower grey residual).
   int color_alone = 0;
   std::vector<OpenStretch> open_stretches;
+  /// The loop from the first frame's request to the last frame's hand-over (wall time):
+  /// waiting for frames, tracking them and handing them over (SLAM: fusing).
+  double loop_s = 0.0;
   double load_s = 0.0;  ///< waiting for frames: the loading not overlapped with tracking
+  /// Building the frames' pyramids, on the loader's thread while the frame before is tracked
+  /// (not part of loop_s but where the loop waits for it, in load_s).
   double preprocess_s = 0.0;
   double track_s = 0.0;  ///< tracking (SLAM: rendering the model apart, SlamResult::render_s)
 };
@@ -153,9 +158,10 @@ bool HasColor(const RgbdFrame& frame, const FramePyramid& pyramid);
 
 /// Tracks the frames of `sequence` that `options` select against `target`; `name` starts the
 /// messages of bad options ("odometry: stride must be at least 1", InputError).
-/// progress(done, total) after each frame. The next frame is loaded (TrackingTarget::Load) on
-/// a thread of its own while the current one is tracked, as a camera's driver delivers frames:
-/// TrackingRun::load_s is the time the loop waited for frames. `sequence` must allow Frame()
+/// progress(done, total) after each frame. The next frame is loaded (TrackingTarget::Load) and
+/// its pyramid built on a thread of its own, at the lowest priority (Linux), while the current
+/// one is tracked, as a camera's driver delivers frames: TrackingRun::load_s is the time the
+/// loop waited for them. `sequence` must allow Frame()
 /// from that thread (one call at a time).
 TrackingRun RunTracking(const RgbdSequence& sequence, const TrackingLoopOptions& options,
                         const std::string& name, TrackingTarget* target, const Log& log,

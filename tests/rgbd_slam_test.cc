@@ -300,6 +300,48 @@ TEST(RgbdSlam, AFrameWithoutColourInAColouredMapIsTrackedNotFused) {
   EXPECT_LT(e.ate_rmse_m, 1e-3);
 }
 
+// Frame `broken` with one depth sample too few: no pyramid can be built of it.
+class BrokenSequence final : public RgbdSequence {
+ public:
+  BrokenSequence(const RgbdSequence& base, int broken) : base_(base), broken_(broken) {}
+  int size() const override { return base_.size(); }
+  RgbdFrame Frame(int index) const override {
+    RgbdFrame frame = base_.Frame(index);
+    if (index == broken_) {
+      frame.depth_m.pop_back();
+      frame.source = "broken frame";
+    }
+    return frame;
+  }
+  Trajectory GroundTruth() const override { return base_.GroundTruth(); }
+  std::string Describe() const override { return "broken"; }
+
+ private:
+  const RgbdSequence& base_;
+  int broken_;
+};
+
+// The next frame is read and its pyramid built on the loader's thread while the current one
+// is tracked: a frame that cannot be preprocessed stops the run when its turn comes, after
+// every frame before it, with its own error; the loop's wall time holds its stages.
+TEST(RgbdSlam, APreprocessingErrorArrivesInFrameOrderAndTheLoopHoldsItsStages) {
+  const Scene scene = TestRoom();
+  const RenderedSequence rendered(scene, Walk(6), 80, 60, 0.0);
+  const BrokenSequence broken(rendered, 4);
+  int done = 0;
+  try {
+    RunSlam(broken, SlamOptions{}, {}, [&](int d, int, const SlamFrame&) { done = d; });
+    ADD_FAILURE() << "frame 4 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("broken frame"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(done, 4);
+
+  const SlamResult result = RunSlam(rendered, SlamOptions{});
+  EXPECT_GT(result.preprocess_s, 0.0);
+  EXPECT_GE(result.loop_s, result.load_s + result.render_s + result.track_s + result.fuse_s);
+}
+
 TEST(RgbdSlam, RefusesBadOptions) {
   const Scene scene = TestRoom();
   const RenderedSequence sequence(scene, Walk(2), 80, 60, 0.0);

@@ -551,8 +551,11 @@ class Trajectory:
 
 @dataclass
 class TrackTimings:
-    """Seconds spent by ``track``: reading frames, preprocessing them, tracking."""
+    """Seconds spent by ``track``: the loop over the frames (``loop_s``, wall time), in it
+    waiting for frames (``load_s``) and tracking (``track_s``); building each frame's pyramid
+    (``preprocess_s``) on the loader's thread while the frame before is tracked."""
 
+    loop_s: float
     load_s: float
     preprocess_s: float
     track_s: float
@@ -645,9 +648,11 @@ class SurfelMap:
 
 @dataclass
 class SlamTimings:
-    """Seconds spent by ``slam``: reading, preprocessing, rendering the model, tracking,
-    fusing."""
+    """Seconds spent by ``slam``: the loop over the frames (``loop_s``, wall time), in it
+    waiting for frames, rendering the model, tracking and fusing; building each frame's
+    pyramid (``preprocess_s``) on the loader's thread while the frame before is tracked."""
 
+    loop_s: float
     load_s: float
     preprocess_s: float
     render_s: float
