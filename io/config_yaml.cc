@@ -111,6 +111,9 @@ std::vector<Section> Schema(RefineOptions& o) {
            {"edge_margin_px", &r.edge_margin_px,
             "Depth pixels within this many pixels of a depth jump or a hole's rim are dropped; "
             "0 keeps them (>= 0)."},
+           {"stereo_edge_margin_px", &r.stereo_edge_margin_px,
+            "The same for stereo cameras (a baseline_m in the capture) when larger: block "
+            "matching fattens the near side of depth jumps (>= 0)."},
            {"edge_jump", &r.edge_jump,
             "A depth jump: a neighbour farther by more than this times the depth (> 0)."},
        }},

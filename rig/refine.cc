@@ -639,11 +639,10 @@ bool EdgeOrRim(const std::vector<float>& z, int w, int h, int u, int v, double j
   return false;
 }
 
-/// The camera with its depth pixels near edges and hole rims invalid (edge_margin_px).
-CameraCapture WithoutEdges(const CameraCapture& camera, const RegionOptions& region) {
+/// The camera with its depth pixels within `m` pixels of edges and hole rims invalid.
+CameraCapture WithoutEdges(const CameraCapture& camera, const RegionOptions& region, int m) {
   const int w = camera.width;
   const int h = camera.height;
-  const int m = region.edge_margin_px;
   // Marks, then their dilation by m pixels: along rows, then along columns.
   std::vector<char> marked(camera.depth_m.size(), 0), rows(camera.depth_m.size(), 0);
   for (int v = 0; v < h; ++v) {
@@ -690,8 +689,11 @@ PointCloud RegistrationPoints(const CameraCapture& camera, const RegionOptions& 
           ? UnprojectOptions{region.pixel_stride, region.min_depth_m, region.max_depth_m}
           : UnprojectOptions{1, -std::numeric_limits<double>::infinity(),
                              std::numeric_limits<double>::infinity()};
-  if (camera.HasDepth() && region.edge_margin_px > 0) {
-    return CameraPoints(WithoutEdges(camera, region), unproject);
+  const int margin = camera.baseline_m > 0.0
+                         ? std::max(region.edge_margin_px, region.stereo_edge_margin_px)
+                         : region.edge_margin_px;
+  if (camera.HasDepth() && margin > 0) {
+    return CameraPoints(WithoutEdges(camera, region, margin), unproject);
   }
   return CameraPoints(camera, unproject);
 }

@@ -306,9 +306,9 @@ TEST(BuildPyramid, LevelsShrinkWithVoxelSizeAndStayUsableAfterAMove) {
       BuildPyramid(PointCloud(), voxel_sizes, 20, Vec3::Zero(), 1.4).levels[0].points.empty());
 }
 
-TEST(RegistrationPoints, EdgeMarginDropsJumpsAndHoleRimsButNotIsolatedDropouts) {
-  // 40 x 20 pixels: depth 2 m left of column 20, 3 m from it on (a jump), a 4 x 4 hole at
-  // columns 4..7, rows 8..11, and one dropped pixel at (30, 10).
+// 40 x 20 pixels: depth 2 m left of column 20, 3 m from it on (a jump), a 4 x 4 hole at
+// columns 4..7, rows 8..11, and one dropped pixel at (30, 10).
+CameraCapture CameraWithEdges() {
   CameraCapture camera;
   camera.serial = "cam";
   camera.width = 40;
@@ -322,16 +322,26 @@ TEST(RegistrationPoints, EdgeMarginDropsJumpsAndHoleRimsButNotIsolatedDropouts) 
     for (int u = 4; u < 8; ++u) camera.depth_m[v * 40 + u] = NAN;
   }
   camera.depth_m[10 * 40 + 30] = NAN;
+  return camera;
+}
+
+/// The pixels whose points RegistrationPoints keeps.
+std::set<std::pair<int, int>> KeptPixels(const CameraCapture& camera, const RegionOptions& region) {
+  std::set<std::pair<int, int>> pixels;
+  for (const Vec3& p : RegistrationPoints(camera, region)) {
+    const Eigen::Vector2i px = PixelOf(camera.intrinsics, p);
+    pixels.insert({px.x(), px.y()});
+  }
+  return pixels;
+}
+
+TEST(RegistrationPoints, EdgeMarginDropsJumpsAndHoleRimsButNotIsolatedDropouts) {
+  const CameraCapture camera = CameraWithEdges();
   RegionOptions region;
   region.pixel_stride = 1;
   const auto kept_pixels = [&](int margin) {
     region.edge_margin_px = margin;
-    std::set<std::pair<int, int>> pixels;
-    for (const Vec3& p : RegistrationPoints(camera, region)) {
-      const Eigen::Vector2i px = PixelOf(camera.intrinsics, p);
-      pixels.insert({px.x(), px.y()});
-    }
-    return pixels;
+    return KeptPixels(camera, region);
   };
   EXPECT_EQ(kept_pixels(0).size(), 800u - 17u);
   const std::set<std::pair<int, int>> kept = kept_pixels(2);
@@ -347,6 +357,29 @@ TEST(RegistrationPoints, EdgeMarginDropsJumpsAndHoleRimsButNotIsolatedDropouts) 
   // An isolated dropout leaves its neighbours.
   EXPECT_EQ(kept.count({29, 10}), 1u);
   EXPECT_EQ(kept.count({31, 10}), 1u);
+}
+
+// A stereo camera (its baseline in the capture) loses its edges by default (block matching
+// fattens them), another depth camera keeps them; the larger of the two margins applies.
+TEST(RegistrationPoints, AStereoCameraLosesItsEdgesByDefault) {
+  CameraCapture camera = CameraWithEdges();
+  RegionOptions region;
+  region.pixel_stride = 1;
+  ASSERT_EQ(region.edge_margin_px, 0);
+  ASSERT_EQ(region.stereo_edge_margin_px, 2);
+  EXPECT_EQ(KeptPixels(camera, region).size(), 800u - 17u);
+  camera.baseline_m = 0.12;
+  region.edge_margin_px = 2;
+  const std::set<std::pair<int, int>> two = KeptPixels(camera, region);
+  region.edge_margin_px = 0;
+  EXPECT_EQ(KeptPixels(camera, region), two);
+  EXPECT_EQ(two.count({17, 0}), 0u);
+  EXPECT_EQ(two.count({16, 0}), 1u);
+  region.stereo_edge_margin_px = 0;
+  EXPECT_EQ(KeptPixels(camera, region).size(), 800u - 17u);
+  region.edge_margin_px = 3;  // the larger margin
+  EXPECT_EQ(KeptPixels(camera, region).count({16, 0}), 0u);
+  EXPECT_EQ(KeptPixels(camera, region).count({15, 0}), 1u);
 }
 
 }  // namespace
