@@ -114,6 +114,8 @@ std::vector<Section> Schema(RefineOptions& o) {
            {"stereo_edge_margin_px", &r.stereo_edge_margin_px,
             "The same for stereo cameras (a baseline_m in the capture) when larger: block "
             "matching fattens the near side of depth jumps (>= 0)."},
+           {"stereo_edge_min_width_px", &r.stereo_edge_min_width_px,
+            "stereo_edge_margin_px applies to stereo images at least this wide (>= 0)."},
            {"edge_jump", &r.edge_jump,
             "A depth jump: a neighbour farther by more than this times the depth (> 0)."},
        }},

@@ -48,6 +48,8 @@ void CheckRegion(const RegionOptions& r, ProblemList& p) {
   p.Require(r.edge_margin_px >= 0, "region.edge_margin_px", ">= 0", r.edge_margin_px);
   p.Require(r.stereo_edge_margin_px >= 0, "region.stereo_edge_margin_px", ">= 0",
             r.stereo_edge_margin_px);
+  p.Require(r.stereo_edge_min_width_px >= 0, "region.stereo_edge_min_width_px", ">= 0",
+            r.stereo_edge_min_width_px);
   p.Require(Positive(r.edge_jump), "region.edge_jump", "> 0", r.edge_jump);
   p.Require(Positive(r.min_depth_m), "region.min_depth_m", "> 0", r.min_depth_m);
   p.Require(Positive(r.max_depth_m), "region.max_depth_m", "> 0", r.max_depth_m);

@@ -58,11 +58,13 @@ struct RegionOptions {
   /// Block-matched depth fattens edges and leaves unreliable rims around its holes.
   int edge_margin_px = 0;
   /// The margin of a stereo camera (one whose capture gives its baseline_m: its depth is
-  /// matched disparity) when larger than edge_margin_px. Block matching's windows carry the
-  /// near surface's disparity past its edge (edge fattening), which biases the faces beside
-  /// the jump; other depth cameras keep edge_margin_px (their thin faces are worth more than
-  /// their edge pixels cost). Measured: docs/benchmarks.md, "Four families".
+  /// matched disparity) at least stereo_edge_min_width_px wide, when larger than
+  /// edge_margin_px. Block matching's windows carry the near surface's disparity past its edge
+  /// (edge fattening), which biases the faces beside the jump; other depth cameras, and
+  /// narrower stereo images, keep edge_margin_px (their thin faces, a few pixels wide, are
+  /// worth more than their edge pixels cost). Measured: docs/benchmarks.md, "Four families".
   int stereo_edge_margin_px = 2;
+  int stereo_edge_min_width_px = 640;
   double edge_jump = 0.05;
 };
 

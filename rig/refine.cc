@@ -689,9 +689,9 @@ PointCloud RegistrationPoints(const CameraCapture& camera, const RegionOptions& 
           ? UnprojectOptions{region.pixel_stride, region.min_depth_m, region.max_depth_m}
           : UnprojectOptions{1, -std::numeric_limits<double>::infinity(),
                              std::numeric_limits<double>::infinity()};
-  const int margin = camera.baseline_m > 0.0
-                         ? std::max(region.edge_margin_px, region.stereo_edge_margin_px)
-                         : region.edge_margin_px;
+  const bool stereo = camera.baseline_m > 0.0 && camera.width >= region.stereo_edge_min_width_px;
+  const int margin = stereo ? std::max(region.edge_margin_px, region.stereo_edge_margin_px)
+                            : region.edge_margin_px;
   if (camera.HasDepth() && margin > 0) {
     return CameraPoints(WithoutEdges(camera, region, margin), unproject);
   }

@@ -44,6 +44,8 @@ RefineOptions NonDefaultOptions() {
   o.region.min_depth_m = 0.3;
   o.region.max_depth_m = 6.5;
   o.region.edge_margin_px = 2;
+  o.region.stereo_edge_margin_px = 3;
+  o.region.stereo_edge_min_width_px = 800;
   o.region.edge_jump = 0.08;
   o.icp.mode = RefineMode::kPairwise;
   o.icp.method = RegistrationMethod::kGicp;

@@ -360,13 +360,19 @@ TEST(RegistrationPoints, EdgeMarginDropsJumpsAndHoleRimsButNotIsolatedDropouts) 
 }
 
 // A stereo camera (its baseline in the capture) loses its edges by default (block matching
-// fattens them), another depth camera keeps them; the larger of the two margins applies.
+// fattens them) when its image is wide enough, another depth camera keeps them; the larger of
+// the two margins applies.
 TEST(RegistrationPoints, AStereoCameraLosesItsEdgesByDefault) {
   CameraCapture camera = CameraWithEdges();
   RegionOptions region;
   region.pixel_stride = 1;
   ASSERT_EQ(region.edge_margin_px, 0);
   ASSERT_EQ(region.stereo_edge_margin_px, 2);
+  ASSERT_EQ(region.stereo_edge_min_width_px, 640);
+  camera.baseline_m = 0.12;
+  EXPECT_EQ(KeptPixels(camera, region).size(), 800u - 17u);  // 40 px wide: too narrow
+  region.stereo_edge_min_width_px = 40;
+  camera.baseline_m = 0.0;
   EXPECT_EQ(KeptPixels(camera, region).size(), 800u - 17u);
   camera.baseline_m = 0.12;
   region.edge_margin_px = 2;
