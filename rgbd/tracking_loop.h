@@ -159,10 +159,9 @@ bool HasColor(const RgbdFrame& frame, const FramePyramid& pyramid);
 /// Tracks the frames of `sequence` that `options` select against `target`; `name` starts the
 /// messages of bad options ("odometry: stride must be at least 1", InputError).
 /// progress(done, total) after each frame. The next frame is loaded (TrackingTarget::Load) and
-/// its pyramid built on a thread of its own, at the lowest priority (Linux), while the current
-/// one is tracked, as a camera's driver delivers frames: TrackingRun::load_s is the time the
-/// loop waited for them. `sequence` must allow Frame()
-/// from that thread (one call at a time).
+/// its pyramid built on a thread of its own while the current one is tracked, as a camera's
+/// driver delivers frames: TrackingRun::load_s is the time the loop waited for them. `sequence`
+/// must allow Frame() from that thread (one call at a time).
 TrackingRun RunTracking(const RgbdSequence& sequence, const TrackingLoopOptions& options,
                         const std::string& name, TrackingTarget* target, const Log& log,
                         const std::function<void(int, int)>& progress);
