@@ -46,8 +46,9 @@ namespace {
 using Json = nlohmann::json;
 using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>;
 
-/// The depth camera of d ("depth", "K", ["depth_scale", "confidence", "color"]): the depth read
-/// once into camera.depth_m (DepthView), then ReadCapture's rules (CheckDepthCamera).
+/// The depth camera of d ("depth", "K", ["depth_scale", "confidence", "color", "baseline_m"]):
+/// the depth read once into camera.depth_m (DepthView), then ReadCapture's rules
+/// (CheckDepthCamera; a baseline finite and > 0).
 void ReadDepth(const py::dict& d, CameraCapture& camera, const std::string& where) {
   const DepthView depth(d, where);
   camera.width = depth.width();
@@ -73,6 +74,13 @@ void ReadDepth(const py::dict& d, CameraCapture& camera, const std::string& wher
   if (d.contains("color")) {
     camera.color = ColorOf(d["color"], camera.width, camera.height, where + ": color");
   }
+  if (d.contains("baseline_m")) {
+    const double baseline = py::cast<double>(d["baseline_m"]);
+    if (!(baseline > 0.0) || !std::isfinite(baseline)) {
+      Fail(where + ": baseline_m", "must be finite and > 0, got " + std::to_string(baseline));
+    }
+    camera.baseline_m = baseline;
+  }
 }
 
 PointCloud Vectors(const py::handle& value, py::ssize_t rows, const std::string& where) {
@@ -86,11 +94,11 @@ PointCloud Vectors(const py::handle& value, py::ssize_t rows, const std::string&
   return out;
 }
 
-/// cameras: serial -> {"depth", "K", ["depth_scale", "confidence", "color"]} or
+/// cameras: serial -> {"depth", "K", ["depth_scale", "confidence", "color", "baseline_m"]} or
 /// {"points", ["normals"]}; sorted by serial as ReadCapture sorts them.
 RigCapture CaptureOf(const py::dict& cameras) {
   static const std::set<std::string> kKeys = {"depth", "K",      "depth_scale", "confidence",
-                                              "color", "points", "normals"};
+                                              "color", "points", "normals",     "baseline_m"};
   std::map<std::string, py::dict> by_serial;
   for (const auto& [key, value] : cameras) {
     if (!py::isinstance<py::str>(key)) throw InputError("cameras: keys must be serials (str)");
@@ -108,8 +116,10 @@ RigCapture CaptureOf(const py::dict& cameras) {
     for (const auto& item : d) {
       const std::string key = py::cast<std::string>(py::str(item.first));
       if (kKeys.count(key) == 0) {
-        Fail(where, "unknown key \"" + key +
-                        "\" (expected depth, K, depth_scale, confidence, color, points, normals)");
+        Fail(where,
+             "unknown key \"" + key +
+                 "\" (expected depth, K, depth_scale, confidence, color, baseline_m, points, "
+                 "normals)");
       }
     }
     CameraCapture camera;
@@ -400,6 +410,7 @@ py::dict CaptureToDict(RigCapture&& capture) {
       d["K"] = IntrinsicsToK(c.intrinsics);
       if (!c.confidence.empty()) d["confidence"] = VectorToNumpy(std::move(c.confidence), {h, w});
       if (!c.color.empty()) d["color"] = VectorToNumpy(std::move(c.color), {h, w, 3});
+      if (c.baseline_m > 0.0) d["baseline_m"] = c.baseline_m;
     } else {
       if (!c.points.empty()) d["points"] = PointsToNumpy(std::move(c.points));
       if (!c.normals.empty()) d["normals"] = PointsToNumpy(std::move(c.normals));

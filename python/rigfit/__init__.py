@@ -458,8 +458,8 @@ def write_extrinsics(path: Union[str, os.PathLike], extrinsics: Extrinsics, *,
 @dataclass
 class SimulatedRig:
     """What ``simulate`` returns: ``cameras`` in ``refine``'s layout (``{"depth", "K",
-    "color"}`` per serial), ``truth`` and ``start`` serial -> (4, 4) T_world_camera (the CLI's
-    gt.json and init.json)."""
+    "color"}`` per serial, and ``"baseline_m"`` with stereo depth), ``truth`` and ``start``
+    serial -> (4, 4) T_world_camera (the CLI's gt.json and init.json)."""
 
     cameras: Dict[str, Dict[str, "np.ndarray"]]
     truth: Dict[str, "np.ndarray"]

@@ -93,6 +93,12 @@ def test_simulate_stereo_equals_cli_files(tmp_path):
     files = rigfit.read_capture(tmp_path / "capture.h5")
     for serial, cam in rig.cameras.items():
         assert np.array_equal(cam["depth"], files[serial]["depth"], equal_nan=True), serial
+        # The baseline says the camera is stereo (refine's stereo edge margin, surface bias).
+        assert cam["baseline_m"] == files[serial]["baseline_m"] == 0.12, serial
+    assert "baseline_m" not in rigfit.simulate(cameras=2, width=96, height=64).cameras["31000000"]
+    bad = {s: dict(c, baseline_m=-1.0) for s, c in rig.cameras.items()}
+    with pytest.raises(ValueError, match="baseline_m: must be finite and > 0"):
+        rigfit.refine(bad, rig.start)
     with pytest.raises(ValueError, match="simulate: depth_model must be gaussian or stereo, "
                                          "got sgbm"):
         rigfit.simulate(depth_model="sgbm")
