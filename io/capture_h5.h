@@ -18,6 +18,11 @@ namespace rigfit {
 /// messages. Throws InputError.
 void CheckDepthCamera(CameraCapture* camera, const Mat3& K, const std::string& source);
 
+/// Sets a stereo camera's baseline as ReadCapture reads it, for a camera that comes from
+/// elsewhere (the Python binding's dicts): finite and > 0, else InputError with ReadCapture's
+/// message ("SOURCE: baseline_m: must be finite and > 0, got ...").
+void SetBaseline(CameraCapture* camera, double baseline_m, const std::string& source);
+
 /// Reads a rig capture. Depth becomes float metres with NaN for every invalid sample (NaN,
 /// +-inf, <= 0, 0 for uint16); a burst [F, H, W] becomes the per-pixel median of its valid
 /// samples (NaN if none). Cameras are sorted by serial. Throws InputError naming the file,

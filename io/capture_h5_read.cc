@@ -343,6 +343,14 @@ void ReadColor(hid_t group, CameraCapture& camera, const Context& where) {
   camera.color = ReadAll<std::uint8_t>(d, H5T_NATIVE_UINT8, where);
 }
 
+/// camera.baseline_m = baseline_m when it is finite and > 0; `where` fails otherwise.
+void SetBaseline(CameraCapture& camera, double baseline_m, const Context& where) {
+  if (!(baseline_m > 0.0 && std::isfinite(baseline_m))) {
+    where.Fail("baseline_m", "must be finite and > 0, got " + std::to_string(baseline_m));
+  }
+  camera.baseline_m = baseline_m;
+}
+
 /// The optional stereo baseline: a float scalar (or a one-element array), finite and > 0.
 void ReadBaseline(hid_t group, CameraCapture& camera, const Context& where) {
   const Dataset d = OpenDataset(group, "baseline_m", where);
@@ -350,11 +358,7 @@ void ReadBaseline(hid_t group, CameraCapture& camera, const Context& where) {
   if (d.Elements() != 1) {
     where.Fail("baseline_m", "expected a scalar, got shape " + DescribeDims(d.dims));
   }
-  const double baseline = ReadAll<double>(d, H5T_NATIVE_DOUBLE, where)[0];
-  if (!(baseline > 0.0 && std::isfinite(baseline))) {
-    where.Fail("baseline_m", "must be finite and > 0, got " + std::to_string(baseline));
-  }
-  camera.baseline_m = baseline;
+  SetBaseline(camera, ReadAll<double>(d, H5T_NATIVE_DOUBLE, where)[0], where);
 }
 
 /// Reads one camera; with `frames`, every frame of its depth too (ReadDepth).
@@ -459,6 +463,10 @@ void CheckDepthCamera(CameraCapture* camera, const Mat3& K, const std::string& s
   const std::string problem = h5::IntrinsicsProblem(K, camera->width, camera->height);
   if (!problem.empty()) where.Fail("K", problem);
   camera->intrinsics = {K(0, 0), K(1, 1), K(0, 2), K(1, 2)};
+}
+
+void SetBaseline(CameraCapture* camera, double baseline_m, const std::string& source) {
+  h5::SetBaseline(*camera, baseline_m, h5::Context{source, ""});
 }
 
 RigCapture ReadCapture(const std::string& path) {

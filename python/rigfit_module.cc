@@ -48,7 +48,7 @@ using FloatArray = py::array_t<float, py::array::c_style | py::array::forcecast>
 
 /// The depth camera of d ("depth", "K", ["depth_scale", "confidence", "color", "baseline_m"]):
 /// the depth read once into camera.depth_m (DepthView), then ReadCapture's rules
-/// (CheckDepthCamera; a baseline finite and > 0).
+/// (CheckDepthCamera, SetBaseline).
 void ReadDepth(const py::dict& d, CameraCapture& camera, const std::string& where) {
   const DepthView depth(d, where);
   camera.width = depth.width();
@@ -74,13 +74,7 @@ void ReadDepth(const py::dict& d, CameraCapture& camera, const std::string& wher
   if (d.contains("color")) {
     camera.color = ColorOf(d["color"], camera.width, camera.height, where + ": color");
   }
-  if (d.contains("baseline_m")) {
-    const double baseline = py::cast<double>(d["baseline_m"]);
-    if (!(baseline > 0.0) || !std::isfinite(baseline)) {
-      Fail(where + ": baseline_m", "must be finite and > 0, got " + std::to_string(baseline));
-    }
-    camera.baseline_m = baseline;
-  }
+  if (d.contains("baseline_m")) SetBaseline(&camera, py::cast<double>(d["baseline_m"]), where);
 }
 
 PointCloud Vectors(const py::handle& value, py::ssize_t rows, const std::string& where) {
