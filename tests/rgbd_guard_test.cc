@@ -16,6 +16,7 @@
 #include "rgbd/projective_icp.h"
 #include "rgbd/relocalise.h"
 #include "rgbd/slam.h"
+#include "rgbd_test_util.h"
 #include "sim/simulate_sequence.h"
 
 namespace rigfit {
@@ -243,30 +244,19 @@ TEST(RgbdGuard, SlamFusesNoFrameAfterAFloorStretchWhileItTriesToRelocaliseIt) {
   }
 }
 
-// A sequence whose frame `corrupt` shows what frame `source` sees (a camera that jumps), with
-// the timestamp and ground truth of `corrupt`.
-class CorruptedSequence final : public RgbdSequence {
- public:
-  CorruptedSequence(const RgbdSequence& base, int corrupt, int source)
-      : base_(base), corrupt_(corrupt), source_(source) {}
-  int size() const override { return base_.size(); }
-  RgbdFrame Frame(int index) const override {
-    if (index != corrupt_) return base_.Frame(index);
-    RgbdFrame frame = base_.Frame(source_);
-    const RgbdFrame truth = base_.Frame(index);
-    frame.index = truth.index;
-    frame.timestamp = truth.timestamp;
-    frame.T_world_camera_gt = truth.T_world_camera_gt;
-    return frame;
-  }
-  Trajectory GroundTruth() const override { return base_.GroundTruth(); }
-  std::string Describe() const override { return "corrupted " + base_.Describe(); }
-
- private:
-  const RgbdSequence& base_;
-  int corrupt_;
-  int source_;
-};
+// `base` whose frame `corrupt` shows what frame `source` sees (a camera that jumps), with the
+// timestamp and ground truth of `corrupt`.
+rgbd_test::EditedSequence Corrupted(const RgbdSequence& base, int corrupt, int source) {
+  const auto edit = [&base, corrupt, source](int index, RgbdFrame* frame) {
+    if (index != corrupt) return;
+    RgbdFrame seen = base.Frame(source);
+    seen.index = frame->index;
+    seen.timestamp = frame->timestamp;
+    seen.T_world_camera_gt = frame->T_world_camera_gt;
+    *frame = std::move(seen);
+  };
+  return rgbd_test::EditedSequence(base, edit, "corrupted " + base.Describe());
+}
 
 TEST(RgbdGuard, ACorruptedFrameIsDetectedWarnedAndCounted) {
   SimSequenceOptions o;
@@ -276,7 +266,7 @@ TEST(RgbdGuard, ACorruptedFrameIsDetectedWarnedAndCounted) {
   o.color = false;
   o.seed = 5;
   const SimulatedSequence base(o);
-  const CorruptedSequence sequence(base, 12, 18);
+  const rgbd_test::EditedSequence sequence = Corrupted(base, 12, 18);
   std::vector<std::string> track_warnings, slam_warnings;
   const OdometryResult track =
       RunOdometry(sequence, OdometryOptions{}, WarningsInto(&track_warnings));

@@ -23,6 +23,7 @@
 #include "rgbd/projective_icp.h"
 #include "rgbd/slam.h"
 #include "rgbd/tracking_options.h"
+#include "rgbd_test_util.h"
 #include "sim/simulate_sequence.h"
 
 namespace rigfit {
@@ -328,34 +329,22 @@ TEST(ColorTracking, FramesWhoseDepthFailsAreTrackedByColourAlone) {
 // the frames before do not match: the depth track fails), and whose colour from the frame after
 // it on is a uniform grey: that frame is tracked by colour alone, on its wrong depth, and the
 // frames after it, which neither the depth nor the colour can track, keep the prediction.
-class WrongDepthFromFrame : public RgbdSequence {
- public:
-  WrongDepthFromFrame(const SimulatedSequence& sequence, int first_wrong)
-      : sequence_(sequence), first_wrong_(first_wrong) {}
-  int size() const override { return sequence_.size(); }
-  RgbdFrame Frame(int index) const override {
-    RgbdFrame frame = sequence_.Frame(index);
-    if (index < first_wrong_) return frame;
-    for (float& z : frame.depth_m) z *= 1.15f;
-    if (index > first_wrong_) std::fill(frame.color.begin(), frame.color.end(), 128);
-    return frame;
-  }
-  Trajectory GroundTruth() const override { return sequence_.GroundTruth(); }
-  std::string Describe() const override {
-    return "wrong depth from frame " + std::to_string(first_wrong_);
-  }
-
- private:
-  const SimulatedSequence& sequence_;
-  int first_wrong_;
-};
+rgbd_test::EditedSequence WrongDepthFromFrame(const RgbdSequence& base, int first_wrong) {
+  const auto edit = [first_wrong](int index, RgbdFrame* frame) {
+    if (index < first_wrong) return;
+    for (float& z : frame->depth_m) z *= 1.15f;
+    if (index > first_wrong) std::fill(frame->color.begin(), frame->color.end(), 128);
+  };
+  return rgbd_test::EditedSequence(base, edit,
+                                   "wrong depth from frame " + std::to_string(first_wrong));
+}
 
 // The frame colour alone tracked where the depth failed does not set the motion model's
 // velocity (its step is the depth's unverified): the frames held at the prediction after it
 // move on with the last depth-tracked step instead of repeating the rescued frame's.
 TEST(ColorTracking, AFrameTrackedByColourAloneDoesNotSetTheVelocity) {
   const SimulatedSequence simulated(TexturedSequence(10, 320, 240, 5, SequenceNoise::kKinect));
-  const WrongDepthFromFrame sequence(simulated, 5);
+  const rgbd_test::EditedSequence sequence = WrongDepthFromFrame(simulated, 5);
   OdometryOptions track;
   track.restart_after_failures = 100;
   const OdometryResult run = RunOdometry(sequence, track);

@@ -266,29 +266,17 @@ TEST(RgbdSlam, TheDefaultHalvesFramesWiderThan480Pixels) {
   EXPECT_EQ(RunSlam(narrow, SlamOptions{}).halvings, 0);
 }
 
-// Grey colour on every frame but one (as TUM, whose depth images sometimes have no colour
-// image close enough in time).
-class ColoredSequence final : public RgbdSequence {
- public:
-  ColoredSequence(const RgbdSequence& base, int without) : base_(base), without_(without) {}
-  int size() const override { return base_.size(); }
-  RgbdFrame Frame(int index) const override {
-    RgbdFrame frame = base_.Frame(index);
-    if (index != without_) frame.color.assign(3 * frame.depth_m.size(), 128);
-    return frame;
-  }
-  Trajectory GroundTruth() const override { return base_.GroundTruth(); }
-  std::string Describe() const override { return "coloured"; }
-
- private:
-  const RgbdSequence& base_;
-  int without_;
-};
-
 TEST(RgbdSlam, AFrameWithoutColourInAColouredMapIsTrackedNotFused) {
   const Scene scene = TestRoom();
   const RenderedSequence rendered(scene, Walk(8), 160, 120, 0.0);
-  const ColoredSequence sequence(rendered, 4);
+  // Grey colour on every frame but 4 (as TUM, whose depth images sometimes have no colour image
+  // close enough in time).
+  const EditedSequence sequence(
+      rendered,
+      [](int index, RgbdFrame* frame) {
+        if (index != 4) frame->color.assign(3 * frame->depth_m.size(), 128);
+      },
+      "coloured");
   const SlamResult result = RunSlam(sequence, SlamOptions{});
   EXPECT_EQ(result.failures, 0);
   EXPECT_EQ(result.without_color, 1);
@@ -300,34 +288,21 @@ TEST(RgbdSlam, AFrameWithoutColourInAColouredMapIsTrackedNotFused) {
   EXPECT_LT(e.ate_rmse_m, 1e-3);
 }
 
-// Frame `broken` with one depth sample too few: no pyramid can be built of it.
-class BrokenSequence final : public RgbdSequence {
- public:
-  BrokenSequence(const RgbdSequence& base, int broken) : base_(base), broken_(broken) {}
-  int size() const override { return base_.size(); }
-  RgbdFrame Frame(int index) const override {
-    RgbdFrame frame = base_.Frame(index);
-    if (index == broken_) {
-      frame.depth_m.pop_back();
-      frame.source = "broken frame";
-    }
-    return frame;
-  }
-  Trajectory GroundTruth() const override { return base_.GroundTruth(); }
-  std::string Describe() const override { return "broken"; }
-
- private:
-  const RgbdSequence& base_;
-  int broken_;
-};
-
 // The next frame is read and its pyramid built on the loader's thread while the current one
 // is tracked: a frame that cannot be preprocessed stops the run when its turn comes, after
 // every frame before it, with its own error; the loop's wall time holds its stages.
 TEST(RgbdSlam, APreprocessingErrorArrivesInFrameOrderAndTheLoopHoldsItsStages) {
   const Scene scene = TestRoom();
   const RenderedSequence rendered(scene, Walk(6), 80, 60, 0.0);
-  const BrokenSequence broken(rendered, 4);
+  // Frame 4 with one depth sample too few: no pyramid can be built of it.
+  const EditedSequence broken(
+      rendered,
+      [](int index, RgbdFrame* frame) {
+        if (index != 4) return;
+        frame->depth_m.pop_back();
+        frame->source = "broken frame";
+      },
+      "broken");
   int done = 0;
   try {
     RunSlam(broken, SlamOptions{}, {}, [&](int d, int, const SlamFrame&) { done = d; });

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <utility>
@@ -132,6 +133,28 @@ class RenderedSequence final : public RgbdSequence {
   std::vector<Pose> poses_;
   int width_, height_;
   double noise_;
+};
+
+// `base` with every frame passed through `edit` (its index, the frame) on its way out: a
+// sequence where some frames go wrong.
+class EditedSequence final : public RgbdSequence {
+ public:
+  using Edit = std::function<void(int index, RgbdFrame* frame)>;
+  EditedSequence(const RgbdSequence& base, Edit edit, std::string description)
+      : base_(base), edit_(std::move(edit)), description_(std::move(description)) {}
+  int size() const override { return base_.size(); }
+  RgbdFrame Frame(int index) const override {
+    RgbdFrame frame = base_.Frame(index);
+    edit_(index, &frame);
+    return frame;
+  }
+  Trajectory GroundTruth() const override { return base_.GroundTruth(); }
+  std::string Describe() const override { return description_; }
+
+ private:
+  const RgbdSequence& base_;
+  Edit edit_;
+  std::string description_;
 };
 
 // A walk of 2 cm per frame through the test room, looking at the far wall.
