@@ -130,15 +130,15 @@ LocalGeometry EstimateLocalGeometry(const PointCloud& points, const KdTree& tree
   geometry.planarity.resize(n);
   // Plain threads (ParallelFor) rather than OpenMP: a join blocks, where libgomp's default
   // barrier spins, which on shared cores doubled the CPU time of this step
-  // (docs/benchmarks.md). Each thread keeps its own neighbour buffers.
+  // (docs/benchmarks.md). Each thread keeps its own neighbour buffers, on its own stack (no
+  // cache line shared with another thread's).
   const int chunks = std::max(1, std::min(num_threads, n / kMinPointsPerThread));
-  std::vector<std::vector<int>> chunk_neighbours(chunks);
-  std::vector<std::vector<double>> chunk_distances(chunks);
-  ParallelForChunks(n, chunks, [&](int chunk, int begin, int end) {
+  ParallelForChunks(n, chunks, [&](int, int begin, int end) {
+    std::vector<int> neighbours;
+    std::vector<double> distances;
     for (int i = begin; i < end; ++i) {
-      tree.KNearest(points[i], k, &chunk_neighbours[chunk], &chunk_distances[chunk]);
-      const PointGeometry g =
-          NeighbourhoodGeometry(points, chunk_neighbours[chunk], points[i], viewpoint);
+      tree.KNearest(points[i], k, &neighbours, &distances);
+      const PointGeometry g = NeighbourhoodGeometry(points, neighbours, points[i], viewpoint);
       geometry.normals[i] = g.normal;
       geometry.covariances[i] = g.covariance;
       geometry.planarity[i] = g.planarity;

@@ -145,17 +145,21 @@ void RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
   if (view) view->parts.resize(threads);
   ParallelForChunks(map.size(), threads, [&](int c, int begin, int end) {
     std::uint64_t* keys = zbuffer->Thread(c);
-    std::vector<int>* part = view ? &view->parts[c] : nullptr;
-    if (part) part->clear();
+    // Collected into a vector of this thread's own (the parts' headers share a cache line,
+    // which the threads' push_backs fought over), its buffer taken from the part and returned.
+    std::vector<int> part;
+    if (view) part.swap(view->parts[c]);
+    part.clear();
     CameraPoint point;
     for (int i = begin; i < end; ++i) {
       if (!projector.Project(i, &point)) continue;
-      if (part && point.p_c.z() >= MapView::kMinDepthM && point.u0 >= -margin &&
+      if (view && point.p_c.z() >= MapView::kMinDepthM && point.u0 >= -margin &&
           point.v0 >= -margin && point.u0 < width + margin && point.v0 < height + margin) {
-        part->push_back(i);
+        part.push_back(i);
       }
       projector.Write(i, &point, width, height, keys);
     }
+    if (view) part.swap(view->parts[c]);
   });
   // 2. The nearest point of each pixel, then its vertex and normal in the level.
   const std::vector<std::uint64_t>& keys = zbuffer->Merge();

@@ -15,6 +15,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 /// The smallest |n_z| of the radius (cos 75 degrees).
 constexpr float kMinRadiusCosine = 0.26f;
+/// How many pixels ahead the merge asks for the map point it will update (Prefetch).
+constexpr int kPrefetchAhead = 16;
 
 /// Pixel j's colour of an RGB image ([height, width, 3]).
 Vec3f PixelColor(const std::vector<std::uint8_t>& color, int j) {
@@ -198,7 +200,20 @@ int SurfelMap::Associate(const FusionCamera& camera, const FusionOptions& option
   });
   return projected;
 }
-/// 2. Merge (in parallel: a map point is the candidate of one pixel at most).
+void SurfelMap::Prefetch(std::uint64_t key) const {
+  if (key == ZBuffer::kEmpty) return;
+  const int i = ZBuffer::Index(key);
+  __builtin_prefetch(&positions_[i], 1);
+  __builtin_prefetch(&normals_[i], 1);
+  if (has_color_) __builtin_prefetch(&colors_[i], 1);
+  __builtin_prefetch(&weights_[i], 1);
+  __builtin_prefetch(&radii_[i], 1);
+  __builtin_prefetch(&last_seen_[i], 1);
+}
+
+/// 2. Merge (in parallel: a map point is the candidate of one pixel at most). The points a
+/// frame merges into lie all over the map's arrays: each is asked for kPrefetchAhead pixels
+/// before it is updated, so that its cache lines arrive while the merges before it are done.
 void SurfelMap::MergeMatched(const FusionCamera& camera, const std::vector<std::uint64_t>& match,
                              const std::vector<std::uint8_t>& color, int frame_index, int threads) {
   const FrameLevel& frame = camera.frame;
@@ -207,6 +222,7 @@ void SurfelMap::MergeMatched(const FusionCamera& camera, const std::vector<std::
   const int pixels = static_cast<int>(frame.valid_pixels.size());
   ParallelForChunks(pixels, threads, [&](int, int begin, int end) {
     for (int k = begin; k < end; ++k) {
+      if (k + kPrefetchAhead < end) Prefetch(match[frame.valid_pixels[k + kPrefetchAhead]]);
       const int j = frame.valid_pixels[k];
       if (match[j] == ZBuffer::kEmpty) continue;
       const int i = ZBuffer::Index(match[j]);

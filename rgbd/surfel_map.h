@@ -155,6 +155,8 @@ class SurfelMap {
                     const FusionOptions& options, const std::vector<std::uint8_t>& color,
                     int frame_index, FusionStats* stats);
   void RemoveDormant(int frame_index, const FusionOptions& options, FusionStats* stats);
+  /// Asks for the cache lines of the map point a z-buffer key names (none for kEmpty).
+  void Prefetch(std::uint64_t key) const;
 
   std::vector<Vec3f> positions_;
   std::vector<Vec3f> normals_;
