@@ -111,6 +111,64 @@ class MapProjector {
   float focal_;
 };
 
+/// The points a view can use, as five half-spaces through the camera centre: in front of the
+/// camera, and nearest pixel (u0, v0) within reach_px of the image (as NearestPixel rounds,
+/// with 2 px to spare for single-precision rounding). Misses tells whether a run of map points
+/// lies wholly outside one of them (by its bounding box): none of them can then be rendered or
+/// collected into the view, and the run is skipped without projecting its points.
+class ViewFrustum {
+ public:
+  ViewFrustum(const Pose& T_world_camera, int width, int height,
+              const PinholeIntrinsics& intrinsics, int reach_px) {
+    const double reach = reach_px + 0.5 + kSlackPx;
+    const Vec3 in_camera[5] = {
+        {0.0, 0.0, 1.0},                                               // z >= 0
+        {intrinsics.fx, 0.0, intrinsics.cx + reach},                   // u0 >= -reach
+        {-intrinsics.fx, 0.0, width - 1.0 + reach - intrinsics.cx},    // u0 < width + reach
+        {0.0, intrinsics.fy, intrinsics.cy + reach},                   // v0 >= -reach
+        {0.0, -intrinsics.fy, height - 1.0 + reach - intrinsics.cy}};  // v0 < height + reach
+    for (int k = 0; k < 5; ++k) {
+      // n . R^T (p - t) >= 0  <=>  (R n) . p >= (R n) . t
+      const Vec3 n = T_world_camera.linear() * in_camera[k];
+      normals_[k] = n.cast<float>();
+      offsets_[k] = static_cast<float>(n.dot(T_world_camera.translation()));
+    }
+  }
+
+  /// Whether the `count` points at `points` are all outside one of the half-spaces.
+  bool Misses(const Vec3f* points, int count) const {
+    Vec3f low = points[0];
+    Vec3f high = points[0];
+    for (int i = 1; i < count; ++i) {
+      low = low.cwiseMin(points[i]);
+      high = high.cwiseMax(points[i]);
+    }
+    const Vec3f centre = 0.5f * (low + high);
+    const Vec3f half = 0.5f * (high - low);
+    for (int k = 0; k < 5; ++k) {
+      const float highest = normals_[k].dot(centre) + normals_[k].cwiseAbs().dot(half);
+      if (highest < offsets_[k] - kSlackScale * std::abs(offsets_[k]) - kSlackAbs) return true;
+    }
+    return false;
+  }
+
+ private:
+  static constexpr double kSlackPx = 2.0;
+  static constexpr float kSlackScale = 1e-5f;  // the test's own rounding
+  static constexpr float kSlackAbs = 1e-5f;
+  Vec3f normals_[5];
+  float offsets_[5];
+};
+
+/// How many consecutive map points ViewFrustum::Misses tests at once (RunSlam keeps them near
+/// each other: SurfelMap::SortNewPoints).
+constexpr int kCullRun = 64;
+
+/// How often RunSlam sorts the map's new points by cell (SurfelMap::SortNewPoints), frames
+/// fused, and the cells' side.
+constexpr int kSortEveryFrames = 10;
+constexpr double kSortCellM = 0.2;
+
 /// An empty level of the given size: no depth, no vertex, no normal.
 void ClearLevel(int width, int height, const PinholeIntrinsics& intrinsics, FrameLevel* level) {
   constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
@@ -143,6 +201,8 @@ void RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
   zbuffer->Reset(pixels, threads);
   const int margin = view ? view->margin_px : 0;
   if (view) view->parts.resize(threads);
+  const int reach = std::max(margin, options.splat ? options.max_splat_px : 0);
+  const ViewFrustum frustum(viewpoint.T_world_camera, width, height, viewpoint.intrinsics, reach);
   ParallelForChunks(map.size(), threads, [&](int c, int begin, int end) {
     std::uint64_t* keys = zbuffer->Thread(c);
     // Collected into a vector of this thread's own (the parts' headers share a cache line,
@@ -151,13 +211,17 @@ void RenderModel(const SurfelMap& map, const ModelViewpoint& viewpoint,
     if (view) part.swap(view->parts[c]);
     part.clear();
     CameraPoint point;
-    for (int i = begin; i < end; ++i) {
-      if (!projector.Project(i, &point)) continue;
-      if (view && point.p_c.z() >= MapView::kMinDepthM && point.u0 >= -margin &&
-          point.v0 >= -margin && point.u0 < width + margin && point.v0 < height + margin) {
-        part.push_back(i);
+    for (int run = begin; run < end; run += kCullRun) {
+      const int run_end = std::min(end, run + kCullRun);
+      if (frustum.Misses(map.positions().data() + run, run_end - run)) continue;
+      for (int i = run; i < run_end; ++i) {
+        if (!projector.Project(i, &point)) continue;
+        if (view && point.p_c.z() >= MapView::kMinDepthM && point.u0 >= -margin &&
+            point.v0 >= -margin && point.u0 < width + margin && point.v0 < height + margin) {
+          part.push_back(i);
+        }
+        projector.Write(i, &point, width, height, keys);
       }
-      projector.Write(i, &point, width, height, keys);
     }
     if (view) part.swap(view->parts[c]);
   });
@@ -258,6 +322,7 @@ class ModelTarget : public TrackingTarget {
       tracked.fusion = result_->map.FuseFrame(pyramid.levels[0], step.T_world_camera, step.index,
                                               options_.fusion, use_color_ ? frame.color : no_color,
                                               {options_.threads, &view_});
+      if (++fused_ % kSortEveryFrames == 0) result_->map.SortNewPoints(kSortCellM);
       result_->fuse_s += SecondsSince(start);
     }
     tracked.map_size = result_->map.size();
@@ -302,6 +367,7 @@ class ModelTarget : public TrackingTarget {
   ZBuffer zbuffer_;
   MapView view_;  // the map points near the rendered view, for the fusion that follows
   int model_pixels_ = 0;
+  int fused_ = 0;  // frames fused (the clock of the map's sorting)
   Pose T_world_model_ = Pose::Identity();
   std::optional<GreyPyramid> color_key_;  // colour tracking's reference and its pose
   Pose T_world_color_key_ = Pose::Identity();

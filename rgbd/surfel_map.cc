@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "core/parallel.h"
 
@@ -59,6 +60,58 @@ bool MapView::Covers(const FrameLevel& frame, const Pose& T_world_camera_now, in
 
 double SurfelMap::CompressionRatio() const {
   return positions_.empty() ? 0.0 : static_cast<double>(input_points_) / positions_.size();
+}
+
+namespace {
+
+/// The 21 low bits of v spread to every third bit (bit k to bit 3k).
+std::uint64_t SpreadBits(std::uint64_t v) {
+  v &= 0x1fffff;
+  v = (v | v << 32) & 0x1f00000000ffff;
+  v = (v | v << 16) & 0x1f0000ff0000ff;
+  v = (v | v << 8) & 0x100f00f00f00f00f;
+  v = (v | v << 4) & 0x10c30c30c30c30c3;
+  v = (v | v << 2) & 0x1249249249249249;
+  return v;
+}
+
+/// v's elements from `first` on in the order `order` (a permutation of [first, v->size())).
+template <typename T>
+void Permute(const std::vector<int>& order, int first, std::vector<T>* v) {
+  if (v->empty()) return;
+  std::vector<T> sorted(order.size());
+  for (std::size_t k = 0; k < order.size(); ++k) sorted[k] = (*v)[order[k]];
+  std::copy(sorted.begin(), sorted.end(), v->begin() + first);
+}
+
+}  // namespace
+
+void SurfelMap::SortNewPoints(double cell_m) {
+  if (!(cell_m > 0.0)) throw std::invalid_argument("SurfelMap::SortNewPoints: cell_m must be > 0");
+  const int n = size();
+  // Cell coordinates offset by 2^20: 21 bits each, +-2^20 cells.
+  const float scale = static_cast<float>(1.0 / cell_m);
+  const auto coordinate = [](float c) {
+    return static_cast<std::uint64_t>(std::clamp(std::floor(c) + 1048576.0f, 0.0f, 2097151.0f));
+  };
+  std::vector<std::pair<std::uint64_t, int>> keyed;
+  keyed.reserve(n - sorted_);
+  for (int i = sorted_; i < n; ++i) {
+    const Vec3f cell = positions_[i] * scale;
+    keyed.emplace_back(SpreadBits(coordinate(cell.x())) | SpreadBits(coordinate(cell.y())) << 1 |
+                           SpreadBits(coordinate(cell.z())) << 2,
+                       i);
+  }
+  std::sort(keyed.begin(), keyed.end());  // one cell's points by index: their order kept
+  std::vector<int> order(keyed.size());
+  for (std::size_t k = 0; k < keyed.size(); ++k) order[k] = keyed[k].second;
+  Permute(order, sorted_, &positions_);
+  Permute(order, sorted_, &normals_);
+  Permute(order, sorted_, &colors_);
+  Permute(order, sorted_, &weights_);
+  Permute(order, sorted_, &radii_);
+  Permute(order, sorted_, &last_seen_);
+  sorted_ = n;
 }
 
 void SurfelMap::MovePoints(const std::function<Pose(int frame_index)>& correction) {
@@ -368,6 +421,7 @@ void SurfelMap::RemoveDormant(int frame_index, const FusionOptions& options, Fus
   }
   stats->removed = count - stats->folded;
   if (count == 0) return;
+  sorted_ -= static_cast<int>(std::lower_bound(gone, gone + count, sorted_) - gone);
   EraseIndices(gone, count, &positions_);
   EraseIndices(gone, count, &normals_);
   if (has_color_) EraseIndices(gone, count, &colors_);

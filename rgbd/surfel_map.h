@@ -123,6 +123,14 @@ class SurfelMap {
                         const FusionOptions& options, const std::vector<std::uint8_t>& color = {},
                         const FusionExecution& execution = {});
 
+  /// Reorders the points fused since the last call (or since the map began) by the cube of
+  /// side cell_m (> 0) each lies in, the cubes in Morton (Z-curve) order and the points of one
+  /// cube in their order; the points before them keep theirs. A frame's new points are
+  /// scattered pixels: sorted, consecutive points lie near each other, which lets RenderModel
+  /// skip whole runs of them out of view. What each point holds is unchanged; only indices
+  /// move (and with them which of two points at exactly equal depth a z-buffer keeps).
+  void SortNewPoints(double cell_m);
+
   /// Moves every point by the world correction of the frame that last saw it (loop closure,
   /// rgbd/loop_closure.h): p <- C p, n <- R_C n with C = correction(last_seen()[i]).
   void MovePoints(const std::function<Pose(int frame_index)>& correction);
@@ -167,6 +175,7 @@ class SurfelMap {
   std::vector<int> fold_into_;  ///< per point: the point it folds into, or -1 (scratch)
   std::vector<int> gone_;       ///< RemoveDormant's scratch: the points to remove, increasing
   ZBuffer zbuffer_;             ///< the association's, kept between frames (no reallocation)
+  int sorted_ = 0;              ///< the leading points SortNewPoints has sorted
   bool has_color_ = false;
   int frames_ = 0;  ///< frames fused
   std::int64_t input_points_ = 0;
